@@ -1,0 +1,55 @@
+"""Input validation helpers used at the public boundary (never inside inner loops)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .exceptions import InvalidInputError
+
+
+def as_float_array(value: Any, name: str) -> NDArray[np.float64]:
+    """Convert `value` to a float64 array or raise `InvalidInputError` naming `name`."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError(f"{name} must be numeric, got {type(value).__name__}: {exc}") from None
+    return arr
+
+
+def check_finite(arr: NDArray[np.float64], name: str) -> None:
+    """Raise `InvalidInputError` if `arr` contains NaN or infinity, naming the first bad index."""
+    if not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        idx = tuple(int(i) for i in bad)
+        raise InvalidInputError(f"{name} contains a non-finite value {arr[idx]!r} at index {idx}")
+
+
+def check_trailing_shape(arr: NDArray[np.float64], shape: tuple[int, ...], name: str) -> None:
+    """Raise `InvalidInputError` unless `arr.shape` ends with `shape`."""
+    k = len(shape)
+    if arr.ndim < k or arr.shape[arr.ndim - k :] != shape:
+        want = "(..., " + ", ".join(str(s) for s in shape) + ")"
+        raise InvalidInputError(f"{name} must have shape {want}, got shape {arr.shape}")
+
+
+def check_transform(value: Any, name: str = "transform") -> NDArray[np.float64]:
+    """Validate a (..., 4, 4) homogeneous transform: finite, last row (0, 0, 0, 1), rotation in SO(3).
+
+    The rotation is accepted when ||RᵀR − I|| ≤ 1e-6 and det R > 0; tighter data is common, looser
+    data almost always means a bug (e.g. a scaled or transposed matrix).
+    """
+    T = as_float_array(value, name)
+    check_trailing_shape(T, (4, 4), name)
+    check_finite(T, name)
+    if not np.allclose(T[..., 3, :], (0.0, 0.0, 0.0, 1.0), atol=1e-9):
+        raise InvalidInputError(f"{name} must have last row (0, 0, 0, 1), got {T[..., 3, :].tolist()}")
+    R = T[..., :3, :3]
+    err = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(axis=(-1, -2))
+    if np.any(err > 1e-6) or np.any(np.linalg.det(R) <= 0):
+        raise InvalidInputError(
+            f"{name} rotation block is not a rotation matrix (max |RᵀR − I| = {float(np.max(err)):.3g})"
+        )
+    return T

@@ -1,0 +1,520 @@
+"""`SerialChain`: an immutable product-of-exponentials model of a serial manipulator.
+
+Conventions (see docs/conventions.md):
+* Twists and Jacobian rows are ordered (ω, v), as in Modern Robotics.
+* ``frame="space"``: J_s, columns are the space-frame screw axes at q (MR eq. 5.11); the linear
+  part is the velocity of the point at the base origin.
+* ``frame="body"``: J_b = [Ad_{T⁻¹}] J_s, expressed in the tip frame (MR eq. 5.18).
+* ``frame="world"``: the geometric Jacobian of De Luca's slides: angular velocity and the linear
+  velocity of the tip origin, both in base-frame axes, still ordered (ω, v).
+* Angles in rad, lengths in m (prismatic joint values in m).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from os import PathLike
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from . import se3
+from ._checks import as_float_array, check_finite, check_transform
+from ._kernel import Kernel
+from .exceptions import InvalidInputError, RobotDescriptionError, UnknownNameError
+
+if TYPE_CHECKING:
+    from .ik import IKBatchResult, IKOptions, IKResult
+
+FloatArray = NDArray[np.float64]
+Frame = Literal["space", "body", "world"]
+_FRAMES = ("space", "body", "world")
+
+
+def _readonly(a: ArrayLike) -> FloatArray:
+    arr = np.array(a, dtype=np.float64)
+    arr.setflags(write=False)
+    return arr
+
+
+def frame_aligned_with(axis: ArrayLike) -> FloatArray:
+    """A rotation matrix whose third column is the unit vector `axis` (x, y chosen deterministically)."""
+    z = np.asarray(axis, dtype=np.float64)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    return np.column_stack((x, np.cross(z, x), z))
+
+
+@dataclass(frozen=True)
+class JointModel:
+    """One moving joint of the chain at the home configuration.
+
+    Attributes:
+        name: joint name.
+        prismatic: True for prismatic (value in m), False for revolute/continuous (value in rad).
+        H: 4×4 home pose of the joint frame in the base: origin on the axis, z along the axis.
+    """
+
+    name: str
+    prismatic: bool
+    H: FloatArray
+
+
+@dataclass(frozen=True)
+class ChainSpec:
+    """Everything a description parser hands to `SerialChain` (internal, but documented).
+
+    `joints` are all moving joints on the path, including mimic followers. The actuated variables
+    map to them as θ_internal = G q + offset (G is the identity unless there are mimic joints).
+    `links` lists the chain's links base→tip as (name, home pose in base, index of the last moving
+    joint before the link or −1).
+    """
+
+    base_link: str
+    tip_link: str
+    joints: list[JointModel]
+    M: FloatArray
+    actuated_names: list[str]
+    joint_types: list[str]
+    lower: FloatArray
+    upper: FloatArray
+    velocity_limit: FloatArray
+    G: FloatArray
+    offset: FloatArray
+    links: list[tuple[str, FloatArray, int]]
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class SerialChain:
+    """Immutable PoE model of a serial chain from `base_link` to `tip_link`.
+
+    Build with `from_urdf`, `from_dh` or `from_poe`; never mutated afterwards, so one instance can
+    serve many threads. Exposed arrays are read-only.
+
+    Attributes:
+        joint_names: actuated joints, base to tip.
+        joint_types: "revolute", "continuous" or "prismatic" per actuated joint.
+        lower, upper: joint limits [rad or m]; ±inf for continuous joints.
+        velocity_limit: [rad/s or m/s]; inf when the description gives none.
+        S: (6, n) space screw axes at home, rows (ω, v) (MR eq. 4.14).
+        B: (6, n) body screw axes at home, B = [Ad_{M⁻¹}] S (MR eq. 4.16).
+        M: (4, 4) home pose of the tip in the base (all joint values 0).
+        link_names: links of the chain, base to tip (fixed-joint links included).
+    """
+
+    base_link: str
+    tip_link: str
+    joint_names: tuple[str, ...]
+    joint_types: tuple[str, ...]
+    lower: FloatArray
+    upper: FloatArray
+    velocity_limit: FloatArray
+    S: FloatArray
+    B: FloatArray
+    M: FloatArray
+    link_names: tuple[str, ...]
+    _kernel: Kernel = field(compare=False)
+    _G: FloatArray | None = field(compare=False)
+    _offset: FloatArray | None = field(compare=False)
+    _mimic_index: tuple[tuple[int, float, float], ...] | None = field(compare=False)
+    _link_joint: tuple[int, ...] = field(compare=False)
+    _link_offset: FloatArray = field(compare=False)
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_spec(cls, spec: ChainSpec) -> SerialChain:
+        """Build the model from a parsed description (used by the URDF/DH/PoE constructors)."""
+        joints = spec.joints
+        n_int = len(joints)
+        H = [j.H for j in joints]
+        A = np.empty((n_int + 1, 4, 4))
+        if n_int == 0:
+            raise RobotDescriptionError(
+                f"chain {spec.base_link!r} → {spec.tip_link!r} has no moving joint"
+            )
+        A[0] = H[0]
+        for k in range(1, n_int):
+            A[k] = se3.inverse(H[k - 1]) @ H[k]
+        A[n_int] = se3.inverse(H[-1]) @ spec.M
+        kernel = Kernel(A, np.array([j.prismatic for j in joints]))
+
+        # Space screw axes of the internal joints at home: (z, o × z) or (0, z).
+        S_int = np.empty((6, n_int))
+        for k, j in enumerate(joints):
+            z, o = j.H[:3, 2], j.H[:3, 3]
+            S_int[:, k] = np.r_[0.0, 0.0, 0.0, z] if j.prismatic else np.r_[z, np.cross(o, z)]
+        G, offset = spec.G, spec.offset
+        trivial = G.shape[0] == G.shape[1] and np.array_equal(G, np.eye(G.shape[0])) and not offset.any()
+        S = S_int @ G
+        B = se3.adjoint(se3.inverse(spec.M)) @ S
+
+        mimic_index = None
+        if not trivial:  # θ_int[k] = m·q[i] + c, with one leader per internal joint
+            idx = []
+            for k in range(n_int):
+                nz = np.flatnonzero(G[k])
+                idx.append((int(nz[0]), float(G[k, nz[0]]), float(offset[k])))
+            mimic_index = tuple(idx)
+
+        link_joint, link_offset = [], []
+        for _name, T_home, k in spec.links:
+            link_joint.append(k)
+            link_offset.append(T_home if k < 0 else se3.inverse(H[k]) @ T_home)
+        return cls(
+            base_link=spec.base_link,
+            tip_link=spec.tip_link,
+            joint_names=tuple(spec.actuated_names),
+            joint_types=tuple(spec.joint_types),
+            lower=_readonly(spec.lower),
+            upper=_readonly(spec.upper),
+            velocity_limit=_readonly(spec.velocity_limit),
+            S=_readonly(S),
+            B=_readonly(B),
+            M=_readonly(spec.M),
+            link_names=tuple(name for name, _, _ in spec.links),
+            _kernel=kernel,
+            _G=None if trivial else _readonly(G),
+            _offset=None if trivial else _readonly(offset),
+            _mimic_index=mimic_index,
+            _link_joint=tuple(link_joint),
+            _link_offset=_readonly(np.array(link_offset)),
+        )
+
+    @classmethod
+    def from_urdf(
+        cls,
+        path_or_xml: str | PathLike[str],
+        base_link: str | None = None,
+        tip_link: str | None = None,
+    ) -> SerialChain:
+        """Model of the chain `base_link` → `tip_link` of a URDF or xacro description.
+
+        Args:
+            path_or_xml: a file path (.urdf, .xacro, …) or the XML text itself.
+            base_link: defaults to the root link.
+            tip_link: defaults to the single leaf below `base_link` (an error lists them if several).
+
+        Raises:
+            RobotDescriptionError: malformed or unsupported description, naming the joint or link.
+            UnknownNameError: `base_link` or `tip_link` is not a link of the robot.
+        """
+        from .urdf import spec_from_urdf
+
+        return cls.from_spec(spec_from_urdf(path_or_xml, base_link, tip_link))
+
+    @classmethod
+    def from_dh(
+        cls,
+        table: Sequence[Mapping[str, Any]] | Mapping[str, Any],
+        *,
+        base: ArrayLike | None = None,
+        tool: ArrayLike | None = None,
+    ) -> SerialChain:
+        """Model from a standard Denavit–Hartenberg table (De Luca's convention).
+
+        See `kinematics_node.core.dh.spec_from_dh` for the table format.
+        """
+        from .dh import spec_from_dh
+
+        return cls.from_spec(spec_from_dh(table, base=base, tool=tool))
+
+    @classmethod
+    def from_poe(
+        cls,
+        S: ArrayLike,
+        M: ArrayLike,
+        *,
+        joint_names: Sequence[str] | None = None,
+        lower: ArrayLike | None = None,
+        upper: ArrayLike | None = None,
+    ) -> SerialChain:
+        """Model from space screw axes S (6, n) and home pose M, as Modern Robotics states them.
+
+        Each column must be a revolute (‖ω‖ = 1, pitch ωᵀv = 0) or prismatic (ω = 0, ‖v‖ = 1) axis.
+        """
+        from .dh import spec_from_poe
+
+        return cls.from_spec(spec_from_poe(S, M, joint_names=joint_names, lower=lower, upper=upper))
+
+    # ------------------------------------------------------------------ basics
+    @property
+    def dof(self) -> int:
+        """Number of actuated joints n."""
+        return len(self.joint_names)
+
+    @property
+    def continuous(self) -> NDArray[np.bool_]:
+        """Mask of joints without position limits (wrapped to the seed by IK)."""
+        return np.isinf(self.lower) & np.isinf(self.upper)
+
+    def __repr__(self) -> str:
+        return (
+            f"SerialChain({self.base_link!r} → {self.tip_link!r}, dof={self.dof}, "
+            f"joints={list(self.joint_names)})"
+        )
+
+    def joint_index(self, name: str) -> int:
+        """Column index of an actuated joint; `UnknownNameError` lists the valid names."""
+        try:
+            return self.joint_names.index(name)
+        except ValueError:
+            raise UnknownNameError("joint", name, self.joint_names) from None
+
+    def check_q(self, q: ArrayLike, name: str = "q") -> FloatArray:
+        """Validate joint values of shape (..., n): numeric and finite. Returns a float64 array."""
+        arr = as_float_array(q, name)
+        if arr.ndim == 0 or arr.shape[-1] != self.dof:
+            raise InvalidInputError(
+                f"{name} must have {self.dof} values (one per joint {list(self.joint_names)}), "
+                f"got shape {arr.shape}"
+            )
+        check_finite(arr, name)
+        return arr
+
+    def within_limits(self, q: ArrayLike, tolerance: float = 0.0) -> NDArray[np.bool_]:
+        """True where every joint value lies in [lower − tol, upper + tol]; shape (...)."""
+        arr = self.check_q(q)
+        return np.all((arr >= self.lower - tolerance) & (arr <= self.upper + tolerance), axis=-1)
+
+    # ------------------------------------------------------------------ forward kinematics
+    def _internal_scalar(self, q: Sequence[float]) -> list[float]:
+        mi = self._mimic_index
+        if mi is None:
+            return list(q)
+        return [m * q[i] + c for i, m, c in mi]
+
+    def _scalar_q(self, q: ArrayLike) -> list[float] | None:
+        """Fast validation of a single configuration; None if `q` is a batch."""
+        if isinstance(q, np.ndarray):
+            if q.ndim != 1:
+                return None
+            vals = q.tolist()
+        elif isinstance(q, (list, tuple)) and all(isinstance(v, (int, float)) for v in q):
+            vals = list(q)
+        else:
+            return None
+        if len(vals) != self.dof:
+            self.check_q(q)  # raises with the full message
+        for v in vals:
+            if not math.isfinite(v):
+                self.check_q(q)
+        return [float(v) for v in vals]
+
+    def fk(self, q: ArrayLike) -> FloatArray:
+        """Pose T_base_tip(q) of the tip in the base (MR eq. 4.14): (n,) → (4, 4), (..., n) → (..., 4, 4).
+
+        Raises:
+            InvalidInputError: wrong number of values or a non-finite value.
+        """
+        qs = self._scalar_q(q)
+        if qs is not None:
+            t, _ = self._kernel.fk_jacobian_scalar(self._internal_scalar(qs), False)
+            return _pose_from_flat(t)
+        arr = self.check_q(q)
+        C, p, *_ = self._kernel.frames_batch(self._internal_batch(arr.reshape(-1, self.dof)), False)
+        return _poses_from_soa(C, p).reshape(arr.shape[:-1] + (4, 4))
+
+    def _internal_batch(self, q: FloatArray) -> FloatArray:
+        if self._G is None or self._offset is None:
+            return q
+        return q @ self._G.T + self._offset
+
+    def fk_jacobian(self, q: ArrayLike, frame: Frame = "world") -> tuple[FloatArray, FloatArray]:
+        """(T_base_tip, J) from one pass of the recursion; shapes (..., 4, 4) and (..., 6, n)."""
+        if frame not in _FRAMES:
+            raise InvalidInputError(f"frame must be one of {_FRAMES}, got {frame!r}")
+        qs = self._scalar_q(q)
+        if qs is not None:
+            t, axes = self._kernel.fk_jacobian_scalar(self._internal_scalar(qs), True)
+            J = _jacobian_from_axes(t, axes, self._kernel.prismatic, frame)
+            if self._G is not None:
+                J = J @ self._G
+            return _pose_from_flat(t), J
+        arr = self.check_q(q)
+        flat = arr.reshape(-1, self.dof)
+        C, p, Z, O, _ = self._kernel.frames_batch(self._internal_batch(flat), True)
+        assert Z is not None and O is not None  # requested above
+        J = _jacobian_batch(C, p, Z, O, self._kernel.prismatic, frame)
+        if self._G is not None:
+            J = J @ self._G
+        lead = arr.shape[:-1]
+        return _poses_from_soa(C, p).reshape(lead + (4, 4)), J.reshape(lead + (6, self.dof))
+
+    def jacobian(self, q: ArrayLike, frame: Frame = "space") -> FloatArray:
+        """Jacobian (..., 6, n) with rows (ω, v) in the chosen `frame` (see the module docstring).
+
+        * "space": J_s (MR eq. 5.11), * "body": J_b (MR eq. 5.18), * "world": geometric Jacobian
+          of the tip origin in base axes (De Luca), J_world = [[I, 0], [−[p], I]] J_s.
+        """
+        return self.fk_jacobian(q, frame)[1]
+
+    def link_poses(self, q: ArrayLike) -> FloatArray:
+        """Poses of every link in `link_names` in the base: (n,) → (L, 4, 4), (..., n) → (..., L, 4, 4)."""
+        arr = self.check_q(q)
+        flat = arr.reshape(-1, self.dof)
+        _, _, _, _, F = self._kernel.frames_batch(self._internal_batch(flat), False, True)
+        assert F is not None
+        N = flat.shape[0]
+        out = np.empty((N, len(self.link_names), 4, 4))
+        for i, (k, off) in enumerate(zip(self._link_joint, self._link_offset, strict=True)):
+            if k < 0:
+                out[:, i] = off
+            else:
+                Fk = np.zeros((N, 4, 4))
+                Fk[:, :3, :] = np.moveaxis(F[k], 2, 0)
+                Fk[:, 3, 3] = 1.0
+                out[:, i] = Fk @ off
+        return out.reshape(arr.shape[:-1] + out.shape[1:])
+
+    def link_pose(self, q: ArrayLike, link: str) -> FloatArray:
+        """Pose of one chain link in the base; `UnknownNameError` lists the chain's links."""
+        if link not in self.link_names:
+            raise UnknownNameError("link", link, self.link_names)
+        return self.link_poses(q)[..., self.link_names.index(link), :, :]
+
+    # ------------------------------------------------------------------ velocity and statics
+    def twist(self, q: ArrayLike, qdot: ArrayLike, frame: Frame = "world") -> FloatArray:
+        """End-effector twist V = J(q) q̇, rows (ω, v), in `frame` (..., 6)."""
+        qd = self.check_q(qdot, "qdot")
+        return (self.jacobian(q, frame) @ qd[..., None])[..., 0]
+
+    def joint_torques(self, q: ArrayLike, wrench: ArrayLike, frame: Frame = "world") -> FloatArray:
+        """Statics τ = J(q)ᵀ F (MR eq. 5.26) for a wrench F = (m, f) the tip applies, in `frame`.
+
+        With frame="world" the moment is about the tip origin in base axes; "space" about the base
+        origin; "body" in the tip frame.
+        """
+        F = as_float_array(wrench, "wrench")
+        if F.shape[-1:] != (6,):
+            raise InvalidInputError(f"wrench must have shape (..., 6) ordered (m, f), got {F.shape}")
+        check_finite(F, "wrench")
+        J = self.jacobian(q, frame)
+        return (np.swapaxes(J, -1, -2) @ F[..., None])[..., 0]
+
+    def analytic_jacobian_rpy(self, q: ArrayLike) -> FloatArray:
+        """Analytic Jacobian (..., 6, n) mapping q̇ to (roll, pitch, yaw rates, ṗ) of the tip.
+
+        ω = T(φ) φ̇ with T = [R_Z R_Y e_x, R_Z e_y, e_z] for R = R_Z(y) R_Y(p) R_X(r), so the angular
+        rows are T⁻¹ J_ω (De Luca, geometric vs analytic Jacobian). Singular at pitch = ±π/2.
+
+        Raises:
+            InvalidInputError: at (or within 1e-9 of) the representation singularity.
+        """
+        from .rotations import rpy_from_matrix
+
+        T, J = self.fk_jacobian(q, "world")
+        _, pitch, yaw = np.moveaxis(rpy_from_matrix(T[..., :3, :3]), -1, 0)
+        cp, sp, cy, sy = np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+        if np.any(np.abs(cp) < 1e-9):
+            raise InvalidInputError("roll-pitch-yaw rates are undefined at pitch = ±π/2")
+        # T⁻¹ for T = [[cy cp, −sy, 0], [sy cp, cy, 0], [−sp, 0, 1]].
+        Tinv = np.zeros(cp.shape + (3, 3))
+        Tinv[..., 0, 0], Tinv[..., 0, 1] = cy / cp, sy / cp
+        Tinv[..., 1, 0], Tinv[..., 1, 1] = -sy, cy
+        Tinv[..., 2, 0], Tinv[..., 2, 1], Tinv[..., 2, 2] = cy * sp / cp, sy * sp / cp, 1.0
+        out = J.copy()
+        out[..., :3, :] = Tinv @ J[..., :3, :]
+        return out
+
+    # ------------------------------------------------------------------ inverse kinematics
+    def ik(
+        self, T_target: ArrayLike, q_seed: ArrayLike | None = None, options: IKOptions | None = None
+    ) -> IKResult:
+        """Joint values reaching `T_target` (4×4, tip in base); see `kinematics_node.core.ik`."""
+        from .ik import solve
+
+        return solve(self, T_target, q_seed, options)
+
+    def ik_batch(
+        self,
+        T_targets: ArrayLike,
+        q_seeds: ArrayLike | None = None,
+        options: IKOptions | None = None,
+    ) -> IKBatchResult:
+        """Vectorised IK for (N, 4, 4) targets and optional (N, n) seeds; see `core.ik`."""
+        from .ik import solve_batch
+
+        return solve_batch(self, T_targets, q_seeds, options)
+
+    def check_target(self, T: ArrayLike, name: str = "T_target") -> FloatArray:
+        """Validate a homogeneous transform (or a batch of them)."""
+        return check_transform(T, name)
+
+
+# ---------------------------------------------------------------------- helpers
+def _pose_from_flat(t: tuple[float, ...]) -> FloatArray:
+    return np.array(
+        (
+            (t[0], t[1], t[2], t[9]),
+            (t[3], t[4], t[5], t[10]),
+            (t[6], t[7], t[8], t[11]),
+            (0.0, 0.0, 0.0, 1.0),
+        )
+    )
+
+
+def _poses_from_soa(C: FloatArray, p: FloatArray) -> FloatArray:
+    N = p.shape[1]
+    T = np.zeros((N, 4, 4))
+    T[:, :3, :3] = np.moveaxis(C, 2, 0).swapaxes(1, 2)
+    T[:, :3, 3] = p.T
+    T[:, 3, 3] = 1.0
+    return T
+
+
+def _jacobian_from_axes(
+    t: tuple[float, ...],
+    axes: list[tuple[float, float, float, float, float, float]],
+    prismatic: tuple[bool, ...],
+    frame: str,
+) -> FloatArray:
+    px, py, pz = t[9], t[10], t[11]
+    cols = []
+    for (zx, zy, zz, ox, oy, oz), prism in zip(axes, prismatic, strict=True):
+        if prism:
+            cols.append((0.0, 0.0, 0.0, zx, zy, zz))
+        elif frame == "space":  # v = o × z
+            cols.append((zx, zy, zz, oy * zz - oz * zy, oz * zx - ox * zz, ox * zy - oy * zx))
+        else:  # v = z × (p − o)
+            dx, dy, dz = px - ox, py - oy, pz - oz
+            cols.append((zx, zy, zz, zy * dz - zz * dy, zz * dx - zx * dz, zx * dy - zy * dx))
+    J = np.array(cols).T
+    if frame == "body":  # J_b = diag(Rᵀ, Rᵀ) J_world
+        Rt = np.array(((t[0], t[3], t[6]), (t[1], t[4], t[7]), (t[2], t[5], t[8])))
+        J = np.concatenate((Rt @ J[:3], Rt @ J[3:]))
+    return J
+
+
+def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
+    """Cross product along axis 0 of (3, …) arrays (np.cross wants the vector axis last)."""
+    return np.stack(
+        (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+    )
+
+
+def _jacobian_batch(
+    C: FloatArray, p: FloatArray, Z: FloatArray, O: FloatArray, prismatic: tuple[bool, ...], frame: str
+) -> FloatArray:
+    n, _, N = Z.shape
+    J = np.empty((6, n, N))
+    prism = np.array(prismatic)
+    zt, ot = np.moveaxis(Z, 1, 0), np.moveaxis(O, 1, 0)  # (3, n, N)
+    if frame == "space":
+        lin = _cross(ot, zt)
+    else:
+        lin = _cross(zt, p[:, None, :] - ot)
+    J[:3] = zt
+    J[3:] = lin
+    if prism.any():
+        J[:3, prism] = 0.0
+        J[3:, prism] = zt[:, prism]
+    if frame == "body":  # rows: Rᵀ x = (C[0]·x, C[1]·x, C[2]·x)
+        ang, lin2 = J[:3].copy(), J[3:].copy()
+        for i in range(3):
+            J[i] = np.einsum("rN,rnN->nN", C[i], ang)
+            J[3 + i] = np.einsum("rN,rnN->nN", C[i], lin2)
+    return np.moveaxis(J, 2, 0)  # (N, 6, n)

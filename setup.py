@@ -1,0 +1,36 @@
+"""pip installation of the kinematics core, CLI and message adapters (no ROS needed).
+
+Under ROS 2 the package is built by colcon through CMakeLists.txt (ament_cmake), which installs the
+same two Python packages; this file is for `pip install .` without ROS.
+"""
+
+from setuptools import find_packages, setup
+
+setup(
+    name="kinematics_service",
+    version="0.1.0",
+    description="Product-of-exponentials kinematics (FK, Jacobians, IK) for ROS 2 and plain Python",
+    long_description=open("README.md", encoding="utf-8").read(),
+    long_description_content_type="text/markdown",
+    license="Apache-2.0",
+    python_requires=">=3.10",
+    packages=find_packages(include=["kinematics_node", "kinematics_node.*", "msg_adapters", "msg_adapters.*"]),
+    package_data={"kinematics_node": ["py.typed", "robots/*"], "msg_adapters": ["py.typed"]},
+    install_requires=["numpy>=1.23", "scipy>=1.9", "yourdfpy>=0.0.53"],
+    extras_require={
+        "xacro": ["xacro>=2.0"],
+        "demo": ["matplotlib>=3.5"],
+        "test": [
+            "pytest>=7",
+            "pin>=2.7",  # Pinocchio: the independent FK/Jacobian oracle
+            "example-robot-data>=4",  # real robot descriptions nobody here wrote
+            "rosbags>=0.10",  # ROS 2 message definitions and CDR without ROS
+            "catkin_pkg>=1.0",
+            "xacro>=2.0",
+            "matplotlib>=3.5",
+        ],
+        "bench": ["pin>=2.7", "example-robot-data>=4", "modern-robotics>=1.1", "ikpy>=3.3"],
+        "lint": ["ruff>=0.5", "mypy>=1.10"],
+    },
+    entry_points={"console_scripts": ["kinematics = kinematics_node.cli:main"]},
+)
