@@ -15,7 +15,9 @@ def as_float_array(value: Any, name: str) -> NDArray[np.float64]:
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name} must be numeric, got {type(value).__name__}: {exc}") from None
+        raise InvalidInputError(
+            f"{name} must be numeric, got {type(value).__name__}: {exc}"
+        ) from None
     return arr
 
 
@@ -45,7 +47,9 @@ def check_transform(value: Any, name: str = "transform") -> NDArray[np.float64]:
     check_trailing_shape(T, (4, 4), name)
     check_finite(T, name)
     if not np.allclose(T[..., 3, :], (0.0, 0.0, 0.0, 1.0), atol=1e-9):
-        raise InvalidInputError(f"{name} must have last row (0, 0, 0, 1), got {T[..., 3, :].tolist()}")
+        raise InvalidInputError(
+            f"{name} must have last row (0, 0, 0, 1), got {T[..., 3, :].tolist()}"
+        )
     R = T[..., :3, :3]
     err = np.abs(np.swapaxes(R, -1, -2) @ R - np.eye(3)).max(axis=(-1, -2))
     if np.any(err > 1e-6) or np.any(np.linalg.det(R) <= 0):

@@ -40,7 +40,8 @@ class Kernel:
         self.A = A  # (n + 1, 4, 4)
         # Row-major rotation then position, as Python floats, for the scalar path.
         self._A_flat = tuple(
-            tuple(float(x) for x in a[:3, :3].ravel()) + tuple(float(x) for x in a[:3, 3]) for a in A
+            tuple(float(x) for x in a[:3, :3].ravel()) + tuple(float(x) for x in a[:3, 3])
+            for a in A
         )
         self._A_rot_T = np.ascontiguousarray(np.swapaxes(A[:, :3, :3], 1, 2))
         self._A_pos = np.ascontiguousarray(A[:, :3, 3])
@@ -92,7 +93,9 @@ class Kernel:
     # ------------------------------------------------------------------ batched path
     def frames_batch(
         self, q: FloatArray, want_axes: bool, want_joint_frames: bool = False
-    ) -> tuple[FloatArray, FloatArray, FloatArray | None, FloatArray | None, list[FloatArray] | None]:
+    ) -> tuple[
+        FloatArray, FloatArray, FloatArray | None, FloatArray | None, list[FloatArray] | None
+    ]:
         """Recursion for q of shape (N, n).
 
         Returns (C, p, Z, O, F): C (3, 3, N) tip rotation columns (C[j] is column j), p (3, N) tip

@@ -51,10 +51,14 @@ def condition_number(J: ArrayLike, part: Part = "full") -> FloatArray:
     """σ_max / σ_min of the selected rows (MR's μ₂ = √μ₃); ∞ at a singularity."""
     s = np.linalg.svd(_rows(J, part), compute_uv=False)
     with np.errstate(divide="ignore"):
-        return np.where(s[..., -1] > 0, s[..., 0] / np.where(s[..., -1] > 0, s[..., -1], 1.0), np.inf)
+        return np.where(
+            s[..., -1] > 0, s[..., 0] / np.where(s[..., -1] > 0, s[..., -1], 1.0), np.inf
+        )
 
 
-def is_near_singular(J: ArrayLike, part: Part = "full", threshold: float = 1e-3) -> NDArray[np.bool_]:
+def is_near_singular(
+    J: ArrayLike, part: Part = "full", threshold: float = 1e-3
+) -> NDArray[np.bool_]:
     """True where the smallest singular value of the selected rows is below `threshold`."""
     s = np.linalg.svd(_rows(J, part), compute_uv=False)
     return s[..., -1] < threshold

@@ -148,7 +148,9 @@ class SerialChain:
             z, o = j.H[:3, 2], j.H[:3, 3]
             S_int[:, k] = np.r_[0.0, 0.0, 0.0, z] if j.prismatic else np.r_[z, np.cross(o, z)]
         G, offset = spec.G, spec.offset
-        trivial = G.shape[0] == G.shape[1] and np.array_equal(G, np.eye(G.shape[0])) and not offset.any()
+        trivial = (
+            G.shape[0] == G.shape[1] and np.array_equal(G, np.eye(G.shape[0])) and not offset.any()
+        )
         S = S_int @ G
         B = se3.adjoint(se3.inverse(spec.M)) @ S
 
@@ -390,7 +392,9 @@ class SerialChain:
         """
         F = as_float_array(wrench, "wrench")
         if F.shape[-1:] != (6,):
-            raise InvalidInputError(f"wrench must have shape (..., 6) ordered (m, f), got {F.shape}")
+            raise InvalidInputError(
+                f"wrench must have shape (..., 6) ordered (m, f), got {F.shape}"
+            )
         check_finite(F, "wrench")
         J = self.jacobian(q, frame)
         return (np.swapaxes(J, -1, -2) @ F[..., None])[..., 0]
@@ -497,7 +501,12 @@ def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
 
 
 def _jacobian_batch(
-    C: FloatArray, p: FloatArray, Z: FloatArray, O: FloatArray, prismatic: tuple[bool, ...], frame: str
+    C: FloatArray,
+    p: FloatArray,
+    Z: FloatArray,
+    O: FloatArray,
+    prismatic: tuple[bool, ...],
+    frame: str,
 ) -> FloatArray:
     n, _, N = Z.shape
     J = np.empty((6, n, N))

@@ -45,7 +45,9 @@ def _number(row: Mapping[str, Any], key: str, i: int, default: float | None = No
     try:
         value = float(row[key])
     except (TypeError, ValueError):
-        raise RobotDescriptionError(f"DH row {i}: {key!r} must be a number, got {row[key]!r}") from None
+        raise RobotDescriptionError(
+            f"DH row {i}: {key!r} must be a number, got {row[key]!r}"
+        ) from None
     if np.isnan(value) or (np.isinf(value) and key not in ("lower", "upper", "velocity")):
         raise RobotDescriptionError(f"DH row {i}: {key!r} must be finite, got {value}")
     return value
@@ -76,14 +78,18 @@ def spec_from_dh(
     links: list[tuple[str, np.ndarray, int]] = [("link0", T.copy(), -1)]
     for i, row in enumerate(rows, start=1):
         if not isinstance(row, Mapping):
-            raise RobotDescriptionError(f"DH row {i} must be a mapping with a, alpha, d, theta, type")
+            raise RobotDescriptionError(
+                f"DH row {i} must be a mapping with a, alpha, d, theta, type"
+            )
         kind = str(row.get("type", "revolute")).lower()
         if kind in ("r", "revolute"):
             prismatic = False
         elif kind in ("p", "prismatic"):
             prismatic = True
         else:
-            raise RobotDescriptionError(f"DH row {i}: type must be revolute/R or prismatic/P, got {kind!r}")
+            raise RobotDescriptionError(
+                f"DH row {i}: type must be revolute/R or prismatic/P, got {kind!r}"
+            )
         a, alpha = _number(row, "a", i), _number(row, "alpha", i)
         d, theta = _number(row, "d", i), _number(row, "theta", i, 0.0)
         name = str(row.get("name", f"joint{i}"))
@@ -91,12 +97,18 @@ def spec_from_dh(
             raise RobotDescriptionError(f"DH row {i}: duplicate joint name {name!r}")
         lo, up = _number(row, "lower", i, -np.inf), _number(row, "upper", i, np.inf)
         if not lo <= up:
-            raise RobotDescriptionError(f"DH row {i} ({name!r}): lower limit {lo} > upper limit {up}")
+            raise RobotDescriptionError(
+                f"DH row {i} ({name!r}): lower limit {lo} > upper limit {up}"
+            )
         H = T @ _rot_z(theta)  # joint i turns (or slides) about z_{i−1}
         joints.append(JointModel(name, prismatic, H))
         T = H @ _dh_fixed(d, a, alpha)
         names.append(name)
-        types.append("prismatic" if prismatic else ("continuous" if np.isinf(lo) and np.isinf(up) else "revolute"))
+        types.append(
+            "prismatic"
+            if prismatic
+            else ("continuous" if np.isinf(lo) and np.isinf(up) else "revolute")
+        )
         lower.append(lo)
         upper.append(up)
         vel.append(_number(row, "velocity", i, np.inf))

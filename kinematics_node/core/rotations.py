@@ -94,19 +94,25 @@ def axis_angle_from_matrix(R: ArrayLike) -> tuple[FloatArray, FloatArray]:
 def _rx(a: FloatArray) -> FloatArray:
     c, s = np.cos(a), np.sin(a)
     o, z = np.ones_like(a), np.zeros_like(a)
-    return np.stack((np.stack((o, z, z), -1), np.stack((z, c, -s), -1), np.stack((z, s, c), -1)), -2)
+    return np.stack(
+        (np.stack((o, z, z), -1), np.stack((z, c, -s), -1), np.stack((z, s, c), -1)), -2
+    )
 
 
 def _ry(a: FloatArray) -> FloatArray:
     c, s = np.cos(a), np.sin(a)
     o, z = np.ones_like(a), np.zeros_like(a)
-    return np.stack((np.stack((c, z, s), -1), np.stack((z, o, z), -1), np.stack((-s, z, c), -1)), -2)
+    return np.stack(
+        (np.stack((c, z, s), -1), np.stack((z, o, z), -1), np.stack((-s, z, c), -1)), -2
+    )
 
 
 def _rz(a: FloatArray) -> FloatArray:
     c, s = np.cos(a), np.sin(a)
     o, z = np.ones_like(a), np.zeros_like(a)
-    return np.stack((np.stack((c, -s, z), -1), np.stack((s, c, z), -1), np.stack((z, z, o), -1)), -2)
+    return np.stack(
+        (np.stack((c, -s, z), -1), np.stack((s, c, z), -1), np.stack((z, z, o), -1)), -2
+    )
 
 
 def _angles(angles: ArrayLike, name: str) -> FloatArray:

@@ -90,7 +90,9 @@ def log(T: ArrayLike) -> FloatArray:
     t = np.where(small, 1.0, theta)
     t2 = theta * theta
     # 1/θ² − (1 + cos θ)/(2θ sin θ) rewritten with half-angles: 1/θ² − cot(θ/2)/(2θ).
-    d = np.where(small, 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0, 1.0 / t**2 - 0.5 / (t * np.tan(t / 2)))
+    d = np.where(
+        small, 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0, 1.0 / t**2 - 0.5 / (t * np.tan(t / 2))
+    )
     K = so3.hat(phi)
     Vinv = np.eye(3) - 0.5 * K + d * (K @ K)
     return np.concatenate((phi, (Vinv @ Tm[..., :3, 3:4])[..., 0]), axis=-1)
@@ -114,7 +116,9 @@ def transform_twist(T_ab: ArrayLike, V_b: ArrayLike) -> FloatArray:
 
 def transform_wrench(T_ab: ArrayLike, F_a: ArrayLike) -> FloatArray:
     """F_b = [Ad_{T_ab}]ᵀ F_a: a wrench (m, f) given in {a} expressed in {b} (MR eq. 3.95)."""
-    return (np.swapaxes(adjoint(T_ab), -1, -2) @ np.asarray(F_a, dtype=np.float64)[..., None])[..., 0]
+    return (np.swapaxes(adjoint(T_ab), -1, -2) @ np.asarray(F_a, dtype=np.float64)[..., None])[
+        ..., 0
+    ]
 
 
 def screw_axis(q: ArrayLike, s_hat: ArrayLike, h: float) -> FloatArray:

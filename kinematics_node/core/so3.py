@@ -55,12 +55,22 @@ def quaternion_from_matrix(R: ArrayLike) -> FloatArray:
     m00, m11, m22 = M[..., 0, 0], M[..., 1, 1], M[..., 2, 2]
     tr = m00 + m11 + m22
     # Four candidate formulas; pick per element the one with the largest (well-conditioned) pivot.
-    pivots = np.stack((1.0 + 2.0 * m00 - tr, 1.0 + 2.0 * m11 - tr, 1.0 + 2.0 * m22 - tr, 1.0 + tr), -1)
+    pivots = np.stack(
+        (1.0 + 2.0 * m00 - tr, 1.0 + 2.0 * m11 - tr, 1.0 + 2.0 * m22 - tr, 1.0 + tr), -1
+    )
     k = np.argmax(pivots, axis=-1)
     r = np.sqrt(np.maximum(np.take_along_axis(pivots, k[..., None], -1)[..., 0], 0.0))
     s = 0.5 / np.where(r > 0, r, 1.0)
-    d21, d02, d10 = M[..., 2, 1] - M[..., 1, 2], M[..., 0, 2] - M[..., 2, 0], M[..., 1, 0] - M[..., 0, 1]
-    s21, s02, s10 = M[..., 2, 1] + M[..., 1, 2], M[..., 0, 2] + M[..., 2, 0], M[..., 1, 0] + M[..., 0, 1]
+    d21, d02, d10 = (
+        M[..., 2, 1] - M[..., 1, 2],
+        M[..., 0, 2] - M[..., 2, 0],
+        M[..., 1, 0] - M[..., 0, 1],
+    )
+    s21, s02, s10 = (
+        M[..., 2, 1] + M[..., 1, 2],
+        M[..., 0, 2] + M[..., 2, 0],
+        M[..., 1, 0] + M[..., 0, 1],
+    )
     cand = np.stack(
         (
             np.stack((0.5 * r, s10 * s, s02 * s, d21 * s), -1),

@@ -40,7 +40,9 @@ def read_description(path_or_xml: str | PathLike[str]) -> str:
             with open(filename, encoding="utf-8") as fh:
                 text = fh.read()
         except OSError as exc:
-            raise RobotDescriptionError(f"cannot read robot description {filename!r}: {exc}") from None
+            raise RobotDescriptionError(
+                f"cannot read robot description {filename!r}: {exc}"
+            ) from None
     else:
         text = str(path_or_xml)
     if (filename is not None and filename.endswith(".xacro")) or "xmlns:xacro" in text:
@@ -121,7 +123,9 @@ def spec_from_urdf(
     if len(roots) != 1:
         if not roots:
             raise RobotDescriptionError("the description has no root link: its joints form a loop")
-        raise RobotDescriptionError(f"the description has several root links {roots}; expected one tree")
+        raise RobotDescriptionError(
+            f"the description has several root links {roots}; expected one tree"
+        )
 
     base = roots[0] if base_link is None else base_link
     if base not in link_set:
@@ -182,7 +186,9 @@ def _joint_limits(j: Any) -> tuple[str, float, float, float]:
     lower = 0.0 if lim.lower is None else float(lim.lower)
     upper = 0.0 if lim.upper is None else float(lim.upper)
     if not lower <= upper:
-        raise RobotDescriptionError(f"joint {j.name!r} has lower limit {lower} > upper limit {upper}")
+        raise RobotDescriptionError(
+            f"joint {j.name!r} has lower limit {lower} > upper limit {upper}"
+        )
     if j.type == "revolute" and lower == upper == 0.0:
         raise RobotDescriptionError(
             f"revolute joint {j.name!r} has limits [0, 0]: it could not move "
@@ -207,7 +213,9 @@ def _unit_axis(j: Any) -> np.ndarray:
 def _build_spec(base: str, tip: str, path: list[Any], joints: dict[str, Any]) -> ChainSpec:
     T = np.eye(4)  # pose of the current link in the base, at home
     moving: list[JointModel] = []
-    followers: list[tuple[str, float, float]] = []  # (leader name, multiplier, offset) per moving joint
+    followers: list[
+        tuple[str, float, float]
+    ] = []  # (leader name, multiplier, offset) per moving joint
     chain_links: list[tuple[str, np.ndarray, int]] = [(base, np.eye(4), -1)]
     for j in path:
         if j.type not in _MOVING and j.type != "fixed":
@@ -243,7 +251,9 @@ def _build_spec(base: str, tip: str, path: list[Any], joints: dict[str, Any]) ->
     for name in actuated:
         leader_joint = joints.get(name)
         if leader_joint is None:
-            raise RobotDescriptionError(f"a mimic joint follows joint {name!r}, which is not defined")
+            raise RobotDescriptionError(
+                f"a mimic joint follows joint {name!r}, which is not defined"
+            )
         if leader_joint.type not in _MOVING:
             raise RobotDescriptionError(
                 f"a mimic joint follows joint {name!r} of type {leader_joint.type!r}, which cannot move"

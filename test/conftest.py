@@ -1,0 +1,16 @@
+"""Shared fixtures (helpers live in kin_testing.py, importable because pythonpath includes test/)."""
+
+from __future__ import annotations
+
+import pytest
+from kin_testing import REAL_ARMS, erd_path
+
+
+@pytest.fixture(params=REAL_ARMS, ids=[a[0] for a in REAL_ARMS])
+def real_arm(request):
+    """(SerialChain, path) for each real arm description."""
+    from kinematics_node.core import SerialChain
+
+    name, rel, base, tip = request.param
+    path = erd_path(rel)
+    return SerialChain.from_urdf(path, base, tip), path
