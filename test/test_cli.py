@@ -1,0 +1,116 @@
+"""The `kinematics` command line, run as a user would (in-process main and one real subprocess)."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from kin_testing import erd_path
+
+from kinematics_node.cli import main
+from kinematics_node.core import SerialChain
+
+SCARA = {
+    "joints": [
+        {"a": 0.35, "alpha": 0, "d": 0.4, "theta": 0, "type": "R", "lower": -2.5, "upper": 2.5},
+        {"a": 0.30, "alpha": 0, "d": 0, "theta": 0, "type": "R", "lower": -2.5, "upper": 2.5},
+        {"a": 0, "alpha": 0, "d": 0, "theta": 0, "type": "P", "lower": 0, "upper": 0.2},
+        {"a": 0, "alpha": 3.141592653589793, "d": -0.12, "theta": 0, "type": "R"},
+    ]
+}
+
+
+@pytest.fixture
+def ur5():
+    return str(erd_path("ur_description/urdf/ur5_robot.urdf"))
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_info_json_and_text(capsys, ur5):
+    code, out, _ = run(capsys, "info", "--urdf", ur5, "--tip", "tool0", "--json")
+    assert code == 0
+    data = json.loads(out)
+    chain = SerialChain.from_urdf(ur5, tip_link="tool0")
+    assert [j["name"] for j in data["joints"]] == list(chain.joint_names)
+    np.testing.assert_allclose(data["S"], chain.S)
+    np.testing.assert_allclose(data["M"], chain.M)
+    code, out, _ = run(capsys, "info", "--urdf", ur5, "--tip", "tool0")
+    assert code == 0 and "shoulder_pan_joint" in out and "home pose of the tip, M" in out
+
+
+def test_fk_json_matches_core_and_accepts_negative_values(capsys, ur5):
+    q = [-0.5, 1.0, -0.3, 0.2, 0.1, -1.5]
+    code, out, _ = run(
+        capsys, "fk", "--urdf", ur5, "--tip", "tool0", "--q", ",".join(map(str, q)), "--json"
+    )
+    assert code == 0
+    data = json.loads(out)
+    T = SerialChain.from_urdf(ur5, tip_link="tool0").fk(q)
+    np.testing.assert_allclose(data["T"], T, atol=1e-15)
+    np.testing.assert_allclose(data["position"], T[:3, 3], atol=1e-15)
+
+
+def test_jacobian_from_dh_file(capsys, tmp_path):
+    f = tmp_path / "scara.json"
+    f.write_text(json.dumps(SCARA))
+    code, out, _ = run(
+        capsys, "jacobian", "--dh", str(f), "--q", "0.1,0.2,0.05,0", "--frame", "space", "--json"
+    )
+    assert code == 0
+    data = json.loads(out)
+    chain = SerialChain.from_dh(SCARA)
+    np.testing.assert_allclose(data["J"], chain.jacobian([0.1, 0.2, 0.05, 0], "space"), atol=1e-15)
+    assert data["rows"] == ["wx", "wy", "wz", "vx", "vy", "vz"]
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["fk", "--q", "0,0,0,0,0"], "expected 6 values"),
+        (["fk", "--q", "0,0,0,0,0,nan"], "finite"),
+        (["fk", "--q", "0,0,zero,0,0,0"], "could not convert"),
+        (["fk", "--tip", "no_such_link", "--q", "0,0,0,0,0,0"], "unknown link 'no_such_link'"),
+        (["fk"], "--q is required"),
+    ],
+)
+def test_bad_input_exits_1_with_one_clear_line(capsys, ur5, argv, message):
+    argv = [argv[0], "--urdf", ur5, *argv[1:]]
+    if "--tip" not in argv:
+        argv += ["--tip", "tool0"]
+    code, out, err = run(capsys, *argv)
+    assert code == 1 and out == ""
+    assert err.count("\n") == 1 and err.startswith("kinematics: error:") and message in err
+
+
+def test_missing_robot_and_missing_file(capsys, tmp_path):
+    code, _, err = run(capsys, "info")
+    assert code == 1 and "exactly one robot" in err
+    code, _, err = run(capsys, "info", "--urdf", str(tmp_path / "none.urdf"))
+    assert code == 1 and "cannot read" in err
+
+
+def test_console_script_runs_in_a_subprocess(ur5):
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "kinematics_node.cli",
+            "fk",
+            "--urdf",
+            ur5,
+            "--tip",
+            "tool0",
+            "--q",
+            "0,0,0,0,0,0",
+        ],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert "position [m]" in out.stdout
