@@ -178,10 +178,59 @@ def cmd_jacobian(args: argparse.Namespace, chain: SerialChain) -> dict[str, Any]
     )
 
 
+def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> dict[str, Any] | str:
+    from .core import IKOptions
+    from .core.rotations import matrix_from_quaternion
+
+    if args.target is None:
+        raise CliError("--target x,y,z,qx,qy,qz,qw is required (position [m], quaternion x,y,z,w)")
+    v = parse_floats(args.target, "--target")
+    if v.size != 7:
+        raise CliError(f"--target: expected 7 values x,y,z,qx,qy,qz,qw, got {v.size}")
+    T = np.eye(4)
+    T[:3, :3] = matrix_from_quaternion(v[3:])  # refuses a zero quaternion with a clear message
+    T[:3, 3] = v[:3]
+    seed = None if args.seed is None else get_q(chain, args.seed, "--seed")
+    options = IKOptions(
+        position_tolerance=args.position_tolerance,
+        orientation_tolerance=args.orientation_tolerance,
+        timeout=args.timeout,
+        position_only=args.position_only,
+        mode=args.mode,
+        rng_seed=0,
+    )
+    res = chain.ik(T, q_seed=seed, options=options)
+    data = {
+        "success": bool(res.success),
+        "joint_names": list(chain.joint_names),
+        "q": np.asarray(res.q).tolist(),
+        "position_error": float(res.position_error),
+        "orientation_error": float(res.orientation_error),
+        "iterations": int(res.iterations),
+        "message": res.message,
+    }
+    if not res.success:
+        # Still report the best configuration found, but exit non-zero.
+        print(json.dumps(data, indent=2) if args.json else _ik_text(data), file=sys.stdout)
+        raise CliError(f"no solution: {res.message}")
+    return data if args.json else _ik_text(data)
+
+
+def _ik_text(d: dict[str, Any]) -> str:
+    rows = [f"{'solved' if d['success'] else 'not solved'}: {d['message']}"]
+    rows += [f"  {n:<28}{x: .6f}" for n, x in zip(d["joint_names"], d["q"], strict=True)]
+    rows.append(
+        f"position error {d['position_error']:.2e} m, orientation error "
+        f"{d['orientation_error']:.2e} rad, {d['iterations']} iterations"
+    )
+    return "\n".join(rows)
+
+
 COMMANDS: dict[str, tuple[str, Callable[[argparse.Namespace, SerialChain], Any]]] = {
     "info": ("print the chain, joint table and S, B, M", cmd_info),
     "fk": ("forward kinematics: pose of the tip in the base", cmd_fk),
     "jacobian": ("Jacobian in the space, body or world frame", cmd_jacobian),
+    "ik": ("inverse kinematics: joint values reaching a tip pose", cmd_ik),
 }
 
 
@@ -208,6 +257,19 @@ def build_parser() -> argparse.ArgumentParser:
             p.add_argument("--q", metavar="Q1,Q2,...", help="joint values [rad or m]")
         if name == "jacobian":
             p.add_argument("--frame", choices=("space", "body", "world"), default="world")
+        if name == "ik":
+            p.add_argument("--target", metavar="X,Y,Z,QX,QY,QZ,QW", help="tip pose in the base")
+            p.add_argument("--seed", metavar="Q1,Q2,...", help="start configuration")
+            p.add_argument("--position-only", action="store_true", help="ignore orientation")
+            p.add_argument("--mode", choices=("speed", "distance"), default="speed")
+            p.add_argument("--timeout", type=float, default=0.05, help="[s] (default 0.05)")
+            p.add_argument("--position-tolerance", type=float, default=1e-5, help="[m]")
+            p.add_argument("--orientation-tolerance", type=float, default=1e-4, help="[rad]")
+    demo = sub.add_parser("demo", help="simulate a bundled arm, track it, solve IK, draw a picture")
+    demo.add_argument("--robot", default="ur5e", help="bundled robot (default ur5e)")
+    demo.add_argument("--out", default="kinematics_demo.png", help="picture file")
+    demo.add_argument("--duration", type=float, default=10.0, help="simulated time [s]")
+    demo.add_argument("--rate", type=float, default=100.0, help="joint_states rate [Hz]")
     return parser
 
 
@@ -228,6 +290,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(_join_vector_options(sys.argv[1:] if argv is None else argv))
     try:
+        if args.command == "demo":
+            from . import demo
+
+            if not (args.duration > 0 and args.rate > 0):
+                raise CliError("--duration and --rate must be positive")
+            return demo.main(args.robot, args.out, args.duration, args.rate)
         chain = load_chain(args)
         result = COMMANDS[args.command][1](args, chain)
     except (CliError, KinematicsError) as exc:
