@@ -4,6 +4,8 @@ Under ROS 2 the package is built by colcon through CMakeLists.txt (ament_cmake),
 same two Python packages; this file is for `pip install .` without ROS.
 """
 
+from glob import glob
+
 from setuptools import find_packages, setup
 
 setup(
@@ -15,7 +17,13 @@ setup(
     license="Apache-2.0",
     python_requires=">=3.10",
     packages=find_packages(include=["kinematics_node", "kinematics_node.*", "msg_adapters", "msg_adapters.*"]),
-    package_data={"kinematics_node": ["py.typed", "robots/*"], "msg_adapters": ["py.typed"]},
+    package_data={"kinematics_node": ["py.typed"], "msg_adapters": ["py.typed"]},
+    # Bundled robots and parameters land where a colcon install puts them too (share/<package>/config);
+    # kinematics_node.robots looks there, and in the source tree for editable installs.
+    data_files=[
+        ("share/kinematics_service/config", sorted(glob("config/*.yaml"))),
+        ("share/kinematics_service/config/robots", sorted(glob("config/robots/*"))),
+    ],
     install_requires=["numpy>=1.23", "scipy>=1.9", "yourdfpy>=0.0.53"],
     extras_require={
         "xacro": ["xacro>=2.0"],
