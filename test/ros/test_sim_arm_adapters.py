@@ -223,7 +223,7 @@ def test_rviz_config_shows_the_robot_tf_and_ee_pose():
 def test_launch_file_builds_a_launch_description():
     # (check launch_ros first: the repo's own launch/ folder is importable as a namespace package)
     pytest.importorskip(
-        "launch_ros", reason="ROS 2 launch/launch_ros are not installed here; the file is only parsed"
+        "launch_ros", reason="ROS 2 launch_ros is not installed here; the file is only parsed"
     )
     launch = pytest.importorskip("launch")
     spec = importlib.util.spec_from_file_location("sim_arm_launch", LAUNCH)
