@@ -1,0 +1,133 @@
+"""ROS 2 node `sim_arm`: a simulated arm publishing ``joint_states`` (rclpy wiring only).
+
+The simulation is `kinematics_node.simulator.ArmSimulator`; message conversion is
+`msg_adapters.joint_commands`. This module only connects them to rclpy (Humble and Jazzy API).
+
+Parameters:
+    robot_description (str, ""): URDF/xacro XML; when empty, the bundled robot `robot` is used.
+    robot (str, "ur5e"): bundled robot name (see `kinematics_node.robots.available_robots`).
+    base_link, tip_link (str, ""): when tip_link is set, simulate only the chain base → tip;
+        otherwise every moving non-mimic joint (what robot_state_publisher needs).
+    rate (double, 100.0): publishing and integration rate [Hz]; the step is 1/rate [s].
+    command_timeout (double, 0.5): how long a velocity command is held [s].
+    demo (bool, true): move in the built-in demo motion until the first command.
+    demo_resume_after (double, 0.0): restart the demo after this many idle seconds; ≤ 0: never.
+
+Topics (relative names): publishes ``joint_states`` (sensor_msgs/JointState); subscribes
+``joint_trajectory`` (trajectory_msgs/JointTrajectory) and ``joint_velocity_commands``
+(std_msgs/Float64MultiArray, one value per published joint name, in that order). Malformed
+commands are refused with a logged warning; the node keeps running.
+"""
+
+from __future__ import annotations
+
+import rclpy
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from trajectory_msgs.msg import JointTrajectory
+
+from kinematics_node.core import SerialChain
+from kinematics_node.core.exceptions import KinematicsError
+from kinematics_node.robots import default_chain_links, robot_path
+from kinematics_node.simulator import ArmSimulator
+from msg_adapters.joint_commands import apply_trajectory_msg, apply_velocity_msg, fill_joint_state
+
+
+class SimArmNode(Node):
+    """Steps an `ArmSimulator` on a timer and publishes its joint states."""
+
+    def __init__(self) -> None:
+        super().__init__("sim_arm")
+        p = self._declare_parameters()
+        description = p["robot_description"] or robot_path(p["robot"]).read_text(encoding="utf-8")
+        rate = p["rate"]
+        if not rate > 0:
+            raise KinematicsError(f"parameter rate must be > 0 Hz, got {rate}")
+        options = {
+            "command_timeout": p["command_timeout"],
+            "demo": p["demo"],
+            "demo_resume_after": p["demo_resume_after"],
+        }
+        if p["tip_link"]:
+            base = p["base_link"] or None
+            if not p["robot_description"] and base is None:
+                base = default_chain_links(p["robot"])[0]
+            chain = SerialChain.from_urdf(description, base_link=base, tip_link=p["tip_link"])
+            self.sim = ArmSimulator.from_chain(chain, 1.0 / rate, **options)
+        else:
+            self.sim = ArmSimulator.from_urdf(description, 1.0 / rate, **options)
+
+        self._pub = self.create_publisher(JointState, "joint_states", 10)
+        self.create_subscription(JointTrajectory, "joint_trajectory", self._on_trajectory, 10)
+        self.create_subscription(
+            Float64MultiArray, "joint_velocity_commands", self._on_velocity, 10
+        )
+        self.create_timer(1.0 / rate, self._on_timer)
+        self.get_logger().info(
+            f"simulating {self.sim.dof} joints {list(self.sim.joint_names)} at {rate:g} Hz"
+        )
+
+    def _declare_parameters(self) -> dict:
+        specs = {
+            "robot_description": ("", "URDF/xacro XML; empty: use the bundled robot `robot`"),
+            "robot": ("ur5e", "bundled robot name, used when robot_description is empty"),
+            "base_link": ("", "base of the simulated chain (with tip_link)"),
+            "tip_link": ("", "tip of the simulated chain; empty: all moving non-mimic joints"),
+            "rate": (100.0, "publishing and integration rate [Hz]"),
+            "command_timeout": (0.5, "how long a velocity command is held [s]"),
+            "demo": (True, "run the demo motion until the first command"),
+            "demo_resume_after": (0.0, "restart the demo after this idle time [s]; <= 0: never"),
+        }
+        values = {}
+        for name, (default, text) in specs.items():
+            self.declare_parameter(name, default, ParameterDescriptor(description=text))
+            values[name] = self.get_parameter(name).value
+        return values
+
+    def _on_timer(self) -> None:
+        _, q, qdot = self.sim.step()
+        msg = fill_joint_state(
+            JointState(), self.sim.joint_names, q, qdot, self.get_clock().now().to_msg()
+        )
+        self._pub.publish(msg)
+
+    def _on_trajectory(self, msg: JointTrajectory) -> None:
+        try:
+            cmd = apply_trajectory_msg(self.sim, msg)
+        except (KinematicsError, ValueError) as exc:
+            self.get_logger().warning(f"refused joint_trajectory: {exc}")
+            return
+        self.get_logger().info(
+            f"following a trajectory of {len(cmd.times)} points over {cmd.times[-1]:.3g} s"
+        )
+
+    def _on_velocity(self, msg: Float64MultiArray) -> None:
+        try:
+            apply_velocity_msg(self.sim, msg)
+        except (KinematicsError, ValueError) as exc:
+            self.get_logger().warning(f"refused joint_velocity_commands: {exc}")
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point of the `sim_arm` executable."""
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = SimArmNode()
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except KinematicsError as exc:  # bad parameters: say why instead of a traceback
+        rclpy.logging.get_logger("sim_arm").fatal(f"cannot start: {exc}")
+        raise SystemExit(1) from None
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,127 @@
+"""Simulated-arm messages ↔ `ArmSimulator` commands and state, without rclpy.
+
+Duck-typed on the ROS 2 field names, so the same functions take rclpy message objects in the node
+and rosbags message classes in the tests:
+
+* trajectory_msgs/JointTrajectory → `TrajectoryCommand` (waypoint times [s] from
+  ``time_from_start``, positions, optional velocities);
+* std_msgs/Float64MultiArray → joint velocity vector (order = the published joint names);
+* simulator state → sensor_msgs/JointState fields (lists of Python floats, as rclpy requires).
+
+Every malformed message raises `InvalidInputError` (or `UnknownNameError` for unknown joints)
+with a message that says what was wrong; callers log it and carry on.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from kinematics_node.core.exceptions import InvalidInputError
+from kinematics_node.simulator import ArmSimulator
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class TrajectoryCommand:
+    """A JointTrajectory in numbers: times (m,) [s], positions (m, j), velocities (m, j) or None."""
+
+    joint_names: tuple[str, ...]
+    times: FloatArray
+    positions: FloatArray
+    velocities: FloatArray | None
+
+
+def _finite_row(values: Any, n: int, what: str) -> list[float]:
+    row = [float(v) for v in values]
+    if len(row) != n:
+        raise InvalidInputError(f"{what} has {len(row)} values, expected {n}")
+    for j, v in enumerate(row):
+        if not math.isfinite(v):
+            raise InvalidInputError(f"{what} value {j} is {v}")
+    return row
+
+
+def trajectory_from_msg(msg: Any) -> TrajectoryCommand:
+    """Convert a trajectory_msgs/JointTrajectory (header stamp ignored: it starts on receipt).
+
+    Raises:
+        InvalidInputError: no joint names, no points, a point with the wrong number of positions
+            or velocities, velocities given for only some points, or NaN/inf values.
+    """
+    names = tuple(str(n) for n in msg.joint_names)
+    if not names:
+        raise InvalidInputError("joint_trajectory has no joint_names")
+    points = list(msg.points)
+    if not points:
+        raise InvalidInputError("joint_trajectory has no points")
+    n = len(names)
+    times, positions, velocities = [], [], []
+    with_velocity = [len(p.velocities) > 0 for p in points]
+    if any(with_velocity) and not all(with_velocity):
+        missing = with_velocity.index(False)
+        raise InvalidInputError(
+            f"joint_trajectory gives velocities for some points but not for point {missing}; "
+            "give them for every point or for none"
+        )
+    for k, p in enumerate(points):
+        d = p.time_from_start
+        times.append(int(d.sec) + int(d.nanosec) * 1e-9)
+        where = f"joint_trajectory point {k}"
+        positions.append(_finite_row(p.positions, n, f"{where} positions"))
+        if with_velocity[0]:
+            velocities.append(_finite_row(p.velocities, n, f"{where} velocities"))
+    return TrajectoryCommand(
+        joint_names=names,
+        times=np.array(times),
+        positions=np.array(positions),
+        velocities=np.array(velocities) if with_velocity[0] else None,
+    )
+
+
+def velocity_from_msg(msg: Any, joint_names: Sequence[str]) -> FloatArray:
+    """Joint velocities from a std_msgs/Float64MultiArray, one value per joint in `joint_names`.
+
+    Raises:
+        InvalidInputError: wrong number of values or NaN/inf.
+    """
+    n = len(joint_names)
+    data = _finite_row(msg.data, n, f"joint_velocity_commands (joints {list(joint_names)})")
+    return np.array(data)
+
+
+def apply_trajectory_msg(sim: ArmSimulator, msg: Any) -> TrajectoryCommand:
+    """Validate a JointTrajectory message and start following it; returns the converted command."""
+    cmd = trajectory_from_msg(msg)
+    sim.command_trajectory(cmd.times, cmd.positions, cmd.velocities, joint_names=cmd.joint_names)
+    return cmd
+
+
+def apply_velocity_msg(sim: ArmSimulator, msg: Any) -> FloatArray:
+    """Validate a Float64MultiArray velocity command and apply it; returns the velocities."""
+    v = velocity_from_msg(msg, sim.joint_names)
+    sim.command_velocity(v)
+    return v
+
+
+def fill_joint_state(
+    msg: Any, joint_names: Sequence[str], q: Any, qdot: Any, stamp: Any = None
+) -> Any:
+    """Write names, positions and velocities (lists of Python floats) into a JointState message.
+
+    `stamp` (a builtin_interfaces/Time) goes to ``header.stamp`` when given. Effort is left empty.
+    Returns `msg`.
+    """
+    msg.name = [str(n) for n in joint_names]
+    msg.position = [float(x) for x in q]
+    msg.velocity = [float(x) for x in qdot]
+    msg.effort = []
+    if stamp is not None:
+        msg.header.stamp = stamp
+    return msg
