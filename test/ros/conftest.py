@@ -26,6 +26,9 @@ _NP_DTYPE = {"float32": np.float32, "float64": np.float64, "int8": np.int8, "int
              "uint32": np.uint32, "uint64": np.uint64, "byte": np.uint8, "char": np.uint8,
              "octet": np.uint8, "bool": np.bool_}
 
+_TYPECODE = {"float32": "f", "float64": "d", "int8": "b", "uint8": "B", "int16": "h",
+             "uint16": "H", "int32": "i", "uint32": "I", "int64": "q", "uint64": "Q"}
+
 
 def robot_path(relative: str) -> Path:
     path = ERD / relative
@@ -74,6 +77,8 @@ class RosTypes:
             return self.new(detail)
         sub, length = detail
         if int(sub[0]) == 1 and sub[1][0] not in ("string", "wstring"):
+            if kind == 4 and sub[1][0] in _TYPECODE:  # rclpy's default for sequences
+                return array.array(_TYPECODE[sub[1][0]])
             return np.zeros(length if kind == 3 else 0, dtype=_NP_DTYPE[sub[1][0]])
         if kind == 3:
             return [self._default(sub) for _ in range(length)]
@@ -126,8 +131,11 @@ class RosTypes:
                 problems += self.rclpy_type_problems(v, where + ".")
             else:
                 sub = detail[0]
+                if kind == 3 and isinstance(v, np.ndarray):
+                    continue  # rclpy stores fixed-size arrays as numpy arrays
                 if int(sub[0]) == 1 and sub[1][0] in _FLOATS:
-                    ok = isinstance(v, list) or (isinstance(v, array.array) and v.typecode == "d")
+                    ok = isinstance(v, list) or (
+                        isinstance(v, array.array) and v.typecode == _TYPECODE[sub[1][0]])
                     if not ok:
                         problems.append(f"{where}: {type(v).__name__}, want list or array('d')")
                         continue
