@@ -32,7 +32,9 @@ class JointStateTracker:
     Not thread-safe: feed it from one callback (or guard it with a lock).
     """
 
-    def __init__(self, joint_names: Sequence[str], continuous: Sequence[bool] | None = None) -> None:
+    def __init__(
+        self, joint_names: Sequence[str], continuous: Sequence[bool] | None = None
+    ) -> None:
         self.joint_names = tuple(joint_names)
         self._index = {name: i for i, name in enumerate(self.joint_names)}
         n = len(self.joint_names)
@@ -99,7 +101,9 @@ class JointStateTracker:
             if stamp < last:
                 self.stale_samples += 1
                 continue
-            if not math.isfinite(v):  # missing or NaN (ros2_control fills absent interfaces with NaN)
+            if not math.isfinite(
+                v
+            ):  # missing or NaN (ros2_control fills absent interfaces with NaN)
                 dt = stamp - last
                 if math.isfinite(self._q[i]) and dt > 0:
                     dq = p - self._q[i]

@@ -8,7 +8,7 @@ Topics (relative names, so namespaces and remaps apply):
                                                    robot_description parameter is empty)
   pub  ee_pose            geometry_msgs/PoseStamped
   pub  ee_twist           geometry_msgs/TwistStamped
-  pub  /diagnostics       diagnostic_msgs/DiagnosticArray (absolute, as diagnostic_aggregator expects)
+  pub  /diagnostics       diagnostic_msgs/DiagnosticArray (absolute, as aggregators expect)
 Services: compute_fk, compute_jacobian, compute_ik (kinematics_service/srv/...), in a reentrant
 callback group of their own, run by a MultiThreadedExecutor, so a long IK call never delays the
 joint_states → ee_pose path. Uses only API available in both Humble and Jazzy.
@@ -22,6 +22,7 @@ import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, TwistStamped
+from kinematics_service.srv import ComputeFK, ComputeIK, ComputeJacobian
 from rcl_interfaces.msg import (
     FloatingPointRange,
     IntegerRange,
@@ -43,7 +44,6 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from tf2_ros import Buffer, TransformListener
 
-from kinematics_service.srv import ComputeFK, ComputeIK, ComputeJacobian
 from msg_adapters import MessageTypes, matrix_from_transform
 
 from .core.exceptions import KinematicsError
@@ -60,7 +60,9 @@ def _descriptor(spec: ParameterSpec) -> ParameterDescriptor:
         return d
     if isinstance(spec.default, float) and spec.minimum is not None and spec.maximum is not None:
         d.floating_point_range = [
-            FloatingPointRange(from_value=float(spec.minimum), to_value=float(spec.maximum), step=0.0)
+            FloatingPointRange(
+                from_value=float(spec.minimum), to_value=float(spec.maximum), step=0.0
+            )
         ]
     elif isinstance(spec.default, int) and spec.minimum is not None and spec.maximum is not None:
         d.integer_range = [
@@ -96,7 +98,10 @@ class KinematicsNode(Node):
         self._twist_pub = self.create_publisher(TwistStamped, "ee_twist", 10)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_subscription(
-            JointState, "joint_states", self._on_joint_state, qos_profile_sensor_data,
+            JointState,
+            "joint_states",
+            self._on_joint_state,
+            qos_profile_sensor_data,
             callback_group=state_group,
         )
         latched = QoSProfile(
@@ -111,14 +116,17 @@ class KinematicsNode(Node):
             ComputeFK, "compute_fk", self._logic.compute_fk, callback_group=service_group
         )
         self.create_service(
-            ComputeJacobian, "compute_jacobian", self._logic.compute_jacobian,
+            ComputeJacobian,
+            "compute_jacobian",
+            self._logic.compute_jacobian,
             callback_group=service_group,
         )
         self.create_service(
             ComputeIK, "compute_ik", self._logic.compute_ik, callback_group=service_group
         )
         self._diag_timer = self.create_timer(
-            float(values["diagnostics_period"]), self._publish_diagnostics,
+            float(values["diagnostics_period"]),
+            self._publish_diagnostics,
             callback_group=MutuallyExclusiveCallbackGroup(),
         )
         self._warned: str | None = None

@@ -89,7 +89,9 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         minimum=0.0,
         maximum=1e3,
     ),
-    ParameterSpec("publish_diagnostics", True, "Publish diagnostic_msgs/DiagnosticArray on /diagnostics."),
+    ParameterSpec(
+        "publish_diagnostics", True, "Publish diagnostic_msgs/DiagnosticArray on /diagnostics."
+    ),
     ParameterSpec(
         "diagnostics_period",
         1.0,

@@ -44,7 +44,9 @@ class RobotModel:
         self.robot_name = root.get("name", "")
         joints = root.findall("joint")
         self.joint_names = frozenset(str(j.get("name")) for j in joints)
-        self.moving_joint_names = tuple(str(j.get("name")) for j in joints if j.get("type") in _MOVING)
+        self.moving_joint_names = tuple(
+            str(j.get("name")) for j in joints if j.get("type") in _MOVING
+        )
         self.link_names = frozenset(str(link.get("name")) for link in root.findall("link"))
         self.chain = SerialChain.from_urdf(self.xml, base_link or None, tip_link or None)
         self._lock = threading.Lock()

@@ -261,8 +261,11 @@ class KinematicsService:
                     return EEMessages(problem="stale joint_states sample (older stamp) ignored")
                 return EEMessages(problem=None)
             if not tracker.complete:
-                missing = [n for n, v in zip(tracker.joint_names, tracker.q, strict=True)
-                           if not math.isfinite(v)]
+                missing = [
+                    n
+                    for n, v in zip(tracker.joint_names, tracker.q, strict=True)
+                    if not math.isfinite(v)
+                ]
                 return EEMessages(problem=f"waiting for joint_states of {missing}")
             return model.chain, tracker.q, tracker.qdot, dict(self._params)
 
@@ -276,7 +279,7 @@ class KinematicsService:
 
     # ------------------------------------------------------------------ services
     def compute_fk(self, request: Any, response: Any) -> Any:
-        """ComputeFK: pose of request.tip_link (default tip) in base_link for request.joint_state."""
+        """ComputeFK: pose of request.tip_link (default: tip_link) in base_link, see the srv."""
         return self._answer("compute_fk", self._fk, request, response)
 
     def compute_jacobian(self, request: Any, response: Any) -> Any:
@@ -287,8 +290,9 @@ class KinematicsService:
         """ComputeIK: joint positions placing tip_link at request.target, see the srv."""
         return self._answer("compute_ik", self._ik, request, response)
 
-    def _answer(self, service: str, fn: Callable[[Any, Any], str | None], request: Any,
-                response: Any) -> Any:
+    def _answer(
+        self, service: str, fn: Callable[[Any, Any], str | None], request: Any, response: Any
+    ) -> Any:
         try:
             failure = fn(request, response)
             response.success = failure is None
@@ -308,12 +312,16 @@ class KinematicsService:
             if self._model is None or self._robot_tracker is None:
                 raise RobotDescriptionError(NO_DESCRIPTION)
             tracker = self._robot_tracker
-            current = {n: float(v) for n, v in zip(tracker.joint_names, tracker.q, strict=True)
-                       if math.isfinite(v)}
+            current = {
+                n: float(v)
+                for n, v in zip(tracker.joint_names, tracker.q, strict=True)
+                if math.isfinite(v)
+            }
             return self._model, current, dict(self._params)
 
-    def _q(self, model: RobotModel, chain: SerialChain, js: Any, current: dict[str, float],
-           name: str) -> FloatArray:
+    def _q(
+        self, model: RobotModel, chain: SerialChain, js: Any, current: dict[str, float], name: str
+    ) -> FloatArray:
         q_default = [current.get(j, math.nan) for j in chain.joint_names]
         return q_from_joint_state(
             js, chain.joint_names, q_default=q_default, known_names=model.joint_names, name=name
@@ -334,8 +342,9 @@ class KinematicsService:
         model, current, _ = self._snapshot()
         frame = str(request.frame) or "world"
         if frame not in JACOBIAN_FRAMES:
-            raise InvalidInputError(f"frame must be one of {list(JACOBIAN_FRAMES)} (or empty), "
-                                    f"got {frame!r}")
+            raise InvalidInputError(
+                f"frame must be one of {list(JACOBIAN_FRAMES)} (or empty), got {frame!r}"
+            )
         chain = model.chain_to(str(request.tip_link))
         q = self._q(model, chain, request.joint_state, current, "joint_state")
         _, J_world = chain.fk_jacobian(q, "world")
@@ -363,8 +372,9 @@ class KinematicsService:
         options = _ik_options(request, params)
         seed = request.seed
         q_seed = None
-        if len(seed.name) > 0 or all(math.isfinite(current.get(j, math.nan))
-                                     for j in chain.joint_names):
+        if len(seed.name) > 0 or all(
+            math.isfinite(current.get(j, math.nan)) for j in chain.joint_names
+        ):
             q_seed = self._q(model, chain, seed, current, "seed")
         try:
             result = chain.ik(T_base_target, q_seed, options)
@@ -387,8 +397,8 @@ class KinematicsService:
         return (
             f"no solution within tolerances ({options.position_tolerance:g} m, "
             f"{options.orientation_tolerance:g} rad) in {options.timeout:g} s: best position error "
-            f"{response.position_error:.3g} m, orientation error {response.orientation_error:.3g} rad"
-            + (f" ({detail})" if detail else "")
+            f"{response.position_error:.3g} m, orientation error "
+            f"{response.orientation_error:.3g} rad" + (f" ({detail})" if detail else "")
         )
 
     def _frame_pose(self, model: RobotModel, frame: str, current: dict[str, float]) -> FloatArray:
@@ -413,7 +423,8 @@ class KinematicsService:
                 missing = [j for j in chain.joint_names if j not in current]
                 if missing:
                     raise InvalidInputError(
-                        f"target frame {name!r} is a robot link, but its pose needs joint_states of "
+                        f"target frame {name!r} is a robot link, but its pose needs joint_states "
+                        "of "
                         f"{missing}, which have not been received"
                     )
                 T = chain.fk([current[j] for j in chain.joint_names])
@@ -450,13 +461,18 @@ class KinematicsService:
         if model is None:
             severity, notes = 2, [NO_DESCRIPTION]
         else:
-            values += [("base_link", model.base_link), ("tip_link", model.chain.tip_link),
-                       ("dof", str(model.chain.dof))]
+            values += [
+                ("base_link", model.base_link),
+                ("tip_link", model.chain.tip_link),
+                ("dof", str(model.chain.dof)),
+            ]
             if last is None or now - last > params["joint_states_timeout"]:
                 severity = max(severity, 1)
                 notes.append("no recent joint_states")
-            values += [("joint_states_rate_hz", f"{rate:.3f}"),
-                       ("joint_states_latency_s", f"{latency:.6f}")]
+            values += [
+                ("joint_states_rate_hz", f"{rate:.3f}"),
+                ("joint_states_latency_s", f"{latency:.6f}"),
+            ]
             if state is not None:
                 cond = state.condition_number
                 values += [
@@ -506,9 +522,11 @@ def _ik_options(request: Any, params: Mapping[str, Any]) -> IKOptions:
     """IKOptions from the request, falling back to the node's parameters for zero fields."""
     wanted: dict[str, Any] = {
         "position_tolerance": _request_value(
-            request, "position_tolerance", params["ik.position_tolerance"], "[m]"),
+            request, "position_tolerance", params["ik.position_tolerance"], "[m]"
+        ),
         "orientation_tolerance": _request_value(
-            request, "orientation_tolerance", params["ik.orientation_tolerance"], "[rad]"),
+            request, "orientation_tolerance", params["ik.orientation_tolerance"], "[rad]"
+        ),
         "timeout": _request_value(request, "timeout", params["ik.timeout"], "[s]"),
         "max_restarts": int(params["ik.max_restarts"]),
         "position_only": bool(request.position_only),

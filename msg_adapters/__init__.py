@@ -1,10 +1,10 @@
 """ROS message ↔ core (numpy) conversions, duck-typed on field names.
 
-The same functions work with rclpy's generated classes and with rosbags' dataclasses: inputs are read
-by field name, outputs are built from the classes in a `MessageTypes` the caller supplies, with every
-field given at construction, float64[] fields as lists of Python floats and float fields as Python
-floats (what rclpy's generated setters accept). Errors are `InvalidInputError` naming the field or
-joint. Never imports rclpy.
+The same functions work with rclpy's generated classes and with rosbags' dataclasses: inputs are
+read by field name, outputs are built from the classes in a `MessageTypes` the caller supplies, with
+every field given at construction, float64[] fields as lists of Python floats and float fields as
+Python floats (what rclpy's generated setters accept). Errors are `InvalidInputError` naming the
+field or joint. Never imports rclpy.
 """
 
 from .geometry import (

@@ -1,7 +1,7 @@
 """geometry_msgs Pose / Transform / Twist ↔ numpy.
 
 * Pose and Transform ↔ 4×4 homogeneous transform T (rotation R, translation p [m]). Quaternions are
-  (x, y, z, w) as in the messages; incoming ones are normalised, a zero or non-finite one is refused.
+  (x, y, z, w) as in the messages; incoming ones are normalised; zero/non-finite ones are refused.
 * Twist ↔ (ω, v): the core orders twists (angular, linear) as Modern Robotics does; the message
   names them `angular` and `linear`, so the conversion is by name and nothing is reordered by index.
 """
@@ -42,7 +42,9 @@ def _rotation(quat: Any, name: str) -> FloatArray:
     if not all(math.isfinite(v) for v in xyzw):
         raise InvalidInputError(f"{name} (x, y, z, w) = {xyzw} is not finite")
     if math.sqrt(sum(v * v for v in xyzw)) < 1e-9:
-        raise InvalidInputError(f"{name} (x, y, z, w) = {xyzw} has zero norm; expected a unit quaternion")
+        raise InvalidInputError(
+            f"{name} (x, y, z, w) = {xyzw} has zero norm; expected a unit quaternion"
+        )
     return matrix_from_quaternion(xyzw)
 
 
@@ -117,7 +119,9 @@ def twist_from_core(types: MessageTypes, V: ArrayLike) -> Any:
 
 def twist_stamped_from_core(types: MessageTypes, V: ArrayLike, frame_id: str, stamp: Any) -> Any:
     """geometry_msgs/TwistStamped of a core twist V = (ω, v) expressed in `frame_id`."""
-    return types.TwistStamped(header=header(types, stamp, frame_id), twist=twist_from_core(types, V))
+    return types.TwistStamped(
+        header=header(types, stamp, frame_id), twist=twist_from_core(types, V)
+    )
 
 
 def vectors_from_twist(twist: Any, name: str = "twist") -> tuple[FloatArray, FloatArray]:

@@ -72,8 +72,8 @@ def q_from_joint_state(
     """Joint vector q (n,) in the order of `joint_names`, from a JointState.
 
     Joints of `joint_names` missing from `msg` take their value from `q_default` (NaN entries of
-    `q_default` count as unknown); names in `msg` that are not in `joint_names` are ignored (but must
-    be in `known_names` when that is given).
+    `q_default` count as unknown); names in `msg` that are not in `joint_names` are ignored (but
+    must be in `known_names` when that is given).
 
     Raises:
         InvalidInputError: see `positions_by_name`; or a joint of `joint_names` has no value.

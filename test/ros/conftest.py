@@ -19,15 +19,48 @@ if os.environ.get("KINEMATICS_LAUNCH_TEST_SEPARATE"):  # CMake runs it through a
     collect_ignore = ["test_launch_integration.py"]
 
 _FLOATS = ("float32", "float64")
-_INTS = ("int8", "int16", "int32", "int64", "uint8", "uint16", "uint32", "uint64", "byte", "char",
-         "octet")
-_NP_DTYPE = {"float32": np.float32, "float64": np.float64, "int8": np.int8, "int16": np.int16,
-             "int32": np.int32, "int64": np.int64, "uint8": np.uint8, "uint16": np.uint16,
-             "uint32": np.uint32, "uint64": np.uint64, "byte": np.uint8, "char": np.uint8,
-             "octet": np.uint8, "bool": np.bool_}
+_INTS = (
+    "int8",
+    "int16",
+    "int32",
+    "int64",
+    "uint8",
+    "uint16",
+    "uint32",
+    "uint64",
+    "byte",
+    "char",
+    "octet",
+)
+_NP_DTYPE = {
+    "float32": np.float32,
+    "float64": np.float64,
+    "int8": np.int8,
+    "int16": np.int16,
+    "int32": np.int32,
+    "int64": np.int64,
+    "uint8": np.uint8,
+    "uint16": np.uint16,
+    "uint32": np.uint32,
+    "uint64": np.uint64,
+    "byte": np.uint8,
+    "char": np.uint8,
+    "octet": np.uint8,
+    "bool": np.bool_,
+}
 
-_TYPECODE = {"float32": "f", "float64": "d", "int8": "b", "uint8": "B", "int16": "h",
-             "uint16": "H", "int32": "i", "uint32": "I", "int64": "q", "uint64": "Q"}
+_TYPECODE = {
+    "float32": "f",
+    "float64": "d",
+    "int8": "b",
+    "uint8": "B",
+    "int16": "h",
+    "uint16": "H",
+    "int32": "i",
+    "uint32": "I",
+    "int64": "q",
+    "uint64": "Q",
+}
 
 
 def robot_path(relative: str) -> Path:
@@ -71,8 +104,13 @@ class RosTypes:
         kind = int(kind)
         if kind == 1:  # BASE
             t = detail[0]
-            return "" if t in ("string", "wstring") else False if t == "bool" else (
-                0.0 if t in _FLOATS else 0)
+            return (
+                ""
+                if t in ("string", "wstring")
+                else False
+                if t == "bool"
+                else (0.0 if t in _FLOATS else 0)
+            )
         if kind == 2:  # NAME
             return self.new(detail)
         sub, length = detail
@@ -135,7 +173,8 @@ class RosTypes:
                     continue  # rclpy stores fixed-size arrays as numpy arrays
                 if int(sub[0]) == 1 and sub[1][0] in _FLOATS:
                     ok = isinstance(v, list) or (
-                        isinstance(v, array.array) and v.typecode == _TYPECODE[sub[1][0]])
+                        isinstance(v, array.array) and v.typecode == _TYPECODE[sub[1][0]]
+                    )
                     if not ok:
                         problems.append(f"{where}: {type(v).__name__}, want list or array('d')")
                         continue

@@ -40,7 +40,9 @@ def test_q_from_joint_state_matches_by_name_in_any_order_and_ignores_other_joint
 
 def test_q_from_joint_state_fills_a_subset_from_the_default(ros):
     msg = _js(ros, ["j2"], [5.0])
-    np.testing.assert_array_equal(ma.q_from_joint_state(msg, JOINTS, q_default=[1, 2, 3]), [1, 5, 3])
+    np.testing.assert_array_equal(
+        ma.q_from_joint_state(msg, JOINTS, q_default=[1, 2, 3]), [1, 5, 3]
+    )
     with pytest.raises(InvalidInputError, match="j1"):
         ma.q_from_joint_state(msg, JOINTS)
 
@@ -90,7 +92,9 @@ def test_pose_quaternion_is_normalised(ros):
     pose = ros.new("geometry_msgs/msg/Pose")
     pose.orientation.z, pose.orientation.w = 2.0, 2.0  # 90° about z, norm 2√2
     R = ma.matrix_from_pose(pose)[:3, :3]
-    np.testing.assert_allclose(R, Rotation.from_euler("z", 90, degrees=True).as_matrix(), atol=1e-12)
+    np.testing.assert_allclose(
+        R, Rotation.from_euler("z", 90, degrees=True).as_matrix(), atol=1e-12
+    )
 
 
 @pytest.mark.parametrize(

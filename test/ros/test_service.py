@@ -44,8 +44,11 @@ def clock() -> Clock:
 
 @pytest.fixture
 def ur5(ros, ur5_path, clock) -> KinematicsService:
-    params = {"robot_description": ur5_path.read_text(), "base_link": "base_link",
-              "tip_link": "tool0"}
+    params = {
+        "robot_description": ur5_path.read_text(),
+        "base_link": "base_link",
+        "tip_link": "tool0",
+    }
     return KinematicsService(ros.types, params, lookup_transform=fake_tf, clock=clock)
 
 
@@ -59,8 +62,10 @@ def js(ros, names, positions, t=0.0, velocity=()):
     sec, nanosec = t if isinstance(t, tuple) else (math.floor(t), round((t - math.floor(t)) * 1e9))
     return ros.new(
         "sensor_msgs/msg/JointState",
-        header=ros.new("std_msgs/msg/Header", stamp=ros.new(
-            "builtin_interfaces/msg/Time", sec=sec, nanosec=nanosec)),
+        header=ros.new(
+            "std_msgs/msg/Header",
+            stamp=ros.new("builtin_interfaces/msg/Time", sec=sec, nanosec=nanosec),
+        ),
         name=list(names),
         position=np.asarray(positions, dtype=float),
         velocity=np.asarray(velocity, dtype=float),
@@ -252,8 +257,9 @@ def test_fk_service_agrees_with_the_core_and_fills_missing_joints(ros, ur5, q_ur
 
 def test_fk_service_for_another_tip_link(ros, ur5, ur5_path, q_ur5):
     chain = chain_of(ur5)
-    req = ros.request("ComputeFK", joint_state=js(ros, chain.joint_names, q_ur5),
-                      tip_link="forearm_link")
+    req = ros.request(
+        "ComputeFK", joint_state=js(ros, chain.joint_names, q_ur5), tip_link="forearm_link"
+    )
     resp = ur5.compute_fk(req, ros.response("ComputeFK"))
     assert resp.success, resp.message
     expected = pinocchio_pose(ur5_path, chain.joint_names, q_ur5, "forearm_link")
@@ -266,8 +272,9 @@ def test_chain_cache_is_thread_safe(ros, ur5, q_ur5):
     results: list = [None] * len(links)
 
     def call(i: int) -> None:
-        req = ros.request("ComputeFK", joint_state=js(ros, chain.joint_names, q_ur5),
-                          tip_link=links[i])
+        req = ros.request(
+            "ComputeFK", joint_state=js(ros, chain.joint_names, q_ur5), tip_link=links[i]
+        )
         results[i] = ur5.compute_fk(req, ros.response("ComputeFK"))
 
     threads = [threading.Thread(target=call, args=(i,)) for i in range(len(links))]
@@ -278,7 +285,8 @@ def test_chain_cache_is_thread_safe(ros, ur5, q_ur5):
     assert all(r.success for r in results), [r.message for r in results]
     for link, r in zip(links, results, strict=True):
         expected = SerialChain.from_urdf(ur5.model.xml, "base_link", link).fk(
-            q_ur5[: len(SerialChain.from_urdf(ur5.model.xml, "base_link", link).joint_names)])
+            q_ur5[: len(SerialChain.from_urdf(ur5.model.xml, "base_link", link).joint_names)]
+        )
         np.testing.assert_allclose(pose_matrix(r.pose), expected, atol=1e-12)
 
 
@@ -353,9 +361,14 @@ def _bad_request(ros, srv, spec):
 @pytest.mark.parametrize(("srv", "spec", "needle"), BAD, ids=[f"{b[0]}-{b[2]}" for b in BAD])
 def test_bad_requests_fail_with_a_message_naming_the_problem(ros, ur5, q_ur5, srv, spec, needle):
     ur5.on_joint_state(js(ros, chain_of(ur5).joint_names, q_ur5, t=1.0))
-    resp = getattr(ur5, {"ComputeFK": "compute_fk", "ComputeJacobian": "compute_jacobian",
-                         "ComputeIK": "compute_ik"}[srv])(_bad_request(ros, srv, spec),
-                                                         ros.response(srv))
+    resp = getattr(
+        ur5,
+        {
+            "ComputeFK": "compute_fk",
+            "ComputeJacobian": "compute_jacobian",
+            "ComputeIK": "compute_ik",
+        }[srv],
+    )(_bad_request(ros, srv, spec), ros.response(srv))
     assert resp.success is False
     assert needle in resp.message, resp.message
     check_message(ros, resp)
@@ -382,9 +395,11 @@ def _ik_or_skip(ros, svc, req):
 
 def _target(ros, T, frame_id=""):
     ps = ma.pose_stamped_from_matrix(
-        ros.types, T, frame_id, ros.new("builtin_interfaces/msg/Time", sec=4, nanosec=5))
-    ps.pose = ros.new("geometry_msgs/msg/Pose", position=ps.pose.position,
-                      orientation=ps.pose.orientation)
+        ros.types, T, frame_id, ros.new("builtin_interfaces/msg/Time", sec=4, nanosec=5)
+    )
+    ps.pose = ros.new(
+        "geometry_msgs/msg/Pose", position=ps.pose.position, orientation=ps.pose.orientation
+    )
     return ps
 
 
@@ -396,13 +411,17 @@ def test_ik_reaches_targets_given_in_base_link_and_tf_frames(ros, ur5, q_ur5, fr
     T_base_goal = chain.fk(q_goal)
     if frame_id == "shoulder_link":
         T_base_frame = SerialChain.from_urdf(ur5.model.xml, "base_link", "shoulder_link").fk(
-            q_ur5[:1])
+            q_ur5[:1]
+        )
     elif frame_id == "camera":
         T_base_frame = T_BASE_CAMERA
     else:
         T_base_frame = np.eye(4)
-    req = ros.request("ComputeIK", target=_target(ros, np.linalg.inv(T_base_frame) @ T_base_goal,
-                                                  frame_id), timeout=0.5)
+    req = ros.request(
+        "ComputeIK",
+        target=_target(ros, np.linalg.inv(T_base_frame) @ T_base_goal, frame_id),
+        timeout=0.5,
+    )
     resp = _ik_or_skip(ros, ur5, req)
     assert resp.success, resp.message
     check_message(ros, resp)
@@ -435,7 +454,8 @@ def test_ik_unreachable_target_fails_with_the_best_configuration(ros, ur5, q_ur5
     q = np.asarray(resp.solution.position)
     assert q.shape == (chain.dof,) and np.all(np.isfinite(q))
     assert resp.position_error == pytest.approx(
-        np.linalg.norm(chain.fk(q)[:3, 3] - T[:3, 3]), rel=1e-6)
+        np.linalg.norm(chain.fk(q)[:3, 3] - T[:3, 3]), rel=1e-6
+    )
 
 
 def test_ik_zero_timeout_means_the_node_default(ros, ur5, q_ur5):
