@@ -1,0 +1,154 @@
+"""The node's parameters: one table used for declaration (descriptors, ranges) and validation.
+
+No rclpy here: `node.py` turns each `ParameterSpec` into a `ParameterDescriptor`, and its
+set-parameters callback calls `validate_parameters` so that a bad `ros2 param set` is refused with
+the same message a test sees.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """One parameter: name, default (its type is the parameter type), description, and limits.
+
+    `minimum`/`maximum` are inclusive range bounds for the descriptor; `positive` additionally
+    refuses 0 (ranges in ROS descriptors are inclusive, so "> 0" cannot be expressed there).
+    """
+
+    name: str
+    default: Any
+    description: str
+    minimum: float | None = None
+    maximum: float | None = None
+    positive: bool = False
+    choices: tuple[str, ...] = ()
+
+
+PARAMETERS: tuple[ParameterSpec, ...] = (
+    ParameterSpec(
+        "robot_description",
+        "",
+        "URDF or xacro XML of the robot. Empty: subscribe to the robot_description topic "
+        "(std_msgs/String, transient local), as published by robot_state_publisher.",
+    ),
+    ParameterSpec("base_link", "", "Root link of the kinematic chain; empty = the URDF root link."),
+    ParameterSpec(
+        "tip_link",
+        "",
+        "End-effector link; empty = the single leaf link below base_link.",
+    ),
+    ParameterSpec(
+        "twist_frame",
+        "world",
+        "Axes of the published ee_twist: 'world' = base_link axes (frame_id base_link), "
+        "'body' = tip_link axes (frame_id tip_link). Reference point: the tip_link origin.",
+        choices=("world", "body"),
+    ),
+    ParameterSpec(
+        "ik.position_tolerance",
+        1e-5,
+        "Default IK position tolerance [m] (requests may override).",
+        minimum=1e-12,
+        maximum=1.0,
+        positive=True,
+    ),
+    ParameterSpec(
+        "ik.orientation_tolerance",
+        1e-4,
+        "Default IK orientation tolerance [rad] (requests may override).",
+        minimum=1e-12,
+        maximum=math.pi,
+        positive=True,
+    ),
+    ParameterSpec(
+        "ik.timeout",
+        0.05,
+        "Default IK wall-clock budget [s] (requests may override; honoured to the ms).",
+        minimum=1e-4,
+        maximum=60.0,
+        positive=True,
+    ),
+    ParameterSpec(
+        "ik.max_restarts",
+        50,
+        "Maximum random restarts of the IK solver within its timeout.",
+        minimum=0,
+        maximum=100000,
+    ),
+    ParameterSpec(
+        "singular_threshold",
+        1e-3,
+        "Smallest singular value of the 6 x n world Jacobian below which the arm is reported "
+        "as near-singular (diagnostics WARN).",
+        minimum=0.0,
+        maximum=1e3,
+    ),
+    ParameterSpec(
+        "publish_diagnostics", True, "Publish diagnostic_msgs/DiagnosticArray on /diagnostics."
+    ),
+    ParameterSpec(
+        "diagnostics_period",
+        1.0,
+        "Period of the diagnostics publication [s].",
+        minimum=0.01,
+        maximum=3600.0,
+        positive=True,
+    ),
+    ParameterSpec(
+        "joint_states_timeout",
+        1.0,
+        "Diagnostics report joint_states as stale after this long without a sample [s].",
+        minimum=1e-3,
+        maximum=3600.0,
+        positive=True,
+    ),
+)
+
+SPECS: dict[str, ParameterSpec] = {spec.name: spec for spec in PARAMETERS}
+
+
+def defaults() -> dict[str, Any]:
+    """{name: default} of every parameter."""
+    return {spec.name: spec.default for spec in PARAMETERS}
+
+
+def validate_parameters(values: Mapping[str, Any]) -> str | None:
+    """None if every value in `values` is acceptable, else a message naming the first bad one.
+
+    Checks types (bool is not accepted as a number; an int is accepted for a float parameter),
+    finiteness, ranges, strict positivity and choices. Unknown names are refused.
+    """
+    for name, value in values.items():
+        spec = SPECS.get(name)
+        if spec is None:
+            return f"unknown parameter {name!r}; known: {sorted(SPECS)}"
+        want = type(spec.default)
+        if want is bool:
+            ok = isinstance(value, bool)
+        elif want is float:
+            ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        elif want is int:
+            ok = isinstance(value, int) and not isinstance(value, bool)
+        else:
+            ok = isinstance(value, want)
+        if not ok:
+            return f"parameter {name!r} must be of type {want.__name__}, got {value!r}"
+        if want in (int, float):
+            v = float(value)
+            if not math.isfinite(v):
+                return f"parameter {name!r} must be finite, got {value!r}"
+            if spec.positive and v <= 0:
+                return f"parameter {name!r} must be > 0, got {value!r}"
+            if spec.minimum is not None and v < spec.minimum:
+                return f"parameter {name!r} must be >= {spec.minimum}, got {value!r}"
+            if spec.maximum is not None and v > spec.maximum:
+                return f"parameter {name!r} must be <= {spec.maximum}, got {value!r}"
+        if spec.choices and value not in spec.choices:
+            return f"parameter {name!r} must be one of {list(spec.choices)}, got {value!r}"
+    return None

@@ -1,0 +1,537 @@
+"""Message-level service logic of the kinematics node, with no rclpy import.
+
+`KinematicsService` takes and returns ROS message objects (rclpy's or rosbags'; the classes it
+builds come from a `MessageTypes`), so everything the node does except the rclpy wiring is tested on
+machines without ROS. Conventions at this boundary: twists as geometry_msgs/Twist (linear, angular),
+Jacobian rows (linear x, y, z, angular x, y, z), quaternions (x, y, z, w), [m], [rad], [s].
+
+Threading: `on_joint_state` runs in the subscription thread while service callbacks run in other
+threads of a MultiThreadedExecutor. Shared state (model, trackers, parameters) is swapped or read
+under one lock held only briefly; FK/Jacobian/IK math runs outside it, so a long IK never delays
+pose publishing.
+
+Service callbacks follow rclpy's `(request, response) -> response` and never raise: any failure
+gives `success = False` and a `message` naming the problem.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import threading
+import time
+from collections import deque
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from msg_adapters import (
+    MessageTypes,
+    fill_jacobian_fields,
+    header,
+    joint_state_from_q,
+    matrix_from_pose,
+    pose_stamped_from_matrix,
+    q_from_joint_state,
+    seconds_from_time,
+    time_from_seconds,
+    twist_stamped_from_core,
+)
+
+from .core import IKOptions, SerialChain, manipulability
+from .core._checks import check_transform
+from .core.exceptions import InvalidInputError, KinematicsError, RobotDescriptionError
+from .ee_state import EndEffectorState, JointStateTracker, compute_ee_state
+from .parameters import defaults, validate_parameters
+from .robot_model import RobotModel
+
+FloatArray = NDArray[np.float64]
+
+#: (target_frame, source_frame) -> T_target_source (4×4), the pose of source in target (latest
+#: available). Raises any exception when the transform is unavailable (its text is reported).
+LookupTransform = Callable[[str, str], ArrayLike]
+
+JACOBIAN_FRAMES = ("world", "body", "space")
+NO_DESCRIPTION = (
+    "no robot description loaded yet: set the robot_description parameter or publish it on the "
+    "robot_description topic (std_msgs/String, transient local)"
+)
+
+_log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class EEMessages:
+    """What to publish after a joint state: any of them may be None.
+
+    `problem` explains why nothing (or only the pose) is published, for logs and diagnostics.
+    """
+
+    pose: Any | None = None
+    twist: Any | None = None
+    problem: str | None = None
+
+
+class _Rates:
+    """joint_states arrival rate [Hz] and latency (receive time − stamp) [s] over recent samples."""
+
+    def __init__(self, window: int = 50) -> None:
+        self._arrivals: deque[float] = deque(maxlen=window)
+        self._latencies: deque[float] = deque(maxlen=window)
+
+    def record(self, received: float, stamp: float) -> None:
+        self._arrivals.append(received)
+        self._latencies.append(received - stamp)
+
+    @property
+    def last_arrival(self) -> float | None:
+        return self._arrivals[-1] if self._arrivals else None
+
+    def rate(self) -> float:
+        if len(self._arrivals) < 2:
+            return 0.0
+        span = self._arrivals[-1] - self._arrivals[0]
+        return (len(self._arrivals) - 1) / span if span > 0 else 0.0
+
+    def latency(self) -> float:
+        return float(np.mean(self._latencies)) if self._latencies else 0.0
+
+
+class KinematicsService:
+    """The kinematics node's behaviour on messages.
+
+    Args:
+        types: message classes to build outputs with.
+        params: parameter values by name (see `kinematics_node.parameters`); missing = defaults.
+            A non-empty `robot_description` is loaded at once.
+        lookup_transform: TF lookup for IK target frames that are not robot links (None = no TF).
+        clock: current time [s] in the time base of the joint_states stamps (the node passes its
+            ROS clock, so simulated time works); used for diagnostics only.
+
+    Raises:
+        InvalidInputError: a parameter value is invalid.
+        RobotDescriptionError, UnknownNameError: the initial robot_description cannot be used.
+    """
+
+    def __init__(
+        self,
+        types: MessageTypes,
+        params: Mapping[str, Any] | None = None,
+        lookup_transform: LookupTransform | None = None,
+        clock: Callable[[], float] = time.time,
+    ) -> None:
+        self._types = types
+        self._lookup = lookup_transform
+        self._clock = clock
+        self._lock = threading.Lock()
+        self._params: dict[str, Any] = defaults()
+        self._model: RobotModel | None = None
+        self._chain_tracker: JointStateTracker | None = None
+        self._robot_tracker: JointStateTracker | None = None
+        self._rates = _Rates()
+        self._last_state: EndEffectorState | None = None
+        self._last_problem: str | None = None
+        self.configure(params or {})
+
+    # ------------------------------------------------------------------ configuration
+    @property
+    def params(self) -> dict[str, Any]:
+        with self._lock:
+            return dict(self._params)
+
+    @property
+    def model(self) -> RobotModel | None:
+        return self._model
+
+    def configure(self, changes: Mapping[str, Any]) -> None:
+        """Validate and apply parameter changes; rebuilds the model when the description, base_link
+        or tip_link change. On any error nothing changes.
+
+        Raises:
+            InvalidInputError: a value is invalid (message names the parameter).
+            RobotDescriptionError, UnknownNameError: the new chain cannot be built.
+        """
+        problem = validate_parameters(changes)
+        if problem is not None:
+            raise InvalidInputError(problem)
+        with self._lock:
+            merged = {**self._params, **changes}
+            model = self._model
+        structural = ("robot_description", "base_link", "tip_link")
+        rebuild = any(merged[k] != self._params[k] for k in structural)
+        new_model = model
+        if rebuild:
+            if merged["robot_description"]:
+                new_model = RobotModel(
+                    merged["robot_description"], merged["base_link"], merged["tip_link"]
+                )
+            elif model is not None:  # description came from the topic: rebuild from it
+                new_model = RobotModel(model.xml, merged["base_link"], merged["tip_link"])
+        with self._lock:
+            self._params = merged
+            if new_model is not model:
+                self._install(new_model)
+
+    def load_description(self, description: str) -> RobotModel:
+        """Load a robot description (e.g. from the robot_description topic), keeping base_link
+        and tip_link parameters. On error the previous model stays in use.
+
+        Raises:
+            RobotDescriptionError, UnknownNameError: as `RobotModel`.
+        """
+        with self._lock:
+            base, tip = self._params["base_link"], self._params["tip_link"]
+        model = RobotModel(description, base, tip)
+        with self._lock:
+            self._install(model)
+        return model
+
+    def _install(self, model: RobotModel | None) -> None:  # called with the lock held
+        self._model = model
+        self._last_state = None
+        self._last_problem = None
+        if model is None:
+            self._chain_tracker = self._robot_tracker = None
+            return
+        chain = model.chain
+        self._chain_tracker = JointStateTracker(chain.joint_names, chain.continuous)
+        self._robot_tracker = JointStateTracker(model.moving_joint_names)
+
+    # ------------------------------------------------------------------ joint states
+    def on_joint_state(self, msg: Any) -> EEMessages:
+        """Merge a sensor_msgs/JointState; return the ee_pose / ee_twist messages to publish.
+
+        Both are stamped with this message's stamp and expressed in base_link (the twist in tip_link
+        axes when twist_frame is "body"); the twist's reference point is the tip origin. Nothing is
+        returned until every chain joint has been received, for stale (older-stamped) samples, for
+        invalid samples (NaN position, length mismatch), or if a result is not finite. The twist is
+        None until velocities are known (from the message, or estimated from two samples).
+        """
+        problem = self._merge(msg)
+        if isinstance(problem, EEMessages):
+            return problem
+        chain, q, qdot, params = problem
+        stamp = seconds_from_time(msg.header.stamp)
+        try:
+            state = compute_ee_state(
+                chain, q, qdot, stamp, params["twist_frame"], params["singular_threshold"]
+            )
+        except KinematicsError as exc:
+            return self._problem(f"cannot compute the end-effector state: {exc}")
+        if not np.all(np.isfinite(state.T_base_tip)):
+            return self._problem("end-effector pose is not finite; nothing published")
+        twist_ok = state.twist is not None and bool(np.all(np.isfinite(state.twist)))
+        with self._lock:
+            self._last_state = state
+            self._last_problem = None
+        types = self._types
+        pose = pose_stamped_from_matrix(types, state.T_base_tip, chain.base_link, msg.header.stamp)
+        twist = None
+        if twist_ok:
+            frame = chain.tip_link if params["twist_frame"] == "body" else chain.base_link
+            twist = twist_stamped_from_core(types, state.twist, frame, msg.header.stamp)
+        return EEMessages(pose=pose, twist=twist, problem=None if twist_ok else "velocity unknown")
+
+    def _merge(
+        self, msg: Any
+    ) -> EEMessages | tuple[SerialChain, FloatArray, FloatArray | None, dict[str, Any]]:
+        with self._lock:
+            model, tracker = self._model, self._chain_tracker
+            if model is None or tracker is None or self._robot_tracker is None:
+                return self._problem(NO_DESCRIPTION, locked=True)
+            try:
+                stamp = seconds_from_time(msg.header.stamp)
+                names = [str(n) for n in msg.name]
+                velocity = list(msg.velocity)
+                stale_before = tracker.stale_samples
+                changed = tracker.update(names, list(msg.position), velocity, stamp)
+            except (KinematicsError, TypeError, ValueError, AttributeError) as exc:
+                return self._problem(f"joint_states sample rejected: {exc}", locked=True)
+            self._rates.record(self._clock(), stamp)
+            try:  # all robot joints, for service requests that name only some of them
+                self._robot_tracker.update(names, list(msg.position), velocity, stamp)
+            except KinematicsError:
+                pass  # a bad value of a joint outside the chain must not block the chain
+            if not changed:
+                if tracker.stale_samples > stale_before:
+                    return EEMessages(problem="stale joint_states sample (older stamp) ignored")
+                return EEMessages(problem=None)
+            if not tracker.complete:
+                missing = [
+                    n
+                    for n, v in zip(tracker.joint_names, tracker.q, strict=True)
+                    if not math.isfinite(v)
+                ]
+                return EEMessages(problem=f"waiting for joint_states of {missing}")
+            return model.chain, tracker.q, tracker.qdot, dict(self._params)
+
+    def _problem(self, text: str, locked: bool = False) -> EEMessages:
+        if locked:
+            self._last_problem = text
+        else:
+            with self._lock:
+                self._last_problem = text
+        return EEMessages(problem=text)
+
+    # ------------------------------------------------------------------ services
+    def compute_fk(self, request: Any, response: Any) -> Any:
+        """ComputeFK: pose of request.tip_link (default: tip_link) in base_link, see the srv."""
+        return self._answer("compute_fk", self._fk, request, response)
+
+    def compute_jacobian(self, request: Any, response: Any) -> Any:
+        """ComputeJacobian: the 6×n Jacobian in ROS row order (linear, angular), see the srv."""
+        return self._answer("compute_jacobian", self._jacobian, request, response)
+
+    def compute_ik(self, request: Any, response: Any) -> Any:
+        """ComputeIK: joint positions placing tip_link at request.target, see the srv."""
+        return self._answer("compute_ik", self._ik, request, response)
+
+    def _answer(
+        self, service: str, fn: Callable[[Any, Any], str | None], request: Any, response: Any
+    ) -> Any:
+        try:
+            failure = fn(request, response)
+            response.success = failure is None
+            response.message = "ok" if failure is None else failure
+        except KinematicsError as exc:
+            response.success = False
+            response.message = str(exc)
+        except Exception as exc:  # a request must never take the node down
+            _log.exception("%s: unexpected error", service)
+            response.success = False
+            response.message = f"internal error ({type(exc).__name__}): {exc}"
+        return response
+
+    def _snapshot(self) -> tuple[RobotModel, dict[str, float], dict[str, Any]]:
+        """(model, {joint: current position} of the joints received so far, params)."""
+        with self._lock:
+            if self._model is None or self._robot_tracker is None:
+                raise RobotDescriptionError(NO_DESCRIPTION)
+            tracker = self._robot_tracker
+            current = {
+                n: float(v)
+                for n, v in zip(tracker.joint_names, tracker.q, strict=True)
+                if math.isfinite(v)
+            }
+            return self._model, current, dict(self._params)
+
+    def _q(
+        self, model: RobotModel, chain: SerialChain, js: Any, current: dict[str, float], name: str
+    ) -> FloatArray:
+        q_default = [current.get(j, math.nan) for j in chain.joint_names]
+        return q_from_joint_state(
+            js, chain.joint_names, q_default=q_default, known_names=model.joint_names, name=name
+        )
+
+    def _fk(self, request: Any, response: Any) -> None:
+        model, current, _ = self._snapshot()
+        chain = model.chain_to(str(request.tip_link))
+        q = self._q(model, chain, request.joint_state, current, "joint_state")
+        T = chain.fk(q)
+        _require_finite(T, "pose")
+        response.pose = pose_stamped_from_matrix(
+            self._types, T, chain.base_link, request.joint_state.header.stamp
+        )
+        return None
+
+    def _jacobian(self, request: Any, response: Any) -> None:
+        model, current, _ = self._snapshot()
+        frame = str(request.frame) or "world"
+        if frame not in JACOBIAN_FRAMES:
+            raise InvalidInputError(
+                f"frame must be one of {list(JACOBIAN_FRAMES)} (or empty), got {frame!r}"
+            )
+        chain = model.chain_to(str(request.tip_link))
+        q = self._q(model, chain, request.joint_state, current, "joint_state")
+        _, J_world = chain.fk_jacobian(q, "world")
+        J = J_world if frame == "world" else chain.jacobian(q, frame)
+        _require_finite(J, "Jacobian")
+        fill_jacobian_fields(response, J, chain.joint_names)
+        response.frame = frame
+        response.reference_frame = chain.tip_link if frame == "body" else chain.base_link
+        response.reference_point_frame = chain.base_link if frame == "space" else chain.tip_link
+        response.base_link = chain.base_link
+        response.tip_link = chain.tip_link
+        sv = np.linalg.svd(J_world, compute_uv=False)
+        response.manipulability = float(manipulability(J_world, "linear"))
+        response.min_singular_value = float(sv[-1])
+        response.condition_number = float(sv[0] / sv[-1]) if sv[-1] > 0 else -1.0
+        return None
+
+    def _ik(self, request: Any, response: Any) -> str | None:
+        model, current, params = self._snapshot()
+        chain = model.chain_to(str(request.tip_link))
+        T_frame_target = matrix_from_pose(request.target.pose, "target.pose")
+        frame = str(request.target.header.frame_id)
+        T_base_frame = self._frame_pose(model, frame, current)
+        T_base_target = T_base_frame @ T_frame_target
+        options = _ik_options(request, params)
+        seed = request.seed
+        q_seed = None
+        if len(seed.name) > 0 or all(
+            math.isfinite(current.get(j, math.nan)) for j in chain.joint_names
+        ):
+            q_seed = self._q(model, chain, seed, current, "seed")
+        try:
+            result = chain.ik(T_base_target, q_seed, options)
+        except NotImplementedError as exc:
+            raise KinematicsError(f"IK solver not available: {exc}") from None
+        q = np.asarray(result.q, dtype=np.float64)
+        _require_finite(q, "IK solution")
+        response.solution = joint_state_from_q(
+            self._types,
+            chain.joint_names,
+            q,
+            header(self._types, request.target.header.stamp, ""),
+        )
+        response.position_error = _finite_or(result.position_error, -1.0)
+        response.orientation_error = _finite_or(result.orientation_error, -1.0)
+        response.iterations = int(min(max(int(result.iterations), 0), 2**32 - 1))
+        if bool(result.success):
+            return None
+        detail = str(getattr(result, "message", "") or "")
+        return (
+            f"no solution within tolerances ({options.position_tolerance:g} m, "
+            f"{options.orientation_tolerance:g} rad) in {options.timeout:g} s: best position error "
+            f"{response.position_error:.3g} m, orientation error "
+            f"{response.orientation_error:.3g} rad" + (f" ({detail})" if detail else "")
+        )
+
+    def _frame_pose(self, model: RobotModel, frame: str, current: dict[str, float]) -> FloatArray:
+        """T_base_frame for an IK target frame: the base, a robot link (FK of the current state),
+        or a TF frame.
+
+        Raises:
+            KinematicsError: the frame cannot be resolved, saying why.
+        """
+        base = model.base_link
+        name = frame[1:] if frame.startswith("/") else frame
+        if name in ("", base):
+            return np.eye(4)
+        reasons = []
+        if name in model.link_names:
+            for a, b, invert in ((base, name, False), (name, base, True)):
+                try:
+                    chain = model.chain_between(a, b)
+                except KinematicsError as exc:
+                    reasons.append(str(exc))
+                    continue
+                missing = [j for j in chain.joint_names if j not in current]
+                if missing:
+                    raise InvalidInputError(
+                        f"target frame {name!r} is a robot link, but its pose needs joint_states "
+                        "of "
+                        f"{missing}, which have not been received"
+                    )
+                T = chain.fk([current[j] for j in chain.joint_names])
+                return np.linalg.inv(T) if invert else T
+        if self._lookup is None:
+            raise InvalidInputError(
+                f"unknown target frame {name!r}: not a link of the robot and no TF lookup available"
+                + (f" ({'; '.join(reasons)})" if reasons else "")
+            )
+        try:
+            T_base_frame = check_transform(self._lookup(base, name), "TF transform")
+        except Exception as exc:
+            raise InvalidInputError(
+                f"unknown target frame {name!r}: not a link of the robot with moving joints to "
+                f"{base!r}, and the TF lookup {base!r} <- {name!r} failed: {exc}"
+            ) from None
+        return np.array(T_base_frame, dtype=np.float64)
+
+    # ------------------------------------------------------------------ diagnostics
+    def diagnostics(self) -> Any:
+        """diagnostic_msgs/DiagnosticArray: one status with manipulability, condition number,
+        near-singularity (WARN), joint_states rate [Hz] and latency [s] (stale → WARN), and the
+        last problem (rejected samples → ERROR; no description → ERROR)."""
+        types = self._types
+        S = types.DiagnosticStatus
+        now = self._clock()
+        with self._lock:
+            model, state, problem = self._model, self._last_state, self._last_problem
+            params = dict(self._params)
+            last = self._rates.last_arrival
+            rate, latency = self._rates.rate(), self._rates.latency()
+        severity, notes = 0, []
+        values: list[tuple[str, str]] = []
+        if model is None:
+            severity, notes = 2, [NO_DESCRIPTION]
+        else:
+            values += [
+                ("base_link", model.base_link),
+                ("tip_link", model.chain.tip_link),
+                ("dof", str(model.chain.dof)),
+            ]
+            if last is None or now - last > params["joint_states_timeout"]:
+                severity = max(severity, 1)
+                notes.append("no recent joint_states")
+            values += [
+                ("joint_states_rate_hz", f"{rate:.3f}"),
+                ("joint_states_latency_s", f"{latency:.6f}"),
+            ]
+            if state is not None:
+                cond = state.condition_number
+                values += [
+                    ("manipulability", f"{state.manipulability:.6g}"),
+                    ("condition_number", f"{cond:.6g}" if math.isfinite(cond) else "inf"),
+                    ("near_singular", str(state.near_singular).lower()),
+                ]
+                if state.near_singular:
+                    severity = max(severity, 1)
+                    notes.append("near a singularity")
+            if problem and problem != "velocity unknown":
+                sev = 2 if problem.startswith("joint_states sample rejected") else 1
+                severity = max(severity, sev)
+                notes.append(problem)
+        status = S(
+            level=(S.OK, S.WARN, S.ERROR)[severity],
+            name="kinematics_node: end effector",
+            message="; ".join(notes) if notes else "ok",
+            hardware_id=model.robot_name if model is not None else "",
+            values=[types.KeyValue(key=k, value=v) for k, v in values],
+        )
+        return types.DiagnosticArray(
+            header=types.Header(stamp=time_from_seconds(types, now), frame_id=""), status=[status]
+        )
+
+
+def _require_finite(a: ArrayLike, what: str) -> None:
+    if not np.all(np.isfinite(np.asarray(a, dtype=np.float64))):
+        raise KinematicsError(f"{what} is not finite; refusing to return it")
+
+
+def _finite_or(value: Any, fallback: float) -> float:
+    v = float(value)
+    return v if math.isfinite(v) else fallback
+
+
+def _request_value(request: Any, field: str, default: float, unit: str) -> float:
+    value = float(getattr(request, field))
+    if not math.isfinite(value) or value < 0:
+        raise InvalidInputError(
+            f"{field} must be >= 0 {unit} (0 = the node's default), got {value}"
+        )
+    return value if value > 0 else float(default)
+
+
+def _ik_options(request: Any, params: Mapping[str, Any]) -> IKOptions:
+    """IKOptions from the request, falling back to the node's parameters for zero fields."""
+    wanted: dict[str, Any] = {
+        "position_tolerance": _request_value(
+            request, "position_tolerance", params["ik.position_tolerance"], "[m]"
+        ),
+        "orientation_tolerance": _request_value(
+            request, "orientation_tolerance", params["ik.orientation_tolerance"], "[rad]"
+        ),
+        "timeout": _request_value(request, "timeout", params["ik.timeout"], "[s]"),
+        "max_restarts": int(params["ik.max_restarts"]),
+        "position_only": bool(request.position_only),
+    }
+    supported = {f.name for f in dataclasses.fields(IKOptions)}
+    if wanted["position_only"] and "position_only" not in supported:
+        raise KinematicsError("position_only IK is not supported by this version of the solver")
+    return IKOptions(**{k: v for k, v in wanted.items() if k in supported})

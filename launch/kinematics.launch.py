@@ -1,0 +1,69 @@
+"""Start the kinematics node alone.
+
+    ros2 launch kinematics_service kinematics.launch.py description_file:=/path/robot.urdf \
+        base_link:=base_link tip_link:=tool0
+
+Arguments:
+    description_file: URDF or xacro file (run through xacro, which passes plain URDF unchanged).
+        Empty: the node takes the description from the robot_description topic.
+    base_link, tip_link: override the parameter file when non-empty.
+    params_file: parameter file (default: this package's config/kinematics.yaml).
+    namespace: namespace of the node (and so of its relative topics and services).
+"""
+
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
+from launch.substitutions import Command, FindExecutable, LaunchConfiguration, PathJoinSubstitution
+from launch_ros.actions import Node
+from launch_ros.parameter_descriptions import ParameterValue
+from launch_ros.substitutions import FindPackageShare
+
+from launch import LaunchDescription
+
+
+def _kinematics_node(context, *args, **kwargs):
+    overrides = {}
+    description_file = LaunchConfiguration("description_file").perform(context)
+    if description_file:
+        overrides["robot_description"] = ParameterValue(
+            Command([FindExecutable(name="xacro"), " ", description_file]), value_type=str
+        )
+    for name in ("base_link", "tip_link"):
+        value = LaunchConfiguration(name).perform(context)
+        if value:
+            overrides[name] = value
+    return [
+        Node(
+            package="kinematics_service",
+            executable="kinematics_node",
+            name="kinematics_node",
+            namespace=LaunchConfiguration("namespace"),
+            parameters=[LaunchConfiguration("params_file"), overrides],
+            output="screen",
+        )
+    ]
+
+
+def generate_launch_description():
+    default_params = PathJoinSubstitution(
+        [FindPackageShare("kinematics_service"), "config", "kinematics.yaml"]
+    )
+    return LaunchDescription(
+        [
+            DeclareLaunchArgument(
+                "description_file",
+                default_value="",
+                description="URDF or xacro file; empty = use the robot_description topic",
+            ),
+            DeclareLaunchArgument(
+                "base_link", default_value="", description="chain root (empty: parameter file)"
+            ),
+            DeclareLaunchArgument(
+                "tip_link", default_value="", description="end effector (empty: parameter file)"
+            ),
+            DeclareLaunchArgument(
+                "params_file", default_value=default_params, description="parameter file"
+            ),
+            DeclareLaunchArgument("namespace", default_value="", description="node namespace"),
+            OpaqueFunction(function=_kinematics_node),
+        ]
+    )

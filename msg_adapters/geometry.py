@@ -1,0 +1,135 @@
+"""geometry_msgs Pose / Transform / Twist ↔ numpy.
+
+* Pose and Transform ↔ 4×4 homogeneous transform T (rotation R, translation p [m]). Quaternions are
+  (x, y, z, w) as in the messages; incoming ones are normalised; zero/non-finite ones are refused.
+* Twist ↔ (ω, v): the core orders twists (angular, linear) as Modern Robotics does; the message
+  names them `angular` and `linear`, so the conversion is by name and nothing is reordered by index.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from kinematics_node.core.exceptions import InvalidInputError
+from kinematics_node.core.rotations import matrix_from_quaternion, quaternion_from_matrix
+
+from .stamps import header
+from .types import MessageTypes
+
+FloatArray = NDArray[np.float64]
+
+
+def _xyz(vec: Any, name: str) -> FloatArray:
+    try:
+        values = (float(vec.x), float(vec.y), float(vec.z))
+    except (AttributeError, TypeError, ValueError) as exc:
+        raise InvalidInputError(f"{name} must have numeric x, y, z fields: {exc}") from None
+    for axis, value in zip("xyz", values, strict=True):
+        if not math.isfinite(value):
+            raise InvalidInputError(f"{name}.{axis} is {value}; expected a finite number")
+    return np.array(values)
+
+
+def _rotation(quat: Any, name: str) -> FloatArray:
+    try:
+        xyzw = (float(quat.x), float(quat.y), float(quat.z), float(quat.w))
+    except (AttributeError, TypeError, ValueError) as exc:
+        raise InvalidInputError(f"{name} must have numeric x, y, z, w fields: {exc}") from None
+    if not all(math.isfinite(v) for v in xyzw):
+        raise InvalidInputError(f"{name} (x, y, z, w) = {xyzw} is not finite")
+    if math.sqrt(sum(v * v for v in xyzw)) < 1e-9:
+        raise InvalidInputError(
+            f"{name} (x, y, z, w) = {xyzw} has zero norm; expected a unit quaternion"
+        )
+    return matrix_from_quaternion(xyzw)
+
+
+def matrix_from_pose(pose: Any, name: str = "pose") -> FloatArray:
+    """T (4×4) of a geometry_msgs/Pose: R from `orientation` (normalised), p = `position` [m].
+
+    Raises:
+        InvalidInputError: non-finite values or a zero quaternion, naming the field.
+    """
+    T = np.eye(4)
+    T[:3, :3] = _rotation(pose.orientation, f"{name}.orientation")
+    T[:3, 3] = _xyz(pose.position, f"{name}.position")
+    return T
+
+
+def matrix_from_transform(transform: Any, name: str = "transform") -> FloatArray:
+    """T (4×4) of a geometry_msgs/Transform (`translation` [m], `rotation` quaternion)."""
+    T = np.eye(4)
+    T[:3, :3] = _rotation(transform.rotation, f"{name}.rotation")
+    T[:3, 3] = _xyz(transform.translation, f"{name}.translation")
+    return T
+
+
+def _quaternion_fields(T: FloatArray) -> tuple[float, float, float, float]:
+    x, y, z, w = (float(v) for v in quaternion_from_matrix(np.asarray(T, dtype=np.float64)[:3, :3]))
+    return x, y, z, w
+
+
+def pose_from_matrix(types: MessageTypes, T: ArrayLike) -> Any:
+    """geometry_msgs/Pose of a 4×4 transform (quaternion with w ≥ 0)."""
+    Tm = np.asarray(T, dtype=np.float64)
+    x, y, z, w = _quaternion_fields(Tm)
+    px, py, pz = (float(v) for v in Tm[:3, 3])
+    return types.Pose(
+        position=types.Point(x=px, y=py, z=pz),
+        orientation=types.Quaternion(x=x, y=y, z=z, w=w),
+    )
+
+
+def transform_from_matrix(types: MessageTypes, T: ArrayLike) -> Any:
+    """geometry_msgs/Transform of a 4×4 transform (quaternion with w ≥ 0)."""
+    Tm = np.asarray(T, dtype=np.float64)
+    x, y, z, w = _quaternion_fields(Tm)
+    px, py, pz = (float(v) for v in Tm[:3, 3])
+    return types.Transform(
+        translation=types.Vector3(x=px, y=py, z=pz),
+        rotation=types.Quaternion(x=x, y=y, z=z, w=w),
+    )
+
+
+def pose_stamped_from_matrix(types: MessageTypes, T: ArrayLike, frame_id: str, stamp: Any) -> Any:
+    """geometry_msgs/PoseStamped of T (the pose of some frame in `frame_id`), stamped with a copy of
+    the Time message `stamp`."""
+    return types.PoseStamped(header=header(types, stamp, frame_id), pose=pose_from_matrix(types, T))
+
+
+def _vector3(types: MessageTypes, v: ArrayLike) -> Any:
+    x, y, z = (float(c) for c in np.asarray(v, dtype=np.float64).reshape(3))
+    return types.Vector3(x=x, y=y, z=z)
+
+
+def twist_from_vectors(types: MessageTypes, omega: ArrayLike, v: ArrayLike) -> Any:
+    """geometry_msgs/Twist with angular = ω [rad/s] and linear = v [m/s]."""
+    return types.Twist(linear=_vector3(types, v), angular=_vector3(types, omega))
+
+
+def twist_from_core(types: MessageTypes, V: ArrayLike) -> Any:
+    """geometry_msgs/Twist of a core twist V = (ω, v) (6,): angular = V[:3], linear = V[3:]."""
+    Va = np.asarray(V, dtype=np.float64).reshape(6)
+    return twist_from_vectors(types, Va[:3], Va[3:])
+
+
+def twist_stamped_from_core(types: MessageTypes, V: ArrayLike, frame_id: str, stamp: Any) -> Any:
+    """geometry_msgs/TwistStamped of a core twist V = (ω, v) expressed in `frame_id`."""
+    return types.TwistStamped(
+        header=header(types, stamp, frame_id), twist=twist_from_core(types, V)
+    )
+
+
+def vectors_from_twist(twist: Any, name: str = "twist") -> tuple[FloatArray, FloatArray]:
+    """(ω, v) of a geometry_msgs/Twist: ω = `angular` [rad/s], v = `linear` [m/s]."""
+    return _xyz(twist.angular, f"{name}.angular"), _xyz(twist.linear, f"{name}.linear")
+
+
+def core_from_twist(twist: Any, name: str = "twist") -> FloatArray:
+    """Core twist V = (ω, v) (6,) of a geometry_msgs/Twist."""
+    omega, v = vectors_from_twist(twist, name)
+    return np.concatenate((omega, v))
