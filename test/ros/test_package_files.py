@@ -23,6 +23,7 @@ ROSDEP_KEY = {
     "scipy": "python3-scipy",
     "pytest": "python3-pytest",
     "yaml": "python3-yaml",
+    "matplotlib": "python3-matplotlib",
 }
 
 
