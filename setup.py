@@ -36,6 +36,7 @@ setup(
             "catkin_pkg>=1.0",
             "xacro>=2.0",
             "matplotlib>=3.5",
+            "pyyaml>=5",  # reads config/kinematics.yaml in the package-file tests
         ],
         "bench": ["pin>=2.7", "example-robot-data>=4", "modern-robotics>=1.1", "ikpy>=3.3"],
         "lint": ["ruff>=0.5", "mypy>=1.10"],
