@@ -1,41 +1,394 @@
-"""Inverse kinematics (filled in by the IK work; types first so the API is importable)."""
+"""Inverse kinematics: damped least squares (Levenberg–Marquardt) with random restarts.
+
+Problem: find joint values q within the limits such that T_base_tip(q) = T_target.
+
+Error (tip-frame, "body" formulation, Modern Robotics §6.2.2). With T_err = T(q)⁻¹ T_target:
+
+* full pose, every weight > 0: the body error twist V_b = log(T_err) = (ω̂θ, vθ) ∈ R⁶ (MR eq.
+  6.7's log), driven to zero with the body Jacobian J_b (MR eq. 5.18), J_b Δq = V_b (MR §6.2.2);
+* position only, or some orientation weight is 0: the decoupled tip-frame error
+  e = (log(R_err), p_err) with p_err = R(q)ᵀ(p_target − p(q)). Its exact derivative is the body
+  Jacobian taken at the *target point* rigidly attached to the tip, J_v + J_ω × p_err, so a zero
+  weight on a rotation component really leaves that rotation free (V_b's v part would couple it).
+
+Step (Levenberg–Marquardt on the weighted residual r = W^½ e, J_w = W^½ J):
+    Δq = J_wᵀ (J_w J_wᵀ + λ I)⁻¹ r,
+which equals (J_wᵀ J_w + λ I)⁻¹ J_wᵀ r but needs only an m×m solve (m = 6, or 3 position-only).
+The trial q + Δq is projected onto the joint limits (clamped); it is accepted if it lowers
+‖r‖² (then λ ← λ/10), otherwise rejected (λ ← 10 λ). Non-finite trials are rejected. An attempt
+ends on convergence, after `max_iterations`, or when λ exceeds 1e6 (stuck, typically against a
+limit or in a local minimum); the next attempt starts from a configuration drawn uniformly within
+the limits (continuous joints: seed ± π). This repeats until success, `timeout` or `max_restarts`.
+
+Continuous joints (lower = upper = ±inf, `chain.continuous`) are never clamped; every returned
+value is wrapped to within π of the seed.
+
+Units: lengths [m], angles [rad], time [s]. Errors and weights are ordered (ω, v) and expressed in
+the tip frame.
+
+Thread safety: every call owns its state (a fresh `numpy.random.Generator` seeded from
+`rng_seed`); the chain is immutable and nothing at module level is mutated, so calls can run
+concurrently from many threads. For a given `rng_seed` the sequence of attempts is deterministic;
+the result is reproducible whenever the search ends by success or `max_restarts`, not by timeout
+("distance" mode normally ends by timeout, so set `max_restarts` to make it reproducible).
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
+
+from ._ik_batch import solve_batch_arrays
+from ._ik_single import SingleSolver
+from .exceptions import InvalidInputError
+
+if TYPE_CHECKING:
+    from .chain import SerialChain
+
+FloatArray = NDArray[np.float64]
+Mode = Literal["speed", "distance"]
+_MODES = ("speed", "distance")
+
+
+def _is_real(x: object) -> bool:
+    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
+
+
+def _is_int(x: object) -> bool:
+    return isinstance(x, (int, np.integer)) and not isinstance(x, bool)
 
 
 @dataclass(frozen=True)
 class IKOptions:
+    """Settings of the IK solver (immutable; validated on construction).
+
+    Attributes:
+        position_tolerance: success threshold on ‖p_target − p(q)‖ [m], > 0.
+        orientation_tolerance: success threshold on the rotation angle of R(q)ᵀ R_target [rad], > 0.
+        timeout: time budget of one `ik` call [s], > 0; the call returns within about a
+            millisecond of it. For `ik_batch` see `batch_timeout`.
+        max_restarts: random restarts allowed after the first attempt (int ≥ 0).
+        max_iterations: Levenberg–Marquardt iterations per attempt (int ≥ 1).
+        mode: "speed" returns the first solution; "distance" keeps restarting until the time
+            budget (or `max_restarts`) is used up and returns the solution closest to the seed.
+        num_solutions: number of distinct solutions to collect (int ≥ 1), returned in
+            `IKResult.solutions` sorted by distance to the seed.
+        position_only: ignore the orientation of the target (only the position must match).
+        weights: None, or 6 non-negative floats in (ω, v) order, tip-frame axes, multiplying the
+            squared error components in the least-squares cost; a zero weight frees that component
+            (it is then also excluded from the success test). At least one must be positive.
+        joint_weights: None, or one non-negative float per joint for the joint-space distance
+            d(q, q_seed)² = Σ wⱼ (qⱼ − q_seedⱼ)² used by "distance" mode and to sort solutions.
+        solution_separation: two solutions are distinct when some joint differs by more than this
+            [rad or m] (continuous joints compared modulo 2π); > 0.
+        batch_timeout: time budget of a whole `ik_batch` call [s]; None means `timeout` × N.
+        rng_seed: seed of the random restarts (None: fresh entropy each call).
+    """
+
     position_tolerance: float = 1e-5
     orientation_tolerance: float = 1e-4
-    timeout: float = 0.005
+    timeout: float = 0.05
+    max_restarts: int = 1000
+    max_iterations: int = 60
+    mode: Mode = "speed"
+    num_solutions: int = 1
+    position_only: bool = False
+    weights: tuple[float, ...] | None = None
+    joint_weights: tuple[float, ...] | None = None
+    solution_separation: float = 1e-2
+    batch_timeout: float | None = None
+    rng_seed: int | None = None
+
+    def __post_init__(self) -> None:
+        for name in (
+            "position_tolerance",
+            "orientation_tolerance",
+            "timeout",
+            "solution_separation",
+        ):
+            value = getattr(self, name)
+            if not _is_real(value) or not math.isfinite(value) or value <= 0:
+                raise InvalidInputError(
+                    f"IKOptions.{name} must be a finite number > 0, got {value!r}"
+                )
+        if self.batch_timeout is not None and (
+            not _is_real(self.batch_timeout)
+            or not math.isfinite(self.batch_timeout)
+            or self.batch_timeout <= 0
+        ):
+            raise InvalidInputError(
+                f"IKOptions.batch_timeout must be None or a finite number > 0 [s], "
+                f"got {self.batch_timeout!r}"
+            )
+        if not _is_int(self.max_restarts) or self.max_restarts < 0:
+            raise InvalidInputError(
+                f"IKOptions.max_restarts must be an int ≥ 0, got {self.max_restarts!r}"
+            )
+        if not _is_int(self.max_iterations) or self.max_iterations < 1:
+            raise InvalidInputError(
+                f"IKOptions.max_iterations must be an int ≥ 1, got {self.max_iterations!r}"
+            )
+        if not _is_int(self.num_solutions) or self.num_solutions < 1:
+            raise InvalidInputError(
+                f"IKOptions.num_solutions must be an int ≥ 1, got {self.num_solutions!r}"
+            )
+        if self.mode not in _MODES:
+            raise InvalidInputError(f"IKOptions.mode must be one of {_MODES}, got {self.mode!r}")
+        if not isinstance(self.position_only, (bool, np.bool_)):
+            raise InvalidInputError(
+                f"IKOptions.position_only must be a bool, got {self.position_only!r}"
+            )
+        if self.rng_seed is not None and (not _is_int(self.rng_seed) or self.rng_seed < 0):
+            raise InvalidInputError(
+                f"IKOptions.rng_seed must be None or an int ≥ 0, got {self.rng_seed!r}"
+            )
+        if self.weights is not None:
+            w = _weights_tuple(self.weights, "weights")
+            if len(w) != 6:
+                raise InvalidInputError(
+                    "IKOptions.weights must have 6 values ordered (ωx, ωy, ωz, vx, vy, vz), "
+                    f"got {len(w)}"
+                )
+            active = w[3:] if self.position_only else w
+            if not any(x > 0 for x in active):
+                raise InvalidInputError(
+                    f"IKOptions.weights must have at least one positive "
+                    f"{'position ' if self.position_only else ''}weight, got {w}"
+                )
+            object.__setattr__(self, "weights", w)
+        if self.joint_weights is not None:
+            object.__setattr__(
+                self, "joint_weights", _weights_tuple(self.joint_weights, "joint_weights")
+            )
+
+
+def _weights_tuple(values: object, name: str) -> tuple[float, ...]:
+    try:
+        arr = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidInputError(
+            f"IKOptions.{name} must be a sequence of numbers, got {values!r}"
+        ) from None
+    if arr.ndim != 1:
+        raise InvalidInputError(f"IKOptions.{name} must be a flat sequence, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        raise InvalidInputError(f"IKOptions.{name} must be finite and ≥ 0, got {arr.tolist()}")
+    return tuple(float(x) for x in arr)
+
+
+def _readonly(a: ArrayLike, dtype: type = np.float64) -> NDArray:  # type: ignore[type-arg]
+    arr = np.array(a, dtype=dtype)
+    arr.setflags(write=False)
+    return arr
 
 
 @dataclass(frozen=True)
 class IKResult:
-    q: NDArray[np.float64]
+    """Outcome of one `SerialChain.ik` call. Arrays are read-only.
+
+    Attributes:
+        q: (n,) the solution; on failure the best configuration found (smallest weighted
+            residual). Always finite and within the limits.
+        success: whether `q` meets both tolerances.
+        position_error: ‖p_target − p(q)‖ [m] (weighted-out components excluded).
+        orientation_error: rotation angle of R(q)ᵀ R_target [rad] (0 when position_only).
+        iterations: Levenberg–Marquardt iterations over all attempts.
+        restarts: random restarts used (attempts − 1).
+        solutions: distinct solutions found, closest to the seed first (q is solutions[0] on
+            success); empty on failure.
+        message: human-readable summary, e.g. why the search failed.
+    """
+
+    q: FloatArray
     success: bool
     position_error: float
     orientation_error: float
     iterations: int
+    restarts: int = 0
+    solutions: tuple[FloatArray, ...] = field(default=())
+    message: str = ""
 
 
 @dataclass(frozen=True)
 class IKBatchResult:
-    q: NDArray[np.float64]
+    """Outcome of `SerialChain.ik_batch` for N targets: `IKResult`'s fields with a leading N axis.
+
+    Attributes:
+        q: (N, n) solutions, or best configurations where success is False.
+        success: (N,) bool.
+        position_error: (N,) [m]. orientation_error: (N,) [rad].
+        iterations: (N,) LM iterations spent on each target. restarts: (N,) restarts per target.
+        message: one summary line for the batch.
+    """
+
+    q: FloatArray
     success: NDArray[np.bool_]
-    position_error: NDArray[np.float64]
-    orientation_error: NDArray[np.float64]
+    position_error: FloatArray
+    orientation_error: FloatArray
     iterations: NDArray[np.int64]
+    restarts: NDArray[np.int64]
+    message: str = ""
 
 
-def solve(chain, T_target, q_seed=None, options=None):  # type: ignore[no-untyped-def]
-    raise NotImplementedError("IK is not implemented yet")
+# ---------------------------------------------------------------------- boundary helpers
+def default_seed(chain: SerialChain) -> FloatArray:
+    """Middle of the joint limits; 0 for continuous joints (clipped into half-bounded limits)."""
+    lo, hi = chain.lower, chain.upper
+    finite = np.isfinite(lo) & np.isfinite(hi)
+    mid = np.where(finite, 0.5 * (np.where(finite, lo, 0.0) + np.where(finite, hi, 0.0)), 0.0)
+    return np.clip(mid, lo, hi)
 
 
-def solve_batch(chain, T_targets, q_seeds=None, options=None):  # type: ignore[no-untyped-def]
-    raise NotImplementedError("IK is not implemented yet")
+def _seed(chain: SerialChain, q_seed: ArrayLike | None, name: str, batch: int | None) -> FloatArray:
+    if q_seed is None:
+        s = default_seed(chain)
+        return s if batch is None else np.tile(s, (batch, 1))
+    q = chain.check_q(q_seed, name)
+    want = (chain.dof,) if batch is None else (batch, chain.dof)
+    if q.shape != want:
+        raise InvalidInputError(f"{name} must have shape {want}, got shape {q.shape}")
+    return np.clip(q, chain.lower, chain.upper)  # a seed outside the limits is clamped
+
+
+def _options(options: IKOptions | None) -> IKOptions:
+    if options is None:
+        return IKOptions()
+    if not isinstance(options, IKOptions):
+        raise InvalidInputError(f"options must be an IKOptions, got {type(options).__name__}")
+    return options
+
+
+def _joint_weights(chain: SerialChain, opts: IKOptions) -> FloatArray:
+    if opts.joint_weights is None:
+        return np.ones(chain.dof)
+    if len(opts.joint_weights) != chain.dof:
+        raise InvalidInputError(
+            f"IKOptions.joint_weights must have {chain.dof} values (one per joint "
+            f"{list(chain.joint_names)}), got {len(opts.joint_weights)}"
+        )
+    return np.array(opts.joint_weights)
+
+
+# ---------------------------------------------------------------------- public entry points
+def solve(
+    chain: SerialChain,
+    T_target: ArrayLike,
+    q_seed: ArrayLike | None = None,
+    options: IKOptions | None = None,
+) -> IKResult:
+    """Joint values q with T_base_tip(q) = T_target (4×4, tip pose in the base frame).
+
+    Args:
+        chain: the robot model.
+        T_target: (4, 4) homogeneous transform, finite, rotation in SO(3).
+        q_seed: (n,) start and reference for "distance" mode; values outside the limits are
+            clamped into them. Default: the middle of the limits (0 for continuous joints).
+        options: `IKOptions` (defaults if None).
+
+    Returns:
+        `IKResult`; on failure `success` is False and `q` is the best configuration found.
+
+    Raises:
+        InvalidInputError: T_target is not a finite rigid transform of shape (4, 4), q_seed has
+            the wrong length or a non-finite value, or options do not fit the chain.
+    """
+    opts = _options(options)
+    T = chain.check_target(T_target)
+    if T.shape != (4, 4):
+        raise InvalidInputError(
+            f"T_target must have shape (4, 4) (use ik_batch for many), got {T.shape}"
+        )
+    seed = _seed(chain, q_seed, "q_seed", None)
+    start = time.perf_counter()
+    deadline = start + opts.timeout
+    solver = SingleSolver(chain, T, seed, opts, _joint_weights(chain, opts))
+    out = solver.run(deadline)
+    elapsed_ms = (time.perf_counter() - start) * 1e3
+    solutions = tuple(_readonly(s) for s in out.solutions)
+    if out.success:
+        n_found = len(solutions)
+        msg = f"found {n_found} solution{'s' if n_found > 1 else ''} in {elapsed_ms:.2f} ms"
+        if n_found < opts.num_solutions:
+            msg += f" ({opts.num_solutions} requested; {out.stop_reason})"
+        msg += f", {out.restarts} restarts, {out.iterations} iterations"
+    else:
+        msg = (
+            f"no solution: {out.stop_reason} after {elapsed_ms:.1f} ms, {out.restarts} restarts; "
+            f"best residual {out.position_error:.3g} m / {out.orientation_error:.3g} rad "
+            f"(tolerances {opts.position_tolerance:g} m / {opts.orientation_tolerance:g} rad)"
+        )
+    return IKResult(
+        q=_readonly(out.q),
+        success=out.success,
+        position_error=out.position_error,
+        orientation_error=out.orientation_error,
+        iterations=out.iterations,
+        restarts=out.restarts,
+        solutions=solutions,
+        message=msg,
+    )
+
+
+def solve_batch(
+    chain: SerialChain,
+    T_targets: ArrayLike,
+    q_seeds: ArrayLike | None = None,
+    options: IKOptions | None = None,
+) -> IKBatchResult:
+    """IK for N targets at once, vectorised across targets (NumPy batched FK/Jacobian and solves).
+
+    Same algorithm and options as `solve`, run in lock-step for all unconverged targets; a target
+    whose attempt ends without success is restarted (vectorised) from a random configuration.
+    Time budget: `options.batch_timeout` for the whole call if set, else `options.timeout` × N.
+    Only mode "speed" with num_solutions = 1 is supported here (use `ik` per target otherwise).
+
+    Args:
+        T_targets: (N, 4, 4) rigid transforms. q_seeds: (N, n) or None (middle of the limits).
+
+    Raises:
+        InvalidInputError: bad targets, seeds or options (including mode "distance").
+    """
+    opts = _options(options)
+    if opts.mode != "speed" or opts.num_solutions != 1:
+        raise InvalidInputError(
+            "ik_batch supports mode='speed' with num_solutions=1 only; "
+            f"got mode={opts.mode!r}, num_solutions={opts.num_solutions} (call ik per target)"
+        )
+    T = chain.check_target(T_targets, "T_targets")
+    if T.ndim != 3:
+        raise InvalidInputError(f"T_targets must have shape (N, 4, 4), got {T.shape}")
+    N = T.shape[0]
+    seeds = _seed(chain, q_seeds, "q_seeds", N)
+    start = time.perf_counter()
+    budget = opts.batch_timeout if opts.batch_timeout is not None else opts.timeout * max(N, 1)
+    out = solve_batch_arrays(chain, T, seeds, opts, start + budget)
+    elapsed_ms = (time.perf_counter() - start) * 1e3
+    n_ok = int(out.success.sum())
+    msg = f"{n_ok}/{N} targets solved in {elapsed_ms:.1f} ms"
+    if n_ok < N:
+        msg += f" ({out.stop_reason})"
+    return IKBatchResult(
+        q=_readonly(out.q),
+        success=_readonly(out.success, np.bool_),
+        position_error=_readonly(out.position_error),
+        orientation_error=_readonly(out.orientation_error),
+        iterations=_readonly(out.iterations, np.int64),
+        restarts=_readonly(out.restarts, np.int64),
+        message=msg,
+    )
+
+
+__all__: Sequence[str] = [
+    "IKBatchResult",
+    "IKOptions",
+    "IKResult",
+    "default_seed",
+    "solve",
+    "solve_batch",
+]

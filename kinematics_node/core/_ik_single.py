@@ -1,0 +1,329 @@
+"""Single-target Levenberg–Marquardt IK on plain Python floats (algorithm: `ik`'s docstring).
+
+Why plain floats: one 6- or 7-joint iteration is a few hundred flops, so NumPy's ~1 µs per-call
+overhead would dominate. Forward kinematics and joint axes come from the chain's scalar kernel
+(`Kernel.fk_jacobian_scalar`, inputs validated once at the boundary in `ik.solve`), the pose error
+from `_pose_error` (scalar SE(3)/SO(3) log), the Jacobian is assembled with floats, and only the
+m×m damped normal equations (m = 6, or 3 position-only) go to NumPy: one `np.linalg.solve` on a 6×6
+(~7 µs) is cheaper than a hand-written Cholesky in interpreted Python, and LAPACK's pivoted LU is
+robust if λ is tiny and J_w J_wᵀ is singular (a LinAlgError is treated as a rejected step).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ._pose_error import relative_pose, se3_log, so3_log
+
+if TYPE_CHECKING:
+    from .chain import SerialChain
+    from .ik import IKOptions
+
+FloatArray = NDArray[np.float64]
+
+LAMBDA_INIT = 1e-2  # initial damping [same units as J J^T: m² or 1]
+LAMBDA_MIN = 1e-12
+LAMBDA_MAX = 1e6  # beyond this the attempt is stuck (steps rejected ~9 times in a row)
+TWO_PI = 2.0 * math.pi
+MAX_STEP = 1.0  # largest joint change per step [rad or m]; the step is scaled down to it
+STALL_FRACTION = 0.05  # an accepted step that lowers the cost by less than 5 % ...
+STALL_STEPS = 3  # ... this many times in a row ends the attempt (a local minimum or a limit)
+
+
+def wrap_to(q: list[float], ref: list[float], continuous: list[bool]) -> list[float]:
+    """Continuous joints moved by multiples of 2π to lie in [ref − π, ref + π)."""
+    return [
+        r + ((v - r + math.pi) % TWO_PI) - math.pi if c else v
+        for v, r, c in zip(q, ref, continuous, strict=True)
+    ]
+
+
+def _lm_step(
+    J: FloatArray, r: FloatArray, lam: float, eye: FloatArray
+) -> tuple[FloatArray, float] | None:
+    """Δq = Jᵀ(J Jᵀ + λI)⁻¹ r and its predicted decrease of ‖r‖², Δqᵀ(λΔq + Jᵀr); None: singular."""
+    try:
+        dq = J.T @ np.linalg.solve(J @ J.T + lam * eye, r)
+    except np.linalg.LinAlgError:
+        return None
+    return dq, float(dq @ (lam * dq + J.T @ r))
+
+
+@dataclass
+class SingleOutcome:
+    q: FloatArray
+    success: bool
+    position_error: float
+    orientation_error: float
+    iterations: int
+    restarts: int
+    solutions: list[FloatArray] = field(default_factory=list)
+    stop_reason: str = ""
+
+
+class SingleSolver:
+    """State of one IK call (never shared between calls or threads)."""
+
+    def __init__(
+        self,
+        chain: SerialChain,
+        T_target: FloatArray,
+        seed: FloatArray,
+        opts: IKOptions,
+        joint_weights: FloatArray,
+    ) -> None:
+        self.opts = opts
+        self.kernel = chain._kernel
+        self.internal = chain._internal_scalar
+        self.G = chain._G
+        self.prismatic = self.kernel.prismatic
+        self.n = chain.dof
+        R, p = T_target[:3, :3], T_target[:3, 3]
+        self.target = tuple(float(x) for x in R.ravel()) + tuple(float(x) for x in p)
+        self.seed = [float(x) for x in seed]
+        self.lower = [float(x) for x in chain.lower]
+        self.upper = [float(x) for x in chain.upper]
+        self.continuous = [bool(c) for c in chain.continuous]
+        lo, hi = [], []
+        for s, a, b in zip(self.seed, self.lower, self.upper, strict=True):
+            if math.isfinite(a) and math.isfinite(b):
+                lo.append(a)
+                hi.append(b)
+            else:
+                lo.append(max(a, s - math.pi))
+                hi.append(min(b, s + math.pi))
+        self.sample_lo, self.sample_hi = np.array(lo), np.array(hi)
+        self.joint_weights = [float(x) for x in joint_weights]
+        self.rng = np.random.default_rng(opts.rng_seed)
+
+        w = opts.weights if opts.weights is not None else (1.0,) * 6
+        self.position_only = bool(opts.position_only)
+        self.coupled = not self.position_only and all(x > 0 for x in w)
+        self.w = list(w[3:]) if self.position_only else list(w)
+        self.sw = np.sqrt(np.array(self.w))
+        self.pos_mask = [x > 0 for x in w[3:]]
+        self.ori_mask = [x > 0 for x in w[:3]]
+        self.all_ori = all(self.ori_mask)
+        self.tol_p = opts.position_tolerance
+        self.tol_o = opts.orientation_tolerance
+        self.iterations = 0
+        self.best: tuple[float, list[float], float, float] | None = None  # (E, q, pos, ori)
+
+    # ------------------------------------------------------------------ evaluation
+    def evaluate(self, q: list[float]) -> tuple[float, list[float], float, float, tuple, list]:  # type: ignore[type-arg]
+        """(E = Σ wᵢ eᵢ², e, position error [m], orientation error [rad], T_err, joint axes)."""
+        t, axes = self.kernel.fk_jacobian_scalar(self.internal(q), True)
+        Te = relative_pose(t, self.target)
+        px, py, pz = Te[9], Te[10], Te[11]
+        if self.coupled:
+            e0, e1, e2, e3, e4, e5, theta = se3_log(Te)
+            e = [e0, e1, e2, e3, e4, e5]
+            phi = e[:3]
+        else:
+            f0, f1, f2, theta = so3_log(Te)
+            phi = [f0, f1, f2]
+            e = [px, py, pz] if self.position_only else [f0, f1, f2, px, py, pz]
+        E = 0.0
+        for wi, ei in zip(self.w, e, strict=True):
+            E += wi * ei * ei
+        pm = self.pos_mask
+        pos = math.sqrt(
+            (px * px if pm[0] else 0.0) + (py * py if pm[1] else 0.0) + (pz * pz if pm[2] else 0.0)
+        )
+        if self.position_only:
+            ori = 0.0
+        elif self.all_ori:
+            ori = theta
+        else:
+            ori = math.sqrt(sum(f * f for f, m in zip(phi, self.ori_mask, strict=True) if m))
+        return E, e, pos, ori, t, axes
+
+    def jacobian(self, t: tuple, axes: list) -> FloatArray:  # type: ignore[type-arg]
+        """Weighted Jacobian W^½ J (m × n) of the error, tip-frame axes (see `ik` docstring)."""
+        r00, r01, r02, r10, r11, r12, r20, r21, r22, cx, cy, cz = t
+        if self.coupled:  # body Jacobian: reference point = tip origin
+            qx, qy, qz = cx, cy, cz
+        else:  # body Jacobian of the target point rigidly attached to the tip
+            qx, qy, qz = self.target[9], self.target[10], self.target[11]
+        cols = []
+        for (zx, zy, zz, ox, oy, oz), prism in zip(axes, self.prismatic, strict=True):
+            if prism:
+                wx = wy = wz = 0.0
+                vx, vy, vz = zx, zy, zz
+            else:
+                wx, wy, wz = zx, zy, zz
+                dx, dy, dz = qx - ox, qy - oy, qz - oz
+                vx, vy, vz = zy * dz - zz * dy, zz * dx - zx * dz, zx * dy - zy * dx
+            # rotate into tip axes: Rᵀ x
+            vb = (
+                r00 * vx + r10 * vy + r20 * vz,
+                r01 * vx + r11 * vy + r21 * vz,
+                r02 * vx + r12 * vy + r22 * vz,
+            )
+            if self.position_only:
+                cols.append(vb)
+            else:
+                cols.append(
+                    (
+                        r00 * wx + r10 * wy + r20 * wz,
+                        r01 * wx + r11 * wy + r21 * wz,
+                        r02 * wx + r12 * wy + r22 * wz,
+                    )
+                    + vb
+                )
+        J = np.array(cols).T
+        if self.G is not None:  # internal joints → actuated variables (mimic joints)
+            J = J @ self.G
+        return J * self.sw[:, None]
+
+    # ------------------------------------------------------------------ one attempt
+    def attempt(self, q: list[float], deadline: float) -> tuple[bool, list[float], float, float]:
+        """LM from q until converged, stuck, out of iterations or past the deadline."""
+        E, e, pos, ori, t, axes = self.evaluate(q)
+        self._offer(E, q, pos, ori)
+        if pos <= self.tol_p and ori <= self.tol_o:
+            return True, q, pos, ori
+        J = self.jacobian(t, axes)
+        lam = LAMBDA_INIT
+        nu = 2.0
+        stall = 0
+        sw = self.sw
+        lower, upper = self.lower, self.upper
+        m = J.shape[0]
+        eye = np.eye(m)
+        perf = time.perf_counter
+        for _ in range(self.opts.max_iterations):
+            if perf() > deadline:
+                break
+            self.iterations += 1
+            r = sw * np.array(e)
+            step = _lm_step(J, r, lam, eye)
+            if step is not None:
+                # Joints at a limit that the step pushes outwards are frozen (their columns
+                # removed) and the step is recomputed, so the other joints compensate.
+                dq_l = step[0].tolist()
+                blocked = [
+                    i
+                    for i, (a, d) in enumerate(zip(q, dq_l, strict=True))
+                    if (d < 0.0 and a <= lower[i]) or (d > 0.0 and a >= upper[i])
+                ]
+                if blocked:
+                    Jf = J.copy()
+                    Jf[:, blocked] = 0.0
+                    step = _lm_step(Jf, r, lam, eye)
+            if step is not None:
+                dq_arr, predicted = step
+                big = float(np.abs(dq_arr).max())
+                if big > MAX_STEP:
+                    dq_arr = dq_arr * (MAX_STEP / big)
+                    predicted *= MAX_STEP / big
+                q_try = [
+                    min(max(a + d, lo), hi)
+                    for a, d, lo, hi in zip(q, dq_arr.tolist(), lower, upper, strict=True)
+                ]
+                E_try, e_try, pos_t, ori_t, t_try, axes_try = self.evaluate(q_try)
+                if E_try < E:  # False for NaN: a non-finite trial is rejected
+                    rho = (E - E_try) / predicted if predicted > 0.0 else 0.0
+                    stall = stall + 1 if E - E_try < STALL_FRACTION * E else 0
+                    q, E, e, pos, ori = q_try, E_try, e_try, pos_t, ori_t
+                    self._offer(E, q, pos, ori)
+                    if pos <= self.tol_p and ori <= self.tol_o:
+                        return True, q, pos, ori
+                    if stall >= STALL_STEPS:
+                        break
+                    J = self.jacobian(t_try, axes_try)
+                    # Nielsen's update (Madsen, Nielsen & Tingleff, "Methods for non-linear least
+                    # squares problems", 2004, §3.2)
+                    lam = max(lam * max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3), LAMBDA_MIN)
+                    nu = 2.0
+                    continue
+            lam *= nu
+            nu *= 2.0
+            if lam > LAMBDA_MAX:
+                break
+        return False, q, pos, ori
+
+    def _offer(self, E: float, q: list[float], pos: float, ori: float) -> None:
+        if self.best is None or E < self.best[0]:
+            self.best = (E, q, pos, ori)
+
+    def _distance(self, q: list[float]) -> float:
+        return math.sqrt(
+            sum(w * (a - s) ** 2 for a, s, w in zip(q, self.seed, self.joint_weights, strict=True))
+        )
+
+    def _same(self, a: list[float], b: list[float]) -> bool:
+        sep = self.opts.solution_separation
+        for x, y, c in zip(a, b, self.continuous, strict=True):
+            d = abs(x - y)
+            if c:
+                d %= TWO_PI
+                d = min(d, TWO_PI - d)
+            if d > sep:
+                return False
+        return True
+
+    # ------------------------------------------------------------------ restarts
+    def run(self, deadline: float) -> SingleOutcome:
+        opts = self.opts
+        found: list[tuple[float, list[float], float, float]] = []  # (distance, q, pos, ori)
+        want = opts.num_solutions
+        distance_mode = opts.mode == "distance"
+        q0 = list(self.seed)
+        restarts = 0
+        reason = ""
+        while True:
+            ok, q, pos, ori = self.attempt(q0, deadline)
+            if ok:
+                q = wrap_to(q, self.seed, self.continuous)
+                d = self._distance(q)
+                for i, (d_old, q_old, _, _) in enumerate(found):
+                    if self._same(q, q_old):
+                        if d < d_old:
+                            found[i] = (d, q, pos, ori)
+                        break
+                else:
+                    found.append((d, q, pos, ori))
+                if not distance_mode and len(found) >= want:
+                    reason = "done"
+                    break
+            if time.perf_counter() > deadline:
+                reason = f"timeout after {opts.timeout * 1e3:.1f} ms"
+                break
+            if restarts >= opts.max_restarts:
+                reason = f"max_restarts={opts.max_restarts} reached"
+                break
+            restarts += 1
+            q0 = self.rng.uniform(self.sample_lo, self.sample_hi).tolist()
+
+        if found:
+            found.sort(key=lambda s: s[0])
+            found = found[:want]
+            _, q, pos, ori = found[0]
+            return SingleOutcome(
+                q=np.array(q),
+                success=True,
+                position_error=pos,
+                orientation_error=ori,
+                iterations=self.iterations,
+                restarts=restarts,
+                solutions=[np.array(s[1]) for s in found],
+                stop_reason=reason,
+            )
+        assert self.best is not None  # the first attempt always evaluates the seed
+        _, q, pos, ori = self.best
+        return SingleOutcome(
+            q=np.array(wrap_to(q, self.seed, self.continuous)),
+            success=False,
+            position_error=pos,
+            orientation_error=ori,
+            iterations=self.iterations,
+            restarts=restarts,
+            stop_reason=reason,
+        )

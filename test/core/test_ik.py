@@ -1,0 +1,461 @@
+"""Inverse kinematics: FK∘IK = identity on real arms (checked with Pinocchio's FK), limits, options,
+refusals, deadlines, determinism, threads, batch, and the scalar SE(3) log against `se3.log`."""
+
+from __future__ import annotations
+
+import math
+import sysconfig
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kinematics_node.core import IKOptions, InvalidInputError, SerialChain, se3, so3
+from kinematics_node.core._pose_error import relative_pose, se3_log, so3_log
+
+ERD = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
+ARMS = {
+    "ur5": ("ur_description/urdf/ur5_robot.urdf", "tool0"),
+    "panda": ("panda_description/urdf/panda.urdf", "panda_hand"),
+    "xarm7": ("xarm_description/urdf/xarm7.urdf", "link_eef"),
+}
+POS_TOL, ORI_TOL = 1e-5, 1e-4
+
+
+def _path(name: str) -> Path:
+    path = ERD / ARMS[name][0]
+    if not path.exists():
+        pytest.skip(f"example-robot-data not installed ({path} missing)")
+    return path
+
+
+_CHAINS: dict[str, SerialChain] = {}
+
+
+def arm(name: str) -> SerialChain:
+    if name not in _CHAINS:
+        _CHAINS[name] = SerialChain.from_urdf(_path(name), tip_link=ARMS[name][1])
+    return _CHAINS[name]
+
+
+class PinFK:
+    """Forward kinematics by Pinocchio (an oracle nobody here wrote), by joint name."""
+
+    def __init__(self, name: str) -> None:
+        pin = pytest.importorskip("pinocchio")
+        self.pin = pin
+        self.model = pin.buildModelFromUrdf(str(_path(name)))
+        self.data = self.model.createData()
+        self.frame = self.model.getFrameId(ARMS[name][1])
+        chain = arm(name)
+        self.idx = [self.model.joints[self.model.getJointId(j)].idx_q for j in chain.joint_names]
+
+    def __call__(self, q: np.ndarray) -> np.ndarray:
+        qp = self.pin.neutral(self.model)
+        qp[self.idx] = q
+        self.pin.framesForwardKinematics(self.model, self.data, qp)
+        return self.data.oMf[self.frame].homogeneous
+
+
+def pose_errors(T_a: np.ndarray, T_b: np.ndarray) -> tuple[float, float]:
+    """(‖p_a − p_b‖ [m], rotation angle of R_aᵀR_b [rad])."""
+    angle = float(np.linalg.norm(so3.log(T_a[:3, :3].T @ T_b[:3, :3])))
+    return float(np.linalg.norm(T_a[:3, 3] - T_b[:3, 3])), angle
+
+
+def random_targets(chain: SerialChain, n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    lo = np.where(np.isfinite(chain.lower), chain.lower, -np.pi)
+    hi = np.where(np.isfinite(chain.upper), chain.upper, np.pi)
+    Q = rng.uniform(lo, hi, (n, chain.dof))
+    return Q, chain.fk(Q)
+
+
+def within_limits(chain: SerialChain, q: np.ndarray) -> bool:
+    return bool(np.all(q >= chain.lower) and np.all(q <= chain.upper))
+
+
+# ---------------------------------------------------------------------- FK(IK(T)) = T
+@pytest.mark.parametrize("name", list(ARMS))
+def test_fk_of_ik_equals_target_on_real_arms(name: str) -> None:
+    chain, fk_pin = arm(name), PinFK(name)
+    _, T = random_targets(chain, 12, seed=11)
+    opts = IKOptions(timeout=0.5, rng_seed=3)
+    for T_target in T:
+        res = chain.ik(T_target, options=opts)
+        assert res.success, res.message
+        assert within_limits(chain, res.q)
+        p_err, o_err = pose_errors(fk_pin(res.q), T_target)
+        assert p_err <= POS_TOL and o_err <= ORI_TOL
+        # the reported residual is the true one
+        assert res.position_error == pytest.approx(p_err, abs=1e-9)
+        assert res.orientation_error == pytest.approx(o_err, abs=1e-9)
+        assert not res.q.flags.writeable
+        assert res.solutions and np.array_equal(res.solutions[0], res.q)
+
+
+def test_seed_outside_limits_is_clamped_and_result_within_limits() -> None:
+    chain = arm("panda")
+    _, T = random_targets(chain, 3, seed=5)
+    seed = chain.upper + 1.0  # every joint beyond its upper limit
+    for T_target in T:
+        res = chain.ik(T_target, seed, IKOptions(timeout=0.5, rng_seed=0))
+        assert res.success and within_limits(chain, res.q)
+
+
+def test_default_seed_is_the_middle_of_the_limits() -> None:
+    chain = arm("panda")
+    mid = 0.5 * (chain.lower + chain.upper)
+    T = chain.fk(mid)
+    res = chain.ik(T, options=IKOptions(max_restarts=0))
+    assert res.success and res.iterations == 0  # already solved at the default seed
+    np.testing.assert_allclose(res.q, mid)
+
+
+# ---------------------------------------------------------------------- continuous joints
+def _continuous_ur5() -> SerialChain:
+    xml = _path("ur5").read_text()
+    for j in ("shoulder_pan_joint", "wrist_3_joint"):
+        old = f'name="{j}" type="revolute"'
+        assert xml.count(old) == 1  # the fixture is what we think it is
+        xml = xml.replace(old, f'name="{j}" type="continuous"')
+    return SerialChain.from_urdf(xml, tip_link="tool0")
+
+
+def test_continuous_joints_are_wrapped_towards_the_seed() -> None:
+    chain = _continuous_ur5()
+    cont = chain.continuous
+    assert cont.tolist() == [True, False, False, False, False, True]
+    _, T = random_targets(chain, 6, seed=21)
+    for k, T_target in enumerate(T):
+        seed = np.zeros(chain.dof)
+        seed[cont] = (10.0, -7.0) if k % 2 else (25.0, 4.0)  # far outside [-π, π]
+        res = chain.ik(T_target, seed, IKOptions(timeout=0.5, rng_seed=k))
+        assert res.success, res.message
+        assert np.all(np.abs(res.q[cont] - seed[cont]) <= np.pi + 1e-12)
+        p_err, o_err = pose_errors(chain.fk(res.q), T_target)
+        assert p_err <= POS_TOL and o_err <= ORI_TOL
+
+
+# ---------------------------------------------------------------------- options
+def test_position_only_reaches_position_and_ignores_orientation() -> None:
+    chain, fk_pin = arm("xarm7"), PinFK("xarm7")
+    _, T = random_targets(chain, 6, seed=8)
+    rng = np.random.default_rng(0)
+    for T_target in T:
+        T_bad = T_target.copy()
+        T_bad[:3, :3] = so3.exp(rng.normal(size=3))  # an orientation we do not ask for
+        res = chain.ik(T_bad, options=IKOptions(position_only=True, timeout=0.5, rng_seed=1))
+        assert res.success and res.orientation_error == 0.0
+        p_err, _ = pose_errors(fk_pin(res.q), T_bad)
+        assert p_err <= POS_TOL
+    # the same targets with orientation required are generally not met by these answers
+    res_full = chain.ik(T_bad, options=IKOptions(timeout=0.02, rng_seed=1))
+    assert res_full.success or res_full.orientation_error > ORI_TOL
+
+
+def test_zero_position_weights_solve_orientation_only() -> None:
+    chain = arm("panda")
+    _, T = random_targets(chain, 4, seed=9)
+    for T_target in T:
+        far = T_target.copy()
+        far[:3, 3] += (10.0, 0.0, 0.0)  # unreachable position
+        res = chain.ik(far, options=IKOptions(weights=(1, 1, 1, 0, 0, 0), timeout=0.5, rng_seed=2))
+        assert res.success and res.position_error == 0.0
+        _, o_err = pose_errors(chain.fk(res.q), far)
+        assert o_err <= ORI_TOL
+
+
+def test_zero_weight_frees_rotation_about_the_tool_axis() -> None:
+    chain = arm("ur5")
+    Q, T = random_targets(chain, 4, seed=10)
+    for T_target in T:
+        spun = T_target @ se3.exp(np.array([0.0, 0.0, 1.3, 0.0, 0.0, 0.0]))  # Rz(1.3) in the tip
+        opts = IKOptions(weights=(1, 1, 0, 1, 1, 1), timeout=0.5, rng_seed=4)
+        res = chain.ik(spun, options=opts)
+        assert res.success, res.message
+        T_got = chain.fk(res.q)
+        assert np.linalg.norm(T_got[:3, 3] - spun[:3, 3]) <= POS_TOL
+        # the tool z axis matches; the spin about it is free
+        angle_z = math.acos(min(1.0, float(T_got[:3, 2] @ spun[:3, 2])))
+        assert angle_z <= 2 * ORI_TOL
+
+
+def test_distance_mode_returns_the_closest_solution_found() -> None:
+    chain = arm("ur5")
+    _, T = random_targets(chain, 3, seed=12)
+    seed = np.array([0.3, -1.0, 1.0, -1.5, -1.5, 0.2])
+    for T_target in T:
+        common = dict(timeout=2.0, rng_seed=5, max_restarts=25)
+        fast = chain.ik(T_target, seed, IKOptions(mode="speed", **common))
+        near = chain.ik(T_target, seed, IKOptions(mode="distance", num_solutions=50, **common))
+        assert fast.success and near.success
+        d = [float(np.linalg.norm(s - seed)) for s in near.solutions]
+        assert d == sorted(d) and len(d) >= 2
+        assert np.array_equal(near.q, near.solutions[0])
+        assert np.linalg.norm(near.q - seed) <= np.linalg.norm(fast.q - seed) + 1e-12
+        for s in near.solutions:
+            p_err, o_err = pose_errors(chain.fk(s), T_target)
+            assert p_err <= POS_TOL and o_err <= ORI_TOL and within_limits(chain, s)
+
+
+def test_num_solutions_are_distinct_and_valid() -> None:
+    chain, fk_pin = arm("ur5"), PinFK("ur5")
+    _, T = random_targets(chain, 2, seed=13)
+    for T_target in T:
+        res = chain.ik(T_target, options=IKOptions(num_solutions=4, timeout=2.0, rng_seed=6))
+        assert res.success and len(res.solutions) == 4, res.message
+        for i, a in enumerate(res.solutions):
+            p_err, o_err = pose_errors(fk_pin(a), T_target)
+            assert p_err <= POS_TOL and o_err <= ORI_TOL and within_limits(chain, a)
+            for b in res.solutions[i + 1 :]:
+                assert np.max(np.abs(a - b)) > 1e-2
+        seed = 0.5 * (chain.lower + chain.upper)
+        d = [np.linalg.norm(s - seed) for s in res.solutions]
+        assert d == sorted(d)
+
+
+# ---------------------------------------------------------------------- failures and refusals
+def test_unreachable_target_fails_cleanly_within_the_timeout() -> None:
+    chain = arm("panda")
+    T = chain.fk(np.zeros(7))
+    T[:3, 3] += (10.0, 0.0, 0.0)
+    t0 = time.perf_counter()
+    res = chain.ik(T, options=IKOptions(timeout=0.02, rng_seed=0))
+    elapsed = time.perf_counter() - t0
+    assert not res.success and elapsed < 0.02 + 0.05
+    assert np.all(np.isfinite(res.q)) and within_limits(chain, res.q)
+    p_err, o_err = pose_errors(chain.fk(res.q), T)
+    assert res.position_error == pytest.approx(p_err, rel=1e-9)
+    assert res.orientation_error == pytest.approx(o_err, abs=1e-9)
+    assert 8.0 < p_err < 10.0  # Panda reaches about 1 m; the best residual is what is left
+    assert "timeout" in res.message and "best residual" in res.message and res.solutions == ()
+
+
+def test_tiny_timeout_is_honoured() -> None:
+    chain = arm("xarm7")
+    T = chain.fk(np.zeros(7))
+    T[:3, 3] += (3.0, 0.0, 0.0)
+    for timeout in (0.002, 0.005):
+        t0 = time.perf_counter()
+        res = chain.ik(T, options=IKOptions(timeout=timeout))
+        assert time.perf_counter() - t0 < timeout + 0.005
+        assert not res.success
+    t0 = time.perf_counter()
+    res_b = chain.ik_batch(np.repeat(T[None], 50, 0), options=IKOptions(batch_timeout=0.01))
+    assert time.perf_counter() - t0 < 0.01 + 0.05 and not res_b.success.any()
+
+
+def test_max_restarts_ends_the_search() -> None:
+    chain = arm("ur5")
+    T = chain.fk(np.zeros(6))
+    T[:3, 3] += (5.0, 0.0, 0.0)
+    res = chain.ik(T, options=IKOptions(max_restarts=3, timeout=10.0))
+    assert not res.success and res.restarts == 3 and "max_restarts" in res.message
+
+
+@pytest.mark.parametrize(
+    ("T_bad", "match"),
+    [
+        (np.full((4, 4), np.nan), "non-finite"),
+        (np.diag([2.0, 1.0, 1.0, 1.0]), "rotation"),  # scaled, not rigid
+        (np.diag([-1.0, 1.0, 1.0, 1.0]), "rotation"),  # reflection
+        (np.eye(3), "shape"),
+        (np.vstack((np.eye(4)[:3], [[0.0, 0.0, 1.0, 1.0]])), "last row"),
+    ],
+)
+def test_bad_targets_are_refused(T_bad: np.ndarray, match: str) -> None:
+    chain = arm("ur5")
+    with pytest.raises(InvalidInputError, match=match):
+        chain.ik(T_bad)
+    with pytest.raises(InvalidInputError):
+        chain.ik_batch(np.broadcast_to(T_bad, (2,) + T_bad.shape))
+
+
+def test_bad_seeds_are_refused() -> None:
+    chain = arm("ur5")
+    T = chain.fk(np.zeros(6))
+    with pytest.raises(InvalidInputError, match="6 values"):
+        chain.ik(T, np.zeros(5))
+    with pytest.raises(InvalidInputError, match="non-finite"):
+        chain.ik(T, [0.0, np.nan, 0, 0, 0, 0])
+    with pytest.raises(InvalidInputError, match="shape"):
+        chain.ik_batch(np.stack((T, T)), np.zeros((3, 6)))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"position_tolerance": -1e-5}, "position_tolerance"),
+        ({"orientation_tolerance": 0.0}, "orientation_tolerance"),
+        ({"timeout": 0.0}, "timeout"),
+        ({"timeout": -1.0}, "timeout"),
+        ({"timeout": float("nan")}, "timeout"),
+        ({"mode": "fastest"}, "mode"),
+        ({"weights": (1.0, 1.0, 1.0)}, "6 values"),
+        ({"weights": (1, 1, 1, 1, 1, -1)}, "≥ 0"),
+        ({"weights": (1, 1, 1, 0, 0, 0), "position_only": True}, "positive"),
+        ({"num_solutions": 0}, "num_solutions"),
+        ({"max_restarts": -1}, "max_restarts"),
+        ({"max_iterations": 0}, "max_iterations"),
+        ({"max_restarts": 2.5}, "max_restarts"),
+        ({"rng_seed": "abc"}, "rng_seed"),
+        ({"position_only": "yes"}, "position_only"),
+        ({"batch_timeout": 0.0}, "batch_timeout"),
+        ({"solution_separation": 0.0}, "solution_separation"),
+    ],
+)
+def test_ik_options_validation(kwargs: dict, match: str) -> None:
+    with pytest.raises(InvalidInputError, match=match):
+        IKOptions(**kwargs)
+
+
+def test_options_that_do_not_fit_the_chain_or_call_are_refused() -> None:
+    chain = arm("ur5")
+    T = chain.fk(np.zeros(6))
+    with pytest.raises(InvalidInputError, match="joint_weights"):
+        chain.ik(T, options=IKOptions(joint_weights=(1.0, 1.0)))
+    with pytest.raises(InvalidInputError, match="speed"):
+        chain.ik_batch(T[None], options=IKOptions(mode="distance"))
+    with pytest.raises(InvalidInputError, match="IKOptions"):
+        chain.ik(T, options={"timeout": 1.0})  # type: ignore[arg-type]
+
+
+# ---------------------------------------------------------------------- determinism and threads
+def _hard_targets(chain: SerialChain, n: int) -> np.ndarray:
+    """Targets that usually need restarts from a seed at the limits."""
+    return random_targets(chain, n, seed=31)[1]
+
+
+def test_equal_rng_seed_gives_equal_results() -> None:
+    chain = arm("panda")
+    seed = chain.lower + 0.01
+    runs = [
+        [chain.ik(T, seed, IKOptions(timeout=5.0, rng_seed=42)) for T in _hard_targets(chain, 6)]
+        for _ in range(2)
+    ]
+    assert sum(r.restarts for r in runs[0]) > 0  # the random restarts were exercised
+    for a, b in zip(*runs, strict=True):
+        assert np.array_equal(a.q, b.q) and a.iterations == b.iterations
+    other = [chain.ik(T, seed, IKOptions(timeout=5.0, rng_seed=7)) for T in _hard_targets(chain, 6)]
+    assert any(not np.array_equal(a.q, b.q) for a, b in zip(runs[0], other, strict=True))
+
+
+def test_concurrent_threads_match_single_thread_results() -> None:
+    chain = arm("panda")
+    seed = chain.lower + 0.01
+    targets = _hard_targets(chain, 8)
+    jobs = [(T, IKOptions(timeout=10.0, rng_seed=100 + k)) for k, T in enumerate(targets)]
+    expected = [chain.ik(T, seed, o) for T, o in jobs]
+    barrier = threading.Barrier(4)
+
+    def work(offset: int) -> list:
+        barrier.wait()
+        order = jobs[offset:] + jobs[:offset]  # threads interleave different targets
+        got = [chain.ik(T, seed, o) for T, o in order]
+        return got[-offset:] + got[:-offset] if offset else got
+
+    with ThreadPoolExecutor(4) as pool:
+        results = list(pool.map(work, range(4)))
+    for got in results:
+        for a, b in zip(got, expected, strict=True):
+            assert np.array_equal(a.q, b.q) and a.success == b.success
+
+
+# ---------------------------------------------------------------------- batch
+@pytest.mark.parametrize("name", ["ur5", "panda"])
+def test_batch_agrees_with_single_calls(name: str) -> None:
+    chain, fk_pin = arm(name), PinFK(name)
+    N = 40
+    _, T = random_targets(chain, N, seed=17)
+    res = chain.ik_batch(T, options=IKOptions(timeout=0.05, rng_seed=0))
+    assert res.q.shape == (N, chain.dof)
+    for field in ("success", "position_error", "orientation_error", "iterations", "restarts"):
+        assert getattr(res, field).shape == (N,)
+        assert not getattr(res, field).flags.writeable
+    assert res.success.all(), res.message
+    single = [chain.ik(T[k], options=IKOptions(timeout=0.05, rng_seed=0)) for k in range(N)]
+    assert all(s.success for s in single)
+    for k in range(N):
+        p_err, o_err = pose_errors(fk_pin(res.q[k]), T[k])
+        assert p_err <= POS_TOL and o_err <= ORI_TOL and within_limits(chain, res.q[k])
+        assert res.position_error[k] == pytest.approx(p_err, abs=1e-9)
+
+
+def test_batch_failure_reports_best_configuration_and_custom_seeds() -> None:
+    chain = arm("ur5")
+    Q, T = random_targets(chain, 6, seed=18)
+    T[0, :3, 3] += (10.0, 0.0, 0.0)  # one unreachable target
+    res = chain.ik_batch(T, Q + 0.05, IKOptions(batch_timeout=0.3, rng_seed=1))
+    assert not res.success[0] and res.success[1:].all()
+    assert np.all(np.isfinite(res.q)) and res.position_error[0] > 8.0
+    p_err, _ = pose_errors(chain.fk(res.q[0]), T[0])
+    assert res.position_error[0] == pytest.approx(p_err, rel=1e-9)
+    assert "5/6" in res.message
+
+
+def test_batch_position_only_and_continuous() -> None:
+    chain = _continuous_ur5()
+    _, T = random_targets(chain, 10, seed=19)
+    seeds = np.zeros((10, 6))
+    seeds[:, 0] = 20.0
+    res = chain.ik_batch(T, seeds, IKOptions(position_only=True, rng_seed=3))
+    assert res.success.all() and np.all(res.orientation_error == 0.0)
+    assert np.all(np.abs(res.q[:, 0] - 20.0) <= np.pi + 1e-12)
+    np.testing.assert_allclose(chain.fk(res.q)[:, :3, 3], T[:, :3, 3], atol=POS_TOL)
+
+
+# ---------------------------------------------------------------------- scalar log fast path
+def _pose12(T: np.ndarray) -> tuple[float, ...]:
+    return tuple(T[:3, :3].ravel().tolist()) + tuple(T[:3, 3].tolist())
+
+
+@pytest.mark.parametrize(
+    "theta", [0.0, 1e-12, 1e-9, 1e-6, 1e-3, 9.99e-3, 1e-2, 0.5, 2.0, np.pi - 1e-3, np.pi - 1e-7]
+)
+def test_scalar_log_matches_se3_log(theta: float) -> None:
+    rng = np.random.default_rng(int(theta * 1e6) % 1000)
+    for _ in range(20):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        xi = np.r_[axis * theta, rng.normal(size=3)]
+        T = se3.exp(xi)
+        got = np.array(se3_log(_pose12(T)))
+        np.testing.assert_allclose(got[:6], se3.log(T), rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(got[:6], xi, rtol=1e-6, atol=1e-9)
+        assert got[6] == pytest.approx(np.linalg.norm(so3.log(T[:3, :3])), abs=1e-12)
+        phi = np.array(so3_log(_pose12(T))[:3])
+        np.testing.assert_allclose(phi, so3.log(T[:3, :3]), rtol=1e-9, atol=1e-12)
+
+
+def test_scalar_log_at_exactly_pi_round_trips() -> None:
+    for axis in (np.array([1.0, 0, 0]), np.array([0, 1.0, 0]), np.array([1.0, 2.0, -2.0]) / 3):
+        T = se3.exp(np.r_[axis * np.pi, 0.3, -0.2, 0.5])
+        got = np.array(se3_log(_pose12(T)))
+        assert got[6] == pytest.approx(np.pi, abs=1e-7)
+        np.testing.assert_allclose(se3.exp(got[:6]), T, atol=1e-9)  # axis sign is free at π
+
+
+def test_relative_pose_is_inverse_times_target() -> None:
+    rng = np.random.default_rng(3)
+    A, B = se3.exp(rng.normal(size=6)), se3.exp(rng.normal(size=6))
+    want = se3.inverse(A) @ B
+    np.testing.assert_allclose(relative_pose(_pose12(A), _pose12(B)), _pose12(want), atol=1e-14)
+
+
+def test_wrap_to_moves_continuous_values_within_pi_of_the_reference() -> None:
+    from kinematics_node.core._ik_single import wrap_to
+
+    rng = np.random.default_rng(4)
+    for _ in range(200):
+        ref = rng.uniform(-30, 30, 3).tolist()
+        q = rng.uniform(-50, 50, 3).tolist()
+        got = wrap_to(q, ref, [True, False, True])
+        assert got[1] == q[1]  # limited joints untouched
+        for i in (0, 2):
+            assert -math.pi <= got[i] - ref[i] < math.pi
+            k = (got[i] - q[i]) / (2 * math.pi)
+            assert abs(k - round(k)) < 1e-9  # moved by whole turns only
