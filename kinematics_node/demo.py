@@ -89,7 +89,10 @@ def run_demo(robot: str, duration: float, rate: float, n_ik: int, stream: TextIO
     q_arr = np.array(q_log)
     ik_rows = []
     options = IKOptions(timeout=0.05, rng_seed=0)
-    seed = np.where(np.isfinite(chain.lower + chain.upper), 0.5 * (chain.lower + chain.upper), 0.0)
+    limited = np.isfinite(chain.lower) & np.isfinite(chain.upper)
+    seed = np.where(
+        limited, 0.5 * (np.where(limited, chain.lower, 0) + np.where(limited, chain.upper, 0)), 0.0
+    )
     for k in np.linspace(0, steps - 1, n_ik).astype(int):
         target = chain.fk(q_arr[k])
         t0 = time.perf_counter()
@@ -159,7 +162,8 @@ def plot(run: DemoRun, out: Path, robot: str) -> None:
     plt.close(fig)
 
 
-def main(robot: str, out: str, duration: float, rate: float, stream: TextIO = sys.stdout) -> int:
+def main(robot: str, out: str, duration: float, rate: float, stream: TextIO | None = None) -> int:
+    stream = sys.stdout if stream is None else stream
     run = run_demo(robot, duration, rate, n_ik=5, stream=sys.stderr)
     print(summary(run, robot), file=stream)
     try:

@@ -237,8 +237,13 @@ def test_unknown_joint_names_are_refused_with_the_valid_names():
     ],
 )
 def test_bad_construction_is_refused(kwargs, match):
-    args = {"joint_names": ["a", "b"], "lower": [-1.0, -1.0], "upper": [1.0, 1.0],
-            "velocity_limit": [1.0, 1.0], "dt": 0.01}
+    args = {
+        "joint_names": ["a", "b"],
+        "lower": [-1.0, -1.0],
+        "upper": [1.0, 1.0],
+        "velocity_limit": [1.0, 1.0],
+        "dt": 0.01,
+    }
     args.update(kwargs)
     with pytest.raises(InvalidInputError, match=match):
         ArmSimulator(**args)

@@ -136,9 +136,7 @@ class _Lanes:
 
     @staticmethod
     def concat(a: _Lanes, b: _Lanes) -> _Lanes:
-        return _Lanes(
-            *(np.concatenate((getattr(a, f), getattr(b, f))) for f in _LANE_FIELDS)
-        )
+        return _Lanes(*(np.concatenate((getattr(a, f), getattr(b, f))) for f in _LANE_FIELDS))
 
 
 _LANE_FIELDS = ("tgt", "Q", "E", "e", "pos", "ori", "J", "lam", "nu", "stall", "it")
