@@ -428,7 +428,17 @@ class SerialChain:
     def ik(
         self, T_target: ArrayLike, q_seed: ArrayLike | None = None, options: IKOptions | None = None
     ) -> IKResult:
-        """Joint values reaching `T_target` (4×4, tip in base); see `kinematics_node.core.ik`."""
+        """Joint values q with T_base_tip(q) = T_target (4×4, tip pose in the base frame).
+
+        Levenberg–Marquardt on the body error twist log(T(q)⁻¹ T_target) with the body Jacobian,
+        joint limits enforced every step, random restarts until success or `options.timeout`
+        (default 50 ms); see `kinematics_node.core.ik` for the algorithm and `IKOptions`.
+        `q_seed` defaults to the middle of the limits; a seed outside the limits is clamped.
+        On failure `IKResult.success` is False and `q` is the best configuration found.
+
+        Raises:
+            InvalidInputError: T_target not a finite rigid transform, bad seed or options.
+        """
         from .ik import solve
 
         return solve(self, T_target, q_seed, options)
@@ -439,7 +449,12 @@ class SerialChain:
         q_seeds: ArrayLike | None = None,
         options: IKOptions | None = None,
     ) -> IKBatchResult:
-        """Vectorised IK for (N, 4, 4) targets and optional (N, n) seeds; see `core.ik`."""
+        """Vectorised IK for (N, 4, 4) targets and optional (N, n) seeds → `IKBatchResult`.
+
+        Same algorithm as `ik`, run in lock-step over the targets with batched NumPy kernels.
+        Time budget for the whole call: `options.batch_timeout` if set, else `options.timeout` × N.
+        Only mode "speed" with num_solutions = 1; see `kinematics_node.core.ik.solve_batch`.
+        """
         from .ik import solve_batch
 
         return solve_batch(self, T_targets, q_seeds, options)
