@@ -21,7 +21,8 @@ test: $(BIN)/python            ## install what the tests need and run the whole 
 
 bench: $(BIN)/python           ## side-by-side speed comparison with installed peers
 	$(BIN)/pip install --quiet -e '.[bench]'
-	$(BIN)/python benchmarks/run.py
+	$(BIN)/python -W ignore benchmarks/fk_benchmark.py
+	$(BIN)/python -W ignore benchmarks/ik_benchmark.py --targets 2000
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache

@@ -38,7 +38,15 @@ setup(
             "matplotlib>=3.5",
             "pyyaml>=5",  # reads config/kinematics.yaml in the package-file tests
         ],
-        "bench": ["pin>=2.7", "example-robot-data>=4", "modern-robotics>=1.1", "ikpy>=3.3"],
+        # Peers for the side-by-side benchmarks; KDL comes from Debian (apt install python3-pykdl).
+        "bench": [
+            "pin>=2.7",
+            "example-robot-data>=4",
+            "modern-robotics>=1.1",
+            "ikpy>=3.3",
+            "roboticstoolbox-python>=1.1",
+            "pybullet>=3.2",  # only for its KUKA iiwa description
+        ],
         "lint": ["ruff>=0.5", "mypy>=1.10"],
     },
     entry_points={"console_scripts": ["kinematics = kinematics_node.cli:main"]},

@@ -151,7 +151,7 @@ class SingleSolver:
             qx, qy, qz = cx, cy, cz
         else:  # body Jacobian of the target point rigidly attached to the tip
             qx, qy, qz = self.target[9], self.target[10], self.target[11]
-        cols = []
+        cols: list[tuple[float, ...]] = []
         for (zx, zy, zz, ox, oy, oz), prism in zip(axes, self.prismatic, strict=True):
             if prism:
                 wx = wy = wz = 0.0

@@ -183,7 +183,7 @@ def _weights_tuple(values: object, name: str) -> tuple[float, ...]:
 
 
 def _readonly(a: ArrayLike, dtype: type = np.float64) -> NDArray:  # type: ignore[type-arg]
-    arr = np.array(a, dtype=dtype)
+    arr: NDArray = np.array(a, dtype=dtype)  # type: ignore[type-arg]
     arr.setflags(write=False)
     return arr
 
