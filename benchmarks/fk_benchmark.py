@@ -22,6 +22,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from kinematics_node.core import SerialChain  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _pinocchio import chain_model  # noqa: E402
+
 ERD = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
 ARMS = {
     "ur5 (6R)": ("ur_description/urdf/ur5_robot.urdf", "tool0"),
@@ -52,10 +55,7 @@ def bench_pinocchio(
         import pinocchio as pin
     except ImportError:
         return "not installed (pip install pin)"
-    full = pin.buildModelFromUrdf(str(path))
-    # Lock joints off the chain (e.g. gripper fingers) so Pinocchio computes exactly this chain.
-    locked = [full.getJointId(n) for n in full.names[1:] if n not in chain.joint_names]
-    model = pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full
+    model = chain_model(pin, path, chain.joint_names)
     data = model.createData()
     fid = model.getFrameId(chain.tip_link)
     idx = [model.joints[model.getJointId(n)].idx_q for n in chain.joint_names]

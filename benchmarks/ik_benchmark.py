@@ -43,6 +43,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from kinematics_node.core import IKOptions, SerialChain, so3  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _pinocchio import chain_model  # noqa: E402
+
 ERD = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
 TOL = 1e-5
 BUDGET = 0.005
@@ -166,9 +169,7 @@ def peer_pinocchio(path: Path, chain: SerialChain) -> Callable[[np.ndarray], np.
         import pinocchio as pin
     except ImportError:
         return "pinocchio not installed (pip install pin)"
-    full = pin.buildModelFromUrdf(str(path))
-    locked = [full.getJointId(nm) for nm in full.names[1:] if nm not in chain.joint_names]
-    model = pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full
+    model = chain_model(pin, path, chain.joint_names)
     data = model.createData()
     fid = model.getFrameId(chain.tip_link)
     idx = [model.joints[model.getJointId(j)].idx_q for j in chain.joint_names]

@@ -4,7 +4,6 @@ refusals, deadlines, determinism, threads, batch, and the scalar SE(3) log again
 from __future__ import annotations
 
 import math
-import sysconfig
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -12,11 +11,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from kin_testing import erd_path
 
 from kinematics_node.core import IKOptions, InvalidInputError, SerialChain, se3, so3
 from kinematics_node.core._pose_error import relative_pose, se3_log, so3_log
 
-ERD = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
 ARMS = {
     "ur5": ("ur_description/urdf/ur5_robot.urdf", "tool0"),
     "panda": ("panda_description/urdf/panda.urdf", "panda_hand"),
@@ -26,10 +25,7 @@ POS_TOL, ORI_TOL = 1e-5, 1e-4
 
 
 def _path(name: str) -> Path:
-    path = ERD / ARMS[name][0]
-    if not path.exists():
-        pytest.skip(f"example-robot-data not installed ({path} missing)")
-    return path
+    return erd_path(ARMS[name][0])
 
 
 _CHAINS: dict[str, SerialChain] = {}
