@@ -31,6 +31,7 @@ from ._ik_single import (
     STALL_FRACTION,
     STALL_STEPS,
 )
+from ._joint_space import into_limits_batch, nearest_equivalent_batch, periodic_mask
 
 if TYPE_CHECKING:
     from .chain import SerialChain
@@ -149,6 +150,7 @@ def solve_batch_arrays(
     N, n = seeds.shape
     prob = _BatchProblem(chain, T, opts)
     lower, upper = np.asarray(chain.lower), np.asarray(chain.upper)
+    periodic = periodic_mask(chain)
     finite = np.isfinite(lower) & np.isfinite(upper)
     lo = np.where(finite, lower, np.maximum(lower, seeds - math.pi))
     hi = np.where(finite, upper, np.minimum(upper, seeds + math.pi))
@@ -219,8 +221,12 @@ def solve_batch_arrays(
             reason = "timeout"
             break
         dq, predicted = _lm_steps(lanes.J, lanes.e * prob.sw, lanes.lam, eye)
-        # active set: freeze joints at a limit that the step pushes outwards, then re-solve
+        # active set: freeze joints at a limit that the step pushes outwards (and that a whole
+        # turn would not bring back inside), then re-solve
         blocked = ((dq < 0.0) & (lanes.Q <= lower)) | ((dq > 0.0) & (lanes.Q >= upper))
+        if blocked.any():
+            turned = into_limits_batch(lanes.Q + dq, lower, upper, periodic)
+            blocked &= (turned <= lower) | (turned >= upper)
         rows = np.flatnonzero(blocked.any(axis=1))
         if rows.size:
             Jf = lanes.J[rows] * (~blocked[rows])[:, None, :]
@@ -230,7 +236,7 @@ def solve_batch_arrays(
         scale = np.where(big > MAX_STEP, MAX_STEP / np.where(big > 0, big, 1.0), 1.0)
         dq *= scale[:, None]
         predicted *= scale
-        Q_try = np.clip(lanes.Q + dq, lower, upper)
+        Q_try = into_limits_batch(lanes.Q + dq, lower, upper, periodic)
         ok_rows = np.all(np.isfinite(Q_try), axis=1)
         Q_try = np.where(ok_rows[:, None], Q_try, lanes.Q)  # non-finite step: stay, reject
         E_t, e_t, pos_t, ori_t, J_t = prob.evaluate(Q_try, lanes.tgt)
@@ -253,11 +259,8 @@ def solve_batch_arrays(
         lanes = lanes.keep(~ended)
 
     q_out = np.where(success[:, None], q_sol, best_Q)
-    # continuous joints: wrap to within π of the seed
-    cont = np.asarray(chain.continuous)
-    if cont.any():
-        d = (q_out[:, cont] - seeds[:, cont] + math.pi) % (2.0 * math.pi) - math.pi
-        q_out[:, cont] = seeds[:, cont] + d
+    # periodic joints: the whole-turn equivalent within limits closest to the seed
+    q_out = nearest_equivalent_batch(q_out, seeds, lower, upper, periodic)
     return BatchOutcome(
         q=q_out,
         success=success,

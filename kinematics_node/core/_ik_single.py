@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from ._joint_space import into_limits, nearest_equivalent, periodic_mask
 from ._pose_error import relative_pose, se3_log, so3_log
 
 if TYPE_CHECKING:
@@ -36,12 +37,6 @@ STALL_FRACTION = 0.05  # an accepted step that lowers the cost by less than 5 % 
 STALL_STEPS = 3  # ... this many times in a row ends the attempt (a local minimum or a limit)
 
 
-def wrap_to(q: list[float], ref: list[float], continuous: list[bool]) -> list[float]:
-    """Continuous joints moved by multiples of 2π to lie in [ref − π, ref + π)."""
-    return [
-        r + ((v - r + math.pi) % TWO_PI) - math.pi if c else v
-        for v, r, c in zip(q, ref, continuous, strict=True)
-    ]
 
 
 def _lm_step(
@@ -89,7 +84,7 @@ class SingleSolver:
         self.seed = [float(x) for x in seed]
         self.lower = [float(x) for x in chain.lower]
         self.upper = [float(x) for x in chain.upper]
-        self.continuous = [bool(c) for c in chain.continuous]
+        self.periodic = [bool(c) for c in periodic_mask(chain)]
         lo, hi = [], []
         for s, a, b in zip(self.seed, self.lower, self.upper, strict=True):
             if math.isfinite(a) and math.isfinite(b):
@@ -194,7 +189,7 @@ class SingleSolver:
         nu = 2.0
         stall = 0
         sw = self.sw
-        lower, upper = self.lower, self.upper
+        lower, upper, periodic = self.lower, self.upper, self.periodic
         m = J.shape[0]
         eye = np.eye(m)
         perf = time.perf_counter
@@ -207,11 +202,13 @@ class SingleSolver:
             if step is not None:
                 # Joints at a limit that the step pushes outwards are frozen (their columns
                 # removed) and the step is recomputed, so the other joints compensate.
+                # A periodic joint is not blocked if a whole turn takes it back inside.
                 dq_l = step[0].tolist()
                 blocked = [
                     i
                     for i, (a, d) in enumerate(zip(q, dq_l, strict=True))
-                    if (d < 0.0 and a <= lower[i]) or (d > 0.0 and a >= upper[i])
+                    if ((d < 0.0 and a <= lower[i]) or (d > 0.0 and a >= upper[i]))
+                    and into_limits(a + d, lower[i], upper[i], periodic[i]) in (lower[i], upper[i])
                 ]
                 if blocked:
                     Jf = J.copy()
@@ -224,8 +221,10 @@ class SingleSolver:
                     dq_arr = dq_arr * (MAX_STEP / big)
                     predicted *= MAX_STEP / big
                 q_try = [
-                    min(max(a + d, lo), hi)
-                    for a, d, lo, hi in zip(q, dq_arr.tolist(), lower, upper, strict=True)
+                    into_limits(a + d, lo, hi, per)
+                    for a, d, lo, hi, per in zip(
+                        q, dq_arr.tolist(), lower, upper, periodic, strict=True
+                    )
                 ]
                 E_try, e_try, pos_t, ori_t, t_try, axes_try = self.evaluate(q_try)
                 if E_try < E:  # False for NaN: a non-finite trial is rejected
@@ -253,6 +252,15 @@ class SingleSolver:
         if self.best is None or E < self.best[0]:
             self.best = (E, q, pos, ori)
 
+    def _nearest_seed(self, q: list[float]) -> list[float]:
+        """Each periodic joint turned by whole turns to the value closest to the seed in limits."""
+        return [
+            nearest_equivalent(v, s, lo, hi, per)
+            for v, s, lo, hi, per in zip(
+                q, self.seed, self.lower, self.upper, self.periodic, strict=True
+            )
+        ]
+
     def _distance(self, q: list[float]) -> float:
         return math.sqrt(
             sum(w * (a - s) ** 2 for a, s, w in zip(q, self.seed, self.joint_weights, strict=True))
@@ -260,7 +268,7 @@ class SingleSolver:
 
     def _same(self, a: list[float], b: list[float]) -> bool:
         sep = self.opts.solution_separation
-        for x, y, c in zip(a, b, self.continuous, strict=True):
+        for x, y, c in zip(a, b, self.periodic, strict=True):
             d = abs(x - y)
             if c:
                 d %= TWO_PI
@@ -281,7 +289,7 @@ class SingleSolver:
         while True:
             ok, q, pos, ori = self.attempt(q0, deadline)
             if ok:
-                q = wrap_to(q, self.seed, self.continuous)
+                q = self._nearest_seed(q)
                 d = self._distance(q)
                 for i, (d_old, q_old, _, _) in enumerate(found):
                     if self._same(q, q_old):
@@ -319,7 +327,7 @@ class SingleSolver:
         assert self.best is not None  # the first attempt always evaluates the seed
         _, q, pos, ori = self.best
         return SingleOutcome(
-            q=np.array(wrap_to(q, self.seed, self.continuous)),
+            q=np.array(self._nearest_seed(q)),
             success=False,
             position_error=pos,
             orientation_error=ori,

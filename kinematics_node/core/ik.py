@@ -14,14 +14,18 @@ Error (tip-frame, "body" formulation, Modern Robotics §6.2.2). With T_err = T(q
 Step (Levenberg–Marquardt on the weighted residual r = W^½ e, J_w = W^½ J):
     Δq = J_wᵀ (J_w J_wᵀ + λ I)⁻¹ r,
 which equals (J_wᵀ J_w + λ I)⁻¹ J_wᵀ r but needs only an m×m solve (m = 6, or 3 position-only).
-The trial q + Δq is projected onto the joint limits (clamped); it is accepted if it lowers
-‖r‖² (then λ ← λ/10), otherwise rejected (λ ← 10 λ). Non-finite trials are rejected. An attempt
-ends on convergence, after `max_iterations`, or when λ exceeds 1e6 (stuck, typically against a
-limit or in a local minimum); the next attempt starts from a configuration drawn uniformly within
-the limits (continuous joints: seed ± π). This repeats until success, `timeout` or `max_restarts`.
+The trial q + Δq is moved into the joint limits: a revolute joint by whole turns when q ± 2πk
+fits (the pose is the same, so e.g. an elbow limited to [−π, π] may cross ±π), otherwise clamped;
+joints at a limit that the step pushes outwards are frozen and the step recomputed. The trial is
+accepted if it lowers ‖r‖² (λ then shrinks by Nielsen's rule), otherwise rejected (λ grows by a
+doubling factor). Non-finite trials are rejected. An attempt ends on convergence, after
+`max_iterations`, when λ exceeds 1e6, or after three accepted steps in a row that each lower ‖r‖²
+by less than 5 % (stuck: a local minimum or a limit). The next attempt starts from a configuration
+drawn uniformly within the limits (continuous joints: seed ± π). This repeats until success,
+`timeout` or `max_restarts`.
 
-Continuous joints (lower = upper = ±inf, `chain.continuous`) are never clamped; every returned
-value is wrapped to within π of the seed.
+Every returned revolute value is the whole-turn equivalent within the limits that is closest to
+the seed (continuous joints: within π of the seed).
 
 Units: lengths [m], angles [rad], time [s]. Errors and weights are ordered (ω, v) and expressed in
 the tip frame.
