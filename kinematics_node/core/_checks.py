@@ -37,6 +37,9 @@ def check_trailing_shape(arr: NDArray[np.float64], shape: tuple[int, ...], name:
         raise InvalidInputError(f"{name} must have shape {want}, got shape {arr.shape}")
 
 
+_LAST_ROW = np.array((0.0, 0.0, 0.0, 1.0))
+
+
 def check_transform(value: Any, name: str = "transform") -> NDArray[np.float64]:
     """Validate a (..., 4, 4) homogeneous transform: finite, last row (0, 0, 0, 1), rotation in SO(3).
 
@@ -46,7 +49,7 @@ def check_transform(value: Any, name: str = "transform") -> NDArray[np.float64]:
     T = as_float_array(value, name)
     check_trailing_shape(T, (4, 4), name)
     check_finite(T, name)
-    if not np.allclose(T[..., 3, :], (0.0, 0.0, 0.0, 1.0), atol=1e-9):
+    if not np.all(np.abs(T[..., 3, :] - _LAST_ROW) <= 1e-9):
         raise InvalidInputError(
             f"{name} must have last row (0, 0, 0, 1), got {T[..., 3, :].tolist()}"
         )
