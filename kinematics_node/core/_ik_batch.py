@@ -28,6 +28,7 @@ from ._ik_single import (
     LAMBDA_MAX,
     LAMBDA_MIN,
     MAX_STEP,
+    PINNED_STEPS,
     STALL_FRACTION,
     STALL_STEPS,
 )
@@ -130,6 +131,7 @@ class _Lanes:
     lam: FloatArray
     nu: FloatArray
     stall: NDArray[np.int64]
+    pinned: NDArray[np.int64]
     it: NDArray[np.int64]
 
     def keep(self, mask: NDArray[np.bool_]) -> _Lanes:
@@ -140,7 +142,7 @@ class _Lanes:
         return _Lanes(*(np.concatenate((getattr(a, f), getattr(b, f))) for f in _LANE_FIELDS))
 
 
-_LANE_FIELDS = ("tgt", "Q", "E", "e", "pos", "ori", "J", "lam", "nu", "stall", "it")
+_LANE_FIELDS = ("tgt", "Q", "E", "e", "pos", "ori", "J", "lam", "nu", "stall", "pinned", "it")
 
 
 def solve_batch_arrays(
@@ -151,6 +153,7 @@ def solve_batch_arrays(
     prob = _BatchProblem(chain, T, opts)
     lower, upper = np.asarray(chain.lower), np.asarray(chain.upper)
     periodic = periodic_mask(chain)
+    can_pin = ~(periodic & (upper - lower >= 2.0 * math.pi))  # else a turn always fits
     finite = np.isfinite(lower) & np.isfinite(upper)
     lo = np.where(finite, lower, np.maximum(lower, seeds - math.pi))
     hi = np.where(finite, upper, np.minimum(upper, seeds + math.pi))
@@ -172,7 +175,7 @@ def solve_batch_arrays(
         k = tgt.size
         return _Lanes(
             tgt, Q, E, e, pos, ori, J, np.full(k, LAMBDA_INIT), np.full(k, 2.0),
-            np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64),
+            np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64),
         )  # fmt: skip
 
     def record(L: _Lanes) -> None:
@@ -254,8 +257,11 @@ def solve_batch_arrays(
         lanes.Q[acc], lanes.E[acc], lanes.e[acc] = Q_try[acc], E_t[acc], e_t[acc]
         lanes.pos[acc], lanes.ori[acc], lanes.J[acc] = pos_t[acc], ori_t[acc], J_t[acc]
         record(lanes.keep(acc))
+        at_limit = ((lanes.Q <= lower) | (lanes.Q >= upper)) & can_pin
+        pinned = at_limit.sum(axis=1) > n - m  # more pinned joints than spare DOF
+        lanes.pinned = np.where(acc, np.where(pinned, lanes.pinned + 1, 0), lanes.pinned)
         ended = (lanes.lam > LAMBDA_MAX) | (lanes.it >= opts.max_iterations)
-        ended |= lanes.stall >= STALL_STEPS
+        ended |= (lanes.stall >= STALL_STEPS) | (lanes.pinned >= PINNED_STEPS)
         lanes = lanes.keep(~ended)
 
     q_out = np.where(success[:, None], q_sol, best_Q)

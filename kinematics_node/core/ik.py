@@ -19,8 +19,10 @@ fits (the pose is the same, so e.g. an elbow limited to [−π, π] may cross ±
 joints at a limit that the step pushes outwards are frozen and the step recomputed. The trial is
 accepted if it lowers ‖r‖² (λ then shrinks by Nielsen's rule), otherwise rejected (λ grows by a
 doubling factor). Non-finite trials are rejected. An attempt ends on convergence, after
-`max_iterations`, when λ exceeds 1e6, or after three accepted steps in a row that each lower ‖r‖²
-by less than 5 % (stuck: a local minimum or a limit). The next attempt starts from a configuration
+`max_iterations`, when λ exceeds 1e6, after two accepted steps in a row that each lower ‖r‖² by
+less than 5 % (stuck: a local minimum or a limit), or after two accepted steps in a row with more
+joints pinned at a limit than the arm has spare degrees of freedom (n − m: the free joints can no
+longer span the task). The next attempt starts from a configuration
 drawn uniformly within the limits (continuous joints: seed ± π). This repeats until success,
 `timeout` or `max_restarts`.
 
