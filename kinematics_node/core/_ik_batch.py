@@ -258,7 +258,7 @@ def solve_batch_arrays(
         lanes.pos[acc], lanes.ori[acc], lanes.J[acc] = pos_t[acc], ori_t[acc], J_t[acc]
         record(lanes.keep(acc))
         at_limit = ((lanes.Q <= lower) | (lanes.Q >= upper)) & can_pin
-        pinned = at_limit.sum(axis=1) > n - m  # more pinned joints than spare DOF
+        pinned = at_limit.sum(axis=1) > max(n - m, 0)  # more pinned joints than spare DOF
         lanes.pinned = np.where(acc, np.where(pinned, lanes.pinned + 1, 0), lanes.pinned)
         ended = (lanes.lam > LAMBDA_MAX) | (lanes.it >= opts.max_iterations)
         ended |= (lanes.stall >= STALL_STEPS) | (lanes.pinned >= PINNED_STEPS)

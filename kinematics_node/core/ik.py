@@ -21,10 +21,9 @@ accepted if it lowers ‖r‖² (λ then shrinks by Nielsen's rule), otherwise r
 doubling factor). Non-finite trials are rejected. An attempt ends on convergence, after
 `max_iterations`, when λ exceeds 1e6, after two accepted steps in a row that each lower ‖r‖² by
 less than 5 % (stuck: a local minimum or a limit), or after two accepted steps in a row with more
-joints pinned at a limit than the arm has spare degrees of freedom (n − m: the free joints can no
-longer span the task). The next attempt starts from a configuration
-drawn uniformly within the limits (continuous joints: seed ± π). This repeats until success,
-`timeout` or `max_restarts`.
+joints pinned at a limit than the arm has spare degrees of freedom, max(n − m, 0) (the free joints
+can no longer span the task). The next attempt starts from a configuration drawn uniformly within
+the limits (continuous joints: seed ± π). This repeats until success, `timeout` or `max_restarts`.
 
 Every returned revolute value is the whole-turn equivalent within the limits that is closest to
 the seed (continuous joints: within π of the seed).
