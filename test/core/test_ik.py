@@ -102,6 +102,23 @@ def test_seed_outside_limits_is_clamped_and_result_within_limits() -> None:
         assert res.success and within_limits(chain, res.q)
 
 
+@pytest.mark.parametrize("name", ["planar3r", "scara"])
+def test_arms_with_fewer_joints_than_pose_dimensions_solve_reachable_poses(name: str) -> None:
+    """n < 6: a full 6-D pose is still reachable when it came from FK, and the stopping rules
+    (spare degrees of freedom = max(n − 6, 0)) must not end every attempt early."""
+    from kinematics_node.robots import load_robot
+
+    chain = load_robot(name)
+    assert chain.dof < 6
+    _, T = random_targets(chain, 10, seed=5)
+    for k, T_target in enumerate(T):
+        res = chain.ik(T_target, options=IKOptions(timeout=0.2, rng_seed=k))
+        assert res.success, res.message
+        assert within_limits(chain, res.q)
+        p_err, o_err = pose_errors(chain.fk(res.q), T_target)
+        assert p_err <= POS_TOL and o_err <= ORI_TOL
+
+
 def test_default_seed_is_the_middle_of_the_limits() -> None:
     chain = arm("panda")
     mid = 0.5 * (chain.lower + chain.upper)
