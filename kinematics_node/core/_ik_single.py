@@ -90,6 +90,11 @@ class SingleSolver:
         self.lower: list[float] = chain.lower.tolist()
         self.upper: list[float] = chain.upper.tolist()
         self.periodic: list[bool] = periodic_mask(chain).tolist()
+        # a joint at a limit is pinned there unless a whole turn always fits (range ≥ 2π)
+        self.pinnable = [
+            not (per and hi - lo >= TWO_PI)
+            for per, lo, hi in zip(self.periodic, self.lower, self.upper, strict=True)
+        ]
         self.joint_weights: list[float] = joint_weights.tolist()
         self._sampler: tuple[np.random.Generator, FloatArray, FloatArray] | None = None
 
@@ -215,7 +220,8 @@ class SingleSolver:
         stall = 0
         pinned_run = 0
         spare = max(self.n - len(e), 0)  # redundant degrees of freedom
-        lower, upper, periodic = self.lower, self.upper, self.periodic
+        lower, upper, periodic, pinnable = self.lower, self.upper, self.periodic, self.pinnable
+        edge = [i for i, v in enumerate(q) if v <= lower[i] or v >= upper[i]]  # joints at a limit
         perf = time.perf_counter
         for _ in range(self.opts.max_iterations):
             if perf() > deadline:
@@ -224,15 +230,16 @@ class SingleSolver:
             r = self.residual(e, t)
             Ju = Jt  # the Jacobian the step was computed with
             dq = _lm_step(Jt, r, lam)
-            if dq is not None:
+            if dq is not None and edge:
                 # Joints at a limit that the step pushes outwards are frozen (their rows of Jᵀ
                 # zeroed) and the step is recomputed, so the other joints compensate. A periodic
                 # joint is not blocked if a whole turn takes it back inside.
                 blocked = [
                     i
-                    for i, (a, d) in enumerate(zip(q, dq, strict=True))
-                    if ((d < 0.0 and a <= lower[i]) or (d > 0.0 and a >= upper[i]))
-                    and into_limits(a + d, lower[i], upper[i], periodic[i]) in (lower[i], upper[i])
+                    for i in edge
+                    if ((dq[i] < 0.0 and q[i] <= lower[i]) or (dq[i] > 0.0 and q[i] >= upper[i]))
+                    and into_limits(q[i] + dq[i], lower[i], upper[i], periodic[i])
+                    in (lower[i], upper[i])
                 ]
                 if blocked:
                     Ju = Jt.copy()
@@ -242,24 +249,30 @@ class SingleSolver:
                 big = max(map(abs, dq))
                 if big > MAX_STEP:
                     dq = [d * (MAX_STEP / big) for d in dq]
-                q_try = [
-                    into_limits(a + d, lo, hi, per)
-                    for a, d, lo, hi, per in zip(q, dq, lower, upper, periodic, strict=True)
-                ]
+                q_try = []
+                edge_try = []
+                for i, (a, d) in enumerate(zip(q, dq, strict=True)):
+                    v = a + d
+                    if v <= lower[i] or v >= upper[i]:
+                        v = into_limits(v, lower[i], upper[i], periodic[i])
+                        if v <= lower[i] or v >= upper[i]:
+                            edge_try.append(i)
+                    q_try.append(v)
                 E_try, e_try, pos_t, ori_t, t_try, axes_try = self.evaluate(q_try)
                 if E_try < E:  # False for NaN: a non-finite trial is rejected
                     # gain ratio ρ = actual / predicted decrease, predicted = Δqᵀ(λΔq + Jᵀr)
                     g = (Ju @ r).tolist()
-                    predicted = sum(d * (lam * d + gi) for d, gi in zip(dq, g, strict=True))
+                    predicted = sum([d * (lam * d + gi) for d, gi in zip(dq, g, strict=True)])
                     rho = (E - E_try) / predicted if predicted > 0.0 else 0.0
                     stall = stall + 1 if E - E_try < STALL_FRACTION * E else 0
-                    q, E, e, pos, ori, t = q_try, E_try, e_try, pos_t, ori_t, t_try
+                    q, E, e, pos, ori, t, edge = q_try, E_try, e_try, pos_t, ori_t, t_try, edge_try
                     self._offer(E, q, pos, ori)
                     if pos <= tol_p and ori <= tol_o:
                         return True, q, pos, ori
                     if stall >= STALL_STEPS:
                         break
-                    pinned_run = pinned_run + 1 if self._pinned(q) > spare else 0
+                    pinned = sum([pinnable[i] for i in edge])
+                    pinned_run = pinned_run + 1 if pinned > spare else 0
                     if pinned_run >= PINNED_STEPS:
                         break
                     Jt = self.jacobian(t_try, axes_try)
@@ -273,14 +286,6 @@ class SingleSolver:
             if lam > LAMBDA_MAX:
                 break
         return False, q, pos, ori
-
-    def _pinned(self, q: list[float]) -> int:
-        """Number of joints sitting at a limit they cannot turn past."""
-        return sum(
-            1
-            for v, lo, hi, per in zip(q, self.lower, self.upper, self.periodic, strict=True)
-            if (v <= lo or v >= hi) and not (per and hi - lo >= TWO_PI)
-        )
 
     def _random_start(self) -> list[float]:
         """A configuration drawn uniformly within the limits (unbounded sides: seed ± π)."""
