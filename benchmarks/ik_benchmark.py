@@ -1,7 +1,7 @@
 """IK success rate and speed, side by side with installed peers, in one run (TRAC-IK protocol).
 
     python benchmarks/ik_benchmark.py [--targets 2000] [--peer-targets 500] [--slow-targets 100]
-                                      [--arms ur5,panda,iiwa] [--json out.json]
+                                      [--arms ur5,panda,iiwa] [--seed 12345] [--json out.json]
 
 Protocol (Beeson & Ames, TRAC-IK, 2015): targets are FK of configurations drawn uniformly within
 the joint limits; every solver starts from the middle of the limits; the full 6-D pose must match
@@ -287,6 +287,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--peer-targets", type=int, default=500, help="targets for KDL/Pinocchio/rtb")
     ap.add_argument("--slow-targets", type=int, default=100, help="targets for MR and ikpy")
     ap.add_argument("--arms", default="ur5,panda,iiwa")
+    ap.add_argument(
+        "--seed", type=int, default=12345, help="seed of the random target configurations"
+    )
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args(argv)
 
@@ -302,7 +305,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"[{name}] skipped: {note}")
             continue
         chain = SerialChain.from_urdf(path, tip_link=tip)
-        rng = np.random.default_rng(12345)
+        rng = np.random.default_rng(args.seed)
         Q = rng.uniform(chain.lower, chain.upper, (args.targets, chain.dof))
         T = chain.fk(Q)
         mid = 0.5 * (chain.lower + chain.upper)

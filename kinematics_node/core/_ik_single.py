@@ -44,11 +44,10 @@ STALL_STEPS = 2  # ... this many times in a row ends the attempt (a local minimu
 PINNED_STEPS = 2
 
 
-def _lm_step(Jt: FloatArray, r: FloatArray, lam: float) -> list[float] | None:
-    """Δq = Jᵀ(J Jᵀ + λI)⁻¹ r from Jt = Jᵀ (n × m), as a list; None if the factorisation fails."""
-    A = Jt.T @ Jt
-    A.flat[:: A.shape[0] + 1] += lam
-    _, y, info = dposv(A, r)
+def _lm_step(Jt: FloatArray, r: FloatArray, lam: float, eye: FloatArray) -> list[float] | None:
+    """Δq = Jᵀ(J Jᵀ + λI)⁻¹ r from Jt = Jᵀ (n × m), as a list; None if the factorisation fails.
+    `eye` is the m × m identity (adding λ·eye is cheaper than updating A's diagonal in place)."""
+    _, y, info = dposv(Jt.T @ Jt + lam * eye, r)
     if info != 0:
         return None
     dq: list[float] = (Jt @ y).tolist()
@@ -80,7 +79,8 @@ class SingleSolver:
     ) -> None:
         self.opts = opts
         self.kernel = chain._kernel
-        self.internal = chain._internal_scalar
+        self.internal = None if chain._mimic_index is None else chain._internal_scalar
+        self.fk = chain._kernel._fk_axes  # (q internal) → (pose, joint axes); see _kernel
         self.G = chain._G
         self.prismatic = self.kernel.prismatic
         self.n = chain.dof
@@ -111,6 +111,7 @@ class SingleSolver:
         # saved per Jacobian), only r is rotated (18).
         blocks = [self.w] if self.position_only else [self.w[:3], self.w[3:]]
         self.base_axes = all(len(set(b)) == 1 for b in blocks)
+        self.plain = self.coupled and self.unit_weights
         self.pos_mask = [x > 0 for x in w[3:]]
         self.ori_mask = [x > 0 for x in w[:3]]
         self.all_ori = all(self.ori_mask)
@@ -122,9 +123,14 @@ class SingleSolver:
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, q: list[float]) -> tuple[float, list[float], float, float, tuple, list]:  # type: ignore[type-arg]
         """(E = Σ wᵢ eᵢ², e, position error [m], orientation error [rad], T_err, joint axes)."""
-        t, axes = self.kernel.fk_jacobian_scalar(self.internal(q), True)
+        t, axes = self.fk(q if self.internal is None else self.internal(q))
         Te = relative_pose(t, self.target)
         px, py, pz = Te[9], Te[10], Te[11]
+        if self.plain:  # the default: full pose, unit weights
+            e0, e1, e2, e3, e4, e5, theta = se3_log(Te)
+            E = e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3 + e4 * e4 + e5 * e5
+            pos = math.sqrt(px * px + py * py + pz * pz)
+            return E, [e0, e1, e2, e3, e4, e5], pos, theta, t, axes
         if self.coupled:
             e0, e1, e2, e3, e4, e5, theta = se3_log(Te)
             e = [e0, e1, e2, e3, e4, e5]
@@ -222,6 +228,7 @@ class SingleSolver:
         spare = max(self.n - len(e), 0)  # redundant degrees of freedom
         lower, upper, periodic, pinnable = self.lower, self.upper, self.periodic, self.pinnable
         edge = [i for i, v in enumerate(q) if v <= lower[i] or v >= upper[i]]  # joints at a limit
+        eye = np.eye(len(e))
         perf = time.perf_counter
         for _ in range(self.opts.max_iterations):
             if perf() > deadline:
@@ -229,7 +236,7 @@ class SingleSolver:
             self.iterations += 1
             r = self.residual(e, t)
             Ju = Jt  # the Jacobian the step was computed with
-            dq = _lm_step(Jt, r, lam)
+            dq = _lm_step(Jt, r, lam, eye)
             if dq is not None and edge:
                 # Joints at a limit that the step pushes outwards are frozen (their rows of Jᵀ
                 # zeroed) and the step is recomputed, so the other joints compensate. A periodic
@@ -244,7 +251,7 @@ class SingleSolver:
                 if blocked:
                     Ju = Jt.copy()
                     Ju[blocked] = 0.0
-                    dq = _lm_step(Ju, r, lam)
+                    dq = _lm_step(Ju, r, lam, eye)
             if dq is not None:
                 big = max(map(abs, dq))
                 if big > MAX_STEP:
