@@ -80,7 +80,6 @@ class SingleSolver:
         self.opts = opts
         self.kernel = chain._kernel
         self.internal = None if chain._mimic_index is None else chain._internal_scalar
-        self.fk = chain._kernel._fk_axes  # (q internal) → (pose, joint axes); see _kernel
         self.G = chain._G
         self.prismatic = self.kernel.prismatic
         self.n = chain.dof
@@ -112,6 +111,11 @@ class SingleSolver:
         blocks = [self.w] if self.position_only else [self.w[:3], self.w[3:]]
         self.base_axes = all(len(set(b)) == 1 for b in blocks)
         self.plain = self.coupled and self.unit_weights
+        # Coupled error in base axes: J is the world Jacobian at the tip, which the generated
+        # kernel returns directly; otherwise it is assembled from the joint axes in `jacobian`.
+        self.world_columns = self.coupled and self.base_axes
+        kernel = chain._kernel
+        self.fk = kernel.fk_world if self.world_columns else kernel.fk_axes
         self.pos_mask = [x > 0 for x in w[3:]]
         self.ori_mask = [x > 0 for x in w[:3]]
         self.all_ori = all(self.ori_mask)
@@ -122,7 +126,8 @@ class SingleSolver:
 
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, q: list[float]) -> tuple[float, list[float], float, float, tuple, list]:  # type: ignore[type-arg]
-        """(E = Σ wᵢ eᵢ², e, position error [m], orientation error [rad], T_err, joint axes)."""
+        """(E = Σ wᵢ eᵢ², e, position error [m], orientation error [rad], pose, joint axes or, if
+        `world_columns`, the world Jacobian's columns)."""
         t, axes = self.fk(q if self.internal is None else self.internal(q))
         Te = relative_pose(t, self.target)
         px, py, pz = Te[9], Te[10], Te[11]
@@ -157,6 +162,11 @@ class SingleSolver:
     def jacobian(self, t: tuple, axes: list) -> FloatArray:  # type: ignore[type-arg]
         """Transposed weighted Jacobian (W^½ J)ᵀ (n × m) of the error (see `ik`), in tip axes or,
         if `base_axes`, in base axes."""
+        if self.world_columns:  # `axes` already holds the world Jacobian's columns
+            Jt = np.array(axes)
+            if self.G is not None:
+                Jt = self.G.T @ Jt
+            return Jt if self.unit_weights else Jt * self.sw
         r00, r01, r02, r10, r11, r12, r20, r21, r22, cx, cy, cz = t
         if self.coupled:  # body Jacobian: reference point = tip origin
             qx, qy, qz = cx, cy, cz

@@ -17,7 +17,8 @@ Two implementations of the same recursion:
   straight-line Python with the constant factors folded in. URDF joint frames are mostly signed
   permutations (rpy in multiples of π/2), so most of each constant 3×3 product becomes a
   renaming. On Panda, FK with joint axes takes ~2.7 µs, against ~7 µs for the same recursion
-  written as a loop over the joints.
+  written as a loop over the joints. Three variants are generated: pose only, pose and joint
+  axes, and pose and world Jacobian columns (what IK's inner loop needs).
 * `frames_batch`: NumPy in structure-of-arrays layout for N configurations: the three rotation
   columns are stacked into one (3, 3N) array so that each constant product is a single BLAS call.
 Tests check that both agree with each other and with Pinocchio.
@@ -27,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from math import cos, sin
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,14 +39,17 @@ FloatArray = NDArray[np.float64]
 class Kernel:
     """Constants of the factored recursion. Immutable after construction; safe to share across threads."""
 
-    __slots__ = ("n", "prismatic", "A", "_A_rot_T", "_A_pos", "_fk", "_fk_axes")
+    __slots__ = ("n", "prismatic", "A", "_A_rot_T", "_A_pos", "fk_pose", "fk_axes", "fk_world")
 
     def __init__(self, A: FloatArray, prismatic: NDArray[np.bool_]) -> None:
         self.n = int(prismatic.shape[0])
         self.prismatic = tuple(bool(b) for b in prismatic)
         self.A = A  # (n + 1, 4, 4)
-        self._fk = _compile_scalar(A, self.prismatic, with_axes=False)
-        self._fk_axes = _compile_scalar(A, self.prismatic, with_axes=True)
+        # Generated scalar functions q → (tip pose as 12 floats, list), see `_generate_scalar`:
+        # the list is empty, each joint's (z, o), or the world Jacobian's columns at the tip.
+        self.fk_pose = _compile_scalar(A, self.prismatic, "pose")
+        self.fk_axes = _compile_scalar(A, self.prismatic, "axes")
+        self.fk_world = _compile_scalar(A, self.prismatic, "world")
         self._A_rot_T = np.ascontiguousarray(np.swapaxes(A[:, :3, :3], 1, 2))
         self._A_pos = np.ascontiguousarray(A[:, :3, 3])
 
@@ -58,7 +63,7 @@ class Kernel:
     ) -> tuple[tuple[float, ...], list[tuple[float, float, float, float, float, float]]]:
         """Tip pose as 12 floats (row-major R, then p) and, if asked, each joint's (z, o) in the
         base: axis direction and a point on it (else an empty list). `q` holds n floats."""
-        return (self._fk_axes if want_jacobian else self._fk)(q)
+        return (self.fk_axes if want_jacobian else self.fk_pose)(q)
 
     # ------------------------------------------------------------------ batched path
     def frames_batch(
@@ -150,8 +155,23 @@ def _times(var: str, form: Form) -> Form:
     return {(var if k == "" else f"{var} * {k}"): c for k, c in form.items()}
 
 
-def _generate_scalar(A: FloatArray, prismatic: tuple[bool, ...], with_axes: bool) -> str:
-    """Source of `fk(q)`: the recursion of this module's docstring, unrolled for one chain."""
+def _mul(f: Form, g: Form) -> Form:
+    """Product of two forms of at most one monomial each."""
+    if not f or not g:
+        return {}
+    (k1, c1), (k2, c2) = next(iter(f.items())), next(iter(g.items()))
+    key = k2 if k1 == "" else k1 if k2 == "" else f"{k1} * {k2}"
+    return {key: c1 * c2}
+
+
+Output = Literal["pose", "axes", "world"]
+
+
+def _generate_scalar(A: FloatArray, prismatic: tuple[bool, ...], output: Output) -> str:
+    """Source of `fk(q)`: the recursion of this module's docstring, unrolled for one chain.
+
+    It returns the tip pose as 12 floats and a list: empty for "pose"; each joint's axis and a
+    point on it, (z, o), for "axes"; the world Jacobian's columns at the tip for "world"."""
     lines: list[str] = []
     counter = [0]
 
@@ -171,10 +191,13 @@ def _generate_scalar(A: FloatArray, prismatic: tuple[bool, ...], with_axes: bool
     R = [[_combine([(A[0, i, j], {"": 1.0})]) for j in range(3)] for i in range(3)]
     p = [_combine([(A[0, i, 3], {"": 1.0})]) for i in range(3)]
     axes: list[str] = []
+    frames: list[tuple[list[Form], list[Form]]] = []
     for k, prism in enumerate(prismatic):
-        if with_axes:
+        if output == "axes":
             z_o = [bind(R[i][2]) for i in range(3)] + [bind(p[i]) for i in range(3)]
             axes.append("(" + ", ".join(_render(f) for f in z_o) + ")")
+        elif output == "world":
+            frames.append(([bind(R[i][2]) for i in range(3)], [bind(p[i]) for i in range(3)]))
         if prism:  # F ← F · Trans_z(q): p += q z
             p = [
                 bind(_combine([(1.0, p[i]), (1.0, _times(f"q{k}", bind(R[i][2])))]))
@@ -195,13 +218,25 @@ def _generate_scalar(A: FloatArray, prismatic: tuple[bool, ...], with_axes: bool
             [bind(_combine([(B[m, j], R[i][m]) for m in range(3)])) for j in range(3)]
             for i in range(3)
         ]
+    p = [bind(x) for x in p]
+    for (z, o), prism in zip(frames, prismatic, strict=False):  # "world" only; else no frames
+        if prism:
+            col = [{}, {}, {}, *z]
+        else:
+            d = [bind(_combine([(1.0, p[i]), (-1.0, o[i])])) for i in range(3)]
+            v = [
+                bind(_combine([(1.0, _mul(z[b], d[c])), (-1.0, _mul(z[c], d[b]))]))
+                for b, c in ((1, 2), (2, 0), (0, 1))
+            ]
+            col = [*z, *v]
+        axes.append("(" + ", ".join(_render(f) for f in col) + ")")
     pose = [_render(R[i][j]) for i in range(3) for j in range(3)] + [_render(x) for x in p]
     lines.append(f"return ({', '.join(pose)}), [{', '.join(axes)}]")
     return "def fk(q):\n" + "".join(f"    {line}\n" for line in lines)
 
 
-def _compile_scalar(A: FloatArray, prismatic: tuple[bool, ...], with_axes: bool) -> ScalarFK:
-    source = _generate_scalar(A, prismatic, with_axes)
+def _compile_scalar(A: FloatArray, prismatic: tuple[bool, ...], output: Output) -> ScalarFK:
+    source = _generate_scalar(A, prismatic, output)
     namespace: dict[str, object] = {"cos": cos, "sin": sin}
-    exec(compile(source, f"<kinematics chain fk{'+axes' if with_axes else ''}>", "exec"), namespace)
+    exec(compile(source, f"<kinematics chain fk: {output}>", "exec"), namespace)
     return namespace["fk"]  # type: ignore[return-value]

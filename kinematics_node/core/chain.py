@@ -331,8 +331,16 @@ class SerialChain:
             raise InvalidInputError(f"frame must be one of {_FRAMES}, got {frame!r}")
         qs = self._scalar_q(q)
         if qs is not None:
-            t, axes = self._kernel.fk_jacobian_scalar(self._internal_scalar(qs), True)
-            J = _jacobian_from_axes(t, axes, self._kernel.prismatic, frame)
+            q_int = self._internal_scalar(qs)
+            if frame == "space":
+                t, axes = self._kernel.fk_jacobian_scalar(q_int, True)
+                J = _space_jacobian_from_axes(axes, self._kernel.prismatic)
+            else:
+                t, cols = self._kernel.fk_world(q_int)
+                J = np.array(cols).T
+                if frame == "body":  # J_b = diag(Rᵀ, Rᵀ) J_world
+                    Rt = np.array(((t[0], t[3], t[6]), (t[1], t[4], t[7]), (t[2], t[5], t[8])))
+                    J = np.concatenate((Rt @ J[:3], Rt @ J[3:]))
             if self._G is not None:
                 J = J @ self._G
             return _pose_from_flat(t), J
@@ -485,27 +493,17 @@ def _poses_from_soa(C: FloatArray, p: FloatArray) -> FloatArray:
     return T
 
 
-def _jacobian_from_axes(
-    t: tuple[float, ...],
-    axes: list[tuple[float, float, float, float, float, float]],
-    prismatic: tuple[bool, ...],
-    frame: str,
+def _space_jacobian_from_axes(
+    axes: list[tuple[float, float, float, float, float, float]], prismatic: tuple[bool, ...]
 ) -> FloatArray:
-    px, py, pz = t[9], t[10], t[11]
+    """J_s from each joint's axis z and point o in the base: (z, o × z), or (0, z) if prismatic."""
     cols = []
     for (zx, zy, zz, ox, oy, oz), prism in zip(axes, prismatic, strict=True):
         if prism:
             cols.append((0.0, 0.0, 0.0, zx, zy, zz))
-        elif frame == "space":  # v = o × z
+        else:
             cols.append((zx, zy, zz, oy * zz - oz * zy, oz * zx - ox * zz, ox * zy - oy * zx))
-        else:  # v = z × (p − o)
-            dx, dy, dz = px - ox, py - oy, pz - oz
-            cols.append((zx, zy, zz, zy * dz - zz * dy, zz * dx - zx * dz, zx * dy - zy * dx))
-    J = np.array(cols).T
-    if frame == "body":  # J_b = diag(Rᵀ, Rᵀ) J_world
-        Rt = np.array(((t[0], t[3], t[6]), (t[1], t[4], t[7]), (t[2], t[5], t[8])))
-        J = np.concatenate((Rt @ J[:3], Rt @ J[3:]))
-    return J
+    return np.array(cols).T
 
 
 def _cross(a: FloatArray, b: FloatArray) -> FloatArray:

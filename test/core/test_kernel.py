@@ -1,7 +1,8 @@
 """The generated scalar kernel: equal to the product of exponentials (MR eq. 4.14) evaluated with
 `se3.exp`, and to the batched NumPy path, on random screw chains mixing revolute and prismatic
 joints (so no constant happens to be a permutation) and on chains whose constants are permutations
-up to rounding (the folding case); joint axes equal the columns of J_s; pickling rebuilds it."""
+up to rounding (the folding case); joint axes equal the columns of J_s and the world columns equal
+(z, z × (p − o)); pickling rebuilds it."""
 
 from __future__ import annotations
 
@@ -61,6 +62,21 @@ def test_joint_axes_are_the_space_jacobian_columns() -> None:
         assert chain._kernel.fk_jacobian_scalar(q.tolist(), False)[1] == []
 
 
+def test_world_columns_are_z_and_z_cross_tip_minus_o() -> None:
+    rng = np.random.default_rng(8)
+    chain = _random_chain(rng, 8)
+    kernel = chain._kernel
+    for q in rng.uniform(-3, 3, (10, 8)).tolist():
+        t, axes = kernel.fk_axes(q)
+        t_w, cols = kernel.fk_world(q)
+        assert t_w == pytest.approx(t, abs=1e-14)
+        p = np.array(t[9:])
+        for k, ((zx, zy, zz, ox, oy, oz), col) in enumerate(zip(axes, cols, strict=True)):
+            z, o = np.array([zx, zy, zz]), np.array([ox, oy, oz])
+            want = np.r_[0.0, 0.0, 0.0, z] if kernel.prismatic[k] else np.r_[z, np.cross(z, p - o)]
+            np.testing.assert_allclose(col, want, rtol=0, atol=1e-12)
+
+
 def test_folded_constants_stay_exact_to_rounding() -> None:
     """Joint frames rotated by multiples of π/2 (entries 0, ±1 up to ~1e-16, as URDF rpy gives
     them) are folded into renamings; the result must still agree with the batch path."""
@@ -74,7 +90,7 @@ def test_folded_constants_stay_exact_to_rounding() -> None:
     c = np.cos(np.pi / 2)  # 6e-17, not 0
     M = np.array([[c, -1.0, 0, 0.3], [1.0, c, 0, 0.1], [0, 0, 1.0, 0.5], [0, 0, 0, 1.0]])
     chain = SerialChain.from_poe(S, M)
-    source = _generate_scalar(chain._kernel.A, chain._kernel.prismatic, False)
+    source = _generate_scalar(chain._kernel.A, chain._kernel.prismatic, "pose")
     assert "e-1" not in source  # no ~1e-17 constants survive: they were folded to 0
     for q in rng.uniform(-3, 3, (20, 5)):
         np.testing.assert_allclose(chain.fk(q), _poe(chain, q), rtol=0, atol=1e-13)
