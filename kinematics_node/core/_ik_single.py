@@ -1,13 +1,14 @@
 """Single-target Levenberg–Marquardt IK on plain Python floats (algorithm: `ik`'s docstring).
 
 Why plain floats: one 6- or 7-joint iteration is a few hundred flops, so NumPy's ~1 µs per-call
-overhead would dominate. Forward kinematics and joint axes come from the chain's scalar kernel
-(`Kernel.fk_jacobian_scalar`, inputs validated once at the boundary in `ik.solve`), the pose error
-from `_pose_error` (scalar SE(3)/SO(3) log), the Jacobian is assembled with floats, and only the
-m×m damped normal equations (m = 6, or 3 position-only) go to NumPy/LAPACK. They are symmetric
-positive definite for λ > 0, so they are solved by Cholesky with LAPACK's `dposv` called directly
-through SciPy (~1.3 µs on a 6×6, against ~4.5 µs for `numpy.linalg.solve`'s generic wrapper, and
-far less than a Cholesky in interpreted Python); a failed factorisation is a rejected step.
+overhead would dominate. Forward kinematics with the world Jacobian's columns (or the joint axes,
+for weighted and position-only errors) comes from the chain's generated scalar kernel
+(`Kernel.fk_world` / `Kernel.fk_axes`; inputs validated once at the boundary in `ik.solve`), the
+pose error from `_pose_error` (scalar SE(3)/SO(3) log), and only the m×m damped normal equations
+(m = 6, or 3 position-only) go to NumPy/LAPACK. They are symmetric positive definite for λ > 0, so
+they are solved by Cholesky with LAPACK's `dposv` called directly through SciPy (~1.3 µs on a 6×6,
+against ~4.5 µs for `numpy.linalg.solve`'s generic wrapper, and far less than a Cholesky in
+interpreted Python); a failed factorisation is a rejected step.
 """
 
 from __future__ import annotations

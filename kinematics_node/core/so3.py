@@ -89,7 +89,8 @@ def log(R: ArrayLike) -> FloatArray:
     """Rotation vector φ = ω̂θ with θ ∈ [0, π] such that exp([φ]) = R (MR §3.2.3.3).
 
     Computed from the quaternion: θ = 2 atan2(‖ε‖, η). At θ = π the axis sign is arbitrary (both
-    ±ω̂π give R); the one with a non-negative first non-zero quaternion component is returned.
+    ±ω̂π give R) and either may be returned: which one depends on the branch of Shepperd's method
+    that extracted the quaternion. exp(log(R)) = R holds in both cases.
     """
     q = quaternion_from_matrix(R)
     v, w = q[..., :3], q[..., 3]
