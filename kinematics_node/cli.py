@@ -33,8 +33,9 @@ class CliError(Exception):
     """A user error reported as one line on stderr (exit status 1)."""
 
 
-def parse_floats(text: str, name: str) -> np.ndarray:
-    """'0.1, -2, 3e-3' → array; a clear error names the option and the bad item."""
+def parse_floats(text: str, name: str, allow_inf: bool = False) -> np.ndarray:
+    """'0.1, -2, 3e-3' → array; a clear error names the option and the bad item. NaN is always
+    refused, ±inf unless `allow_inf`."""
     items = [s for s in text.replace(";", ",").replace(" ", ",").split(",") if s]
     try:
         values = np.array([float(s) for s in items])
@@ -42,8 +43,10 @@ def parse_floats(text: str, name: str) -> np.ndarray:
         raise CliError(f"{name}: {exc} (expected comma-separated numbers)") from None
     if values.size == 0:
         raise CliError(f"{name}: no values given")
-    if not np.all(np.isfinite(values)):
-        raise CliError(f"{name}: values must be finite, got {text!r}")
+    if np.any(np.isnan(values)) or (not allow_inf and np.any(np.isinf(values))):
+        raise CliError(
+            f"{name}: values must be {'numbers' if allow_inf else 'finite'}, got {text!r}"
+        )
     return values
 
 
@@ -191,11 +194,15 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> dict[str, Any] | str
     T[:3, :3] = matrix_from_quaternion(v[3:])  # refuses a zero quaternion with a clear message
     T[:3, 3] = v[:3]
     seed = None if args.seed is None else get_q(chain, args.seed, "--seed")
+    axis_tolerances = None
+    if args.axis_tolerances is not None:
+        axis_tolerances = tuple(parse_floats(args.axis_tolerances, "--axis-tolerances", True))
     options = IKOptions(
         position_tolerance=args.position_tolerance,
         orientation_tolerance=args.orientation_tolerance,
         timeout=args.timeout,
         position_only=args.position_only,
+        axis_tolerances=axis_tolerances,
         mode=args.mode,
         rng_seed=0,
     )
@@ -265,6 +272,12 @@ def build_parser() -> argparse.ArgumentParser:
             p.add_argument("--timeout", type=float, default=0.05, help="[s] (default 0.05)")
             p.add_argument("--position-tolerance", type=float, default=1e-5, help="[m]")
             p.add_argument("--orientation-tolerance", type=float, default=1e-4, help="[rad]")
+            p.add_argument(
+                "--axis-tolerances",
+                metavar="WX,WY,WZ,X,Y,Z",
+                help="per-axis bounds in the tip frame [rad, m]; inf frees an axis "
+                "(replaces the two tolerances above)",
+            )
     demo = sub.add_parser("demo", help="simulate a bundled arm, track it, solve IK, draw a picture")
     demo.add_argument("--robot", default="ur5e", help="bundled robot (default ur5e)")
     demo.add_argument("--out", default="kinematics_demo.png", help="picture file")

@@ -16,7 +16,6 @@ gives `success = False` and a `message` naming the problem.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import threading
@@ -376,10 +375,7 @@ class KinematicsService:
             math.isfinite(current.get(j, math.nan)) for j in chain.joint_names
         ):
             q_seed = self._q(model, chain, seed, current, "seed")
-        try:
-            result = chain.ik(T_base_target, q_seed, options)
-        except NotImplementedError as exc:
-            raise KinematicsError(f"IK solver not available: {exc}") from None
+        result = chain.ik(T_base_target, q_seed, options)
         q = np.asarray(result.q, dtype=np.float64)
         _require_finite(q, "IK solution")
         response.solution = joint_state_from_q(
@@ -394,9 +390,14 @@ class KinematicsService:
         if bool(result.success):
             return None
         detail = str(getattr(result, "message", "") or "")
+        tolerances = (
+            f"per-axis bounds {list(options.axis_tolerances)}"
+            if options.axis_tolerances is not None
+            else f"tolerances ({options.position_tolerance:g} m, "
+            f"{options.orientation_tolerance:g} rad)"
+        )
         return (
-            f"no solution within tolerances ({options.position_tolerance:g} m, "
-            f"{options.orientation_tolerance:g} rad) in {options.timeout:g} s: best position error "
+            f"no solution within {tolerances} in {options.timeout:g} s: best position error "
             f"{response.position_error:.3g} m, orientation error "
             f"{response.orientation_error:.3g} rad" + (f" ({detail})" if detail else "")
         )
@@ -531,7 +532,7 @@ def _ik_options(request: Any, params: Mapping[str, Any]) -> IKOptions:
         "max_restarts": int(params["ik.max_restarts"]),
         "position_only": bool(request.position_only),
     }
-    supported = {f.name for f in dataclasses.fields(IKOptions)}
-    if wanted["position_only"] and "position_only" not in supported:
-        raise KinematicsError("position_only IK is not supported by this version of the solver")
-    return IKOptions(**{k: v for k, v in wanted.items() if k in supported})
+    bounds = [float(x) for x in request.axis_tolerances]
+    if bounds:
+        wanted["axis_tolerances"] = tuple(bounds)  # IKOptions validates and names the problem
+    return IKOptions(**wanted)

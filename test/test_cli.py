@@ -114,3 +114,27 @@ def test_console_script_runs_in_a_subprocess(ur5):
         check=True,
     )
     assert "position [m]" in out.stdout
+
+
+def test_ik_axis_tolerances_free_the_tilt_of_a_planar_arm(capsys):
+    from scipy.spatial.transform import Rotation
+
+    from kinematics_node.robots import load_robot
+
+    chain = load_robot("planar3r")
+    T = chain.fk(np.array([0.4, 0.9, -0.6]))
+    T[:3, :3] = T[:3, :3] @ Rotation.from_rotvec([0.25, 0.0, 0.0]).as_matrix()  # tool-x tilt
+    qx, qy, qz, qw = Rotation.from_matrix(T[:3, :3]).as_quat()
+    target = ",".join(f"{v:.12g}" for v in (*T[:3, 3], qx, qy, qz, qw))
+    code, _, err = run(capsys, "ik", "--robot", "planar3r", "--target", target, "--timeout", "0.02")
+    assert code == 1 and "no solution" in err  # a planar arm cannot tilt
+    bounds = "inf,1e-4,1e-4,1e-5,1e-5,1e-5"
+    code, out, _ = run(capsys, "ik", "--robot", "planar3r", "--target", target,
+                       "--axis-tolerances", bounds, "--json")  # fmt: skip
+    data = json.loads(out)
+    assert code == 0 and data["success"]
+    T_got = chain.fk(np.array(data["q"]))
+    assert np.linalg.norm(T_got[:3, 3] - T[:3, 3]) <= 2e-5
+    code, _, err = run(capsys, "ik", "--robot", "planar3r", "--target", target,
+                       "--axis-tolerances", "nan,1,1,1,1,1")  # fmt: skip
+    assert code == 1 and "--axis-tolerances" in err

@@ -61,7 +61,14 @@ class _BatchProblem:
         self.p_t = T[:, :3, 3]
         w = np.array(opts.weights if opts.weights is not None else (1.0,) * 6)
         self.position_only = bool(opts.position_only)
-        self.coupled = not self.position_only and bool(np.all(w > 0))
+        self.tol_p, self.tol_o = opts.position_tolerance, opts.orientation_tolerance
+        # per-axis bounds as in `SingleSolver`: inf frees the axis like a zero weight
+        self.axis_tol: FloatArray | None = None
+        if opts.axis_tolerances is not None:
+            bounds = np.array(opts.axis_tolerances)
+            w = np.where(np.isinf(bounds), 0.0, w)
+            self.axis_tol = np.where(w > 0, bounds, np.inf)
+        self.coupled = not self.position_only and bool(np.all(w > 0)) and self.axis_tol is None
         self.w = w[3:] if self.position_only else w
         self.sw = np.sqrt(self.w)
         self.pos_mask = (w[3:] > 0).astype(np.float64)
@@ -70,8 +77,9 @@ class _BatchProblem:
 
     def evaluate(
         self, Q: FloatArray, idx: NDArray[np.intp]
-    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-        """At Q (k, n) for targets idx: E, e (k, m), pos [m], ori [rad], W^½J (k, m, n)."""
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_], FloatArray]:
+        """At Q (k, n) for targets idx: E, e (k, m), pos [m], ori [rad], within tolerance,
+        W^½J (k, m, n)."""
         T_c, J = self.chain.fk_jacobian(Q, "body")
         R_c, p_c = T_c[:, :3, :3], T_c[:, :3, 3]
         R_cT = np.swapaxes(R_c, 1, 2)
@@ -88,6 +96,10 @@ class _BatchProblem:
             Jw, Jv = J[:, :3, :], J[:, 3:, :]
             Jv = Jv + np.swapaxes(np.cross(np.swapaxes(Jw, 1, 2), p_e[:, None, :]), 1, 2)
             J = Jv if self.position_only else np.concatenate((Jw, Jv), axis=1)
+        within: NDArray[np.bool_] | None = None
+        if self.axis_tol is not None:  # a component within its bound is met and exerts no pull
+            within = np.abs(e) <= self.axis_tol  # False for NaN
+            e = np.where(within, 0.0, e)
         E = np.einsum("km,m->k", e * e, self.w)
         pos = np.sqrt(np.einsum("kj,j->k", p_e * p_e, self.pos_mask))
         if self.position_only:
@@ -96,7 +108,12 @@ class _BatchProblem:
             ori = np.linalg.norm(phi, axis=1)
         else:
             ori = np.sqrt(np.einsum("kj,j->k", phi * phi, self.ori_mask))
-        return E, e, pos, ori, J * self.sw[None, :, None]
+        ok: NDArray[np.bool_]
+        if within is not None:
+            ok = np.all(within, axis=1)
+        else:
+            ok = (pos <= self.tol_p) & (ori <= self.tol_o)
+        return E, e, pos, ori, ok, J * self.sw[None, :, None]
 
 
 def _lm_steps(
@@ -127,6 +144,7 @@ class _Lanes:
     e: FloatArray
     pos: FloatArray
     ori: FloatArray
+    ok: NDArray[np.bool_]
     J: FloatArray
     lam: FloatArray
     nu: FloatArray
@@ -142,7 +160,7 @@ class _Lanes:
         return _Lanes(*(np.concatenate((getattr(a, f), getattr(b, f))) for f in _LANE_FIELDS))
 
 
-_LANE_FIELDS = ("tgt", "Q", "E", "e", "pos", "ori", "J", "lam", "nu", "stall", "pinned", "it")
+_LANE_FIELDS = ("tgt", "Q", "E", "e", "pos", "ori", "ok", "J", "lam", "nu", "stall", "pinned", "it")
 
 
 def solve_batch_arrays(
@@ -158,7 +176,6 @@ def solve_batch_arrays(
     lo = np.where(finite, lower, np.maximum(lower, seeds - math.pi))
     hi = np.where(finite, upper, np.minimum(upper, seeds + math.pi))
     rng = np.random.default_rng(opts.rng_seed)
-    tol_p, tol_o = opts.position_tolerance, opts.orientation_tolerance
 
     success = np.zeros(N, dtype=bool)
     q_sol = seeds.copy()
@@ -171,10 +188,10 @@ def solve_batch_arrays(
     eye = np.eye(m)
 
     def new_lanes(tgt: NDArray[np.intp], Q: FloatArray) -> _Lanes:
-        E, e, pos, ori, J = prob.evaluate(Q, tgt)
+        E, e, pos, ori, ok, J = prob.evaluate(Q, tgt)
         k = tgt.size
         return _Lanes(
-            tgt, Q, E, e, pos, ori, J, np.full(k, LAMBDA_INIT), np.full(k, 2.0),
+            tgt, Q, E, e, pos, ori, ok, J, np.full(k, LAMBDA_INIT), np.full(k, 2.0),
             np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64),
         )  # fmt: skip
 
@@ -185,7 +202,7 @@ def solve_batch_arrays(
         better = L.E[order] < best_E[t]
         tb, ob = t[better], order[better]
         best_E[tb], best_Q[tb], best_pos[tb], best_ori[tb] = L.E[ob], L.Q[ob], L.pos[ob], L.ori[ob]
-        conv = (L.pos <= tol_p) & (L.ori <= tol_o) & ~success[L.tgt]
+        conv = L.ok & ~success[L.tgt]
         if conv.any():
             ci = np.flatnonzero(conv)
             tc, first = np.unique(L.tgt[ci], return_index=True)
@@ -242,7 +259,7 @@ def solve_batch_arrays(
         Q_try = into_limits_batch(lanes.Q + dq, lower, upper, periodic)
         ok_rows = np.all(np.isfinite(Q_try), axis=1)
         Q_try = np.where(ok_rows[:, None], Q_try, lanes.Q)  # non-finite step: stay, reject
-        E_t, e_t, pos_t, ori_t, J_t = prob.evaluate(Q_try, lanes.tgt)
+        E_t, e_t, pos_t, ori_t, ok_t, J_t = prob.evaluate(Q_try, lanes.tgt)
         E_a = lanes.E
         acc = ok_rows & (E_t < E_a)  # NaN compares False: rejected
         np.add.at(iterations, lanes.tgt, 1)
@@ -256,6 +273,7 @@ def solve_batch_arrays(
         lanes.nu = np.where(acc, 2.0, lanes.nu * 2.0)
         lanes.Q[acc], lanes.E[acc], lanes.e[acc] = Q_try[acc], E_t[acc], e_t[acc]
         lanes.pos[acc], lanes.ori[acc], lanes.J[acc] = pos_t[acc], ori_t[acc], J_t[acc]
+        lanes.ok[acc] = ok_t[acc]
         record(lanes.keep(acc))
         at_limit = ((lanes.Q <= lower) | (lanes.Q >= upper)) & can_pin
         pinned = at_limit.sum(axis=1) > max(n - m, 0)  # more pinned joints than spare DOF

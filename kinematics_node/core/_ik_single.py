@@ -100,7 +100,15 @@ class SingleSolver:
 
         w = opts.weights if opts.weights is not None else (1.0,) * 6
         self.position_only = bool(opts.position_only)
-        self.coupled = not self.position_only and all(x > 0 for x in w)
+        # TRAC-IK-style per-axis bounds on the decoupled error. An infinite bound frees its axis
+        # exactly like a zero weight (the row leaves the cost and the Jacobian); a finite bound
+        # zeroes its component while it is met, so the step leaves it where it is.
+        self.axis_tol: list[float] | None = None
+        if opts.axis_tolerances is not None:
+            bounds = opts.axis_tolerances
+            w = tuple(0.0 if math.isinf(b) else x for b, x in zip(bounds, w, strict=True))
+            self.axis_tol = [b if x > 0 else math.inf for b, x in zip(bounds, w, strict=True)]
+        self.coupled = not self.position_only and all(x > 0 for x in w) and self.axis_tol is None
         self.w = list(w[3:]) if self.position_only else list(w)
         self.sw = np.sqrt(np.array(self.w))
         self.unit_weights = all(x == 1.0 for x in self.w)
@@ -126,9 +134,11 @@ class SingleSolver:
         self.best: tuple[float, list[float], float, float] | None = None  # (E, q, pos, ori)
 
     # ------------------------------------------------------------------ evaluation
-    def evaluate(self, q: list[float]) -> tuple[float, list[float], float, float, tuple, list]:  # type: ignore[type-arg]
-        """(E = Σ wᵢ eᵢ², e, position error [m], orientation error [rad], pose, joint axes or, if
-        `world_columns`, the world Jacobian's columns)."""
+    def evaluate(
+        self, q: list[float]
+    ) -> tuple[float, list[float], float, float, bool, tuple, list]:  # type: ignore[type-arg]
+        """(E = Σ wᵢ eᵢ², e, position error [m], orientation error [rad], within tolerance, pose,
+        joint axes or, if `world_columns`, the world Jacobian's columns)."""
         t, axes = self.fk(q if self.internal is None else self.internal(q))
         Te = relative_pose(t, self.target)
         px, py, pz = Te[9], Te[10], Te[11]
@@ -136,7 +146,8 @@ class SingleSolver:
             e0, e1, e2, e3, e4, e5, theta = se3_log(Te)
             E = e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3 + e4 * e4 + e5 * e5
             pos = math.sqrt(px * px + py * py + pz * pz)
-            return E, [e0, e1, e2, e3, e4, e5], pos, theta, t, axes
+            ok = pos <= self.tol_p and theta <= self.tol_o
+            return E, [e0, e1, e2, e3, e4, e5], pos, theta, ok, t, axes
         if self.coupled:
             e0, e1, e2, e3, e4, e5, theta = se3_log(Te)
             e = [e0, e1, e2, e3, e4, e5]
@@ -145,6 +156,13 @@ class SingleSolver:
             f0, f1, f2, theta = so3_log(Te)
             phi = [f0, f1, f2]
             e = [px, py, pz] if self.position_only else [f0, f1, f2, px, py, pz]
+        if self.axis_tol is not None:  # a component within its bound is met and exerts no pull
+            ok = True
+            for i, bound in enumerate(self.axis_tol):
+                if abs(e[i]) <= bound:
+                    e[i] = 0.0
+                else:
+                    ok = False  # also for NaN
         E = 0.0
         for wi, ei in zip(self.w, e, strict=True):
             E += wi * ei * ei
@@ -158,7 +176,9 @@ class SingleSolver:
             ori = theta
         else:
             ori = math.sqrt(sum(f * f for f, m in zip(phi, self.ori_mask, strict=True) if m))
-        return E, e, pos, ori, t, axes
+        if self.axis_tol is None:
+            ok = pos <= self.tol_p and ori <= self.tol_o
+        return E, e, pos, ori, ok, t, axes
 
     def jacobian(self, t: tuple, axes: list) -> FloatArray:  # type: ignore[type-arg]
         """Transposed weighted Jacobian (W^½ J)ᵀ (n × m) of the error (see `ik`), in tip axes or,
@@ -226,10 +246,9 @@ class SingleSolver:
     # ------------------------------------------------------------------ one attempt
     def attempt(self, q: list[float], deadline: float) -> tuple[bool, list[float], float, float]:
         """LM from q until converged, stuck, out of iterations or past the deadline."""
-        E, e, pos, ori, t, axes = self.evaluate(q)
+        E, e, pos, ori, ok, t, axes = self.evaluate(q)
         self._offer(E, q, pos, ori)
-        tol_p, tol_o = self.tol_p, self.tol_o
-        if pos <= tol_p and ori <= tol_o:
+        if ok:
             return True, q, pos, ori
         Jt = self.jacobian(t, axes)
         lam = LAMBDA_INIT
@@ -276,7 +295,7 @@ class SingleSolver:
                         if v <= lower[i] or v >= upper[i]:
                             edge_try.append(i)
                     q_try.append(v)
-                E_try, e_try, pos_t, ori_t, t_try, axes_try = self.evaluate(q_try)
+                E_try, e_try, pos_t, ori_t, ok, t_try, axes_try = self.evaluate(q_try)
                 if E_try < E:  # False for NaN: a non-finite trial is rejected
                     # gain ratio ρ = actual / predicted decrease, predicted = Δqᵀ(λΔq + Jᵀr)
                     g = (Ju @ r).tolist()
@@ -285,7 +304,7 @@ class SingleSolver:
                     stall = stall + 1 if E - E_try < STALL_FRACTION * E else 0
                     q, E, e, pos, ori, t, edge = q_try, E_try, e_try, pos_t, ori_t, t_try, edge_try
                     self._offer(E, q, pos, ori)
-                    if pos <= tol_p and ori <= tol_o:
+                    if ok:
                         return True, q, pos, ori
                     if stall >= STALL_STEPS:
                         break

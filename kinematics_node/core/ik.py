@@ -88,6 +88,13 @@ class IKOptions:
         weights: None, or 6 non-negative floats in (ω, v) order, tip-frame axes, multiplying the
             squared error components in the least-squares cost; a zero weight frees that component
             (it is then also excluded from the success test). At least one must be positive.
+        axis_tolerances: None, or 6 bounds > 0 in (ω, v) order, tip-frame axes (inf allowed), on
+            the components of the error e = (log(R(q)ᵀ R_target), R(q)ᵀ(p_target − p(q))), as
+            TRAC-IK's per-axis bounds: success means |eᵢ| ≤ axis_tolerances[i] for every i (the
+            two scalar tolerances are then not used), and a component already within its bound
+            does not pull on the solver, so e.g. (1e-4, 1e-4, inf, 1e-5, 1e-5, 1e-5) leaves the
+            rotation about the tool's z axis free. Not combined with `position_only` (give inf
+            for the three ω bounds instead).
         joint_weights: None, or one non-negative float per joint for the joint-space distance
             d(q, q_seed)² = Σ wⱼ (qⱼ − q_seedⱼ)² used by "distance" mode and to sort solutions.
         solution_separation: two solutions are distinct when some joint differs by more than this
@@ -105,6 +112,7 @@ class IKOptions:
     num_solutions: int = 1
     position_only: bool = False
     weights: tuple[float, ...] | None = None
+    axis_tolerances: tuple[float, ...] | None = None
     joint_weights: tuple[float, ...] | None = None
     solution_separation: float = 1e-2
     batch_timeout: float | None = None
@@ -167,6 +175,8 @@ class IKOptions:
                     f"{'position ' if self.position_only else ''}weight, got {w}"
                 )
             object.__setattr__(self, "weights", w)
+        if self.axis_tolerances is not None:
+            object.__setattr__(self, "axis_tolerances", _axis_tolerances(self))
         if self.joint_weights is not None:
             object.__setattr__(
                 self, "joint_weights", _weights_tuple(self.joint_weights, "joint_weights")
@@ -184,6 +194,33 @@ def _weights_tuple(values: object, name: str) -> tuple[float, ...]:
         raise InvalidInputError(f"IKOptions.{name} must be a flat sequence, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)) or np.any(arr < 0):
         raise InvalidInputError(f"IKOptions.{name} must be finite and ≥ 0, got {arr.tolist()}")
+    return tuple(float(x) for x in arr)
+
+
+def _axis_tolerances(opts: IKOptions) -> tuple[float, ...]:
+    values = opts.axis_tolerances
+    try:
+        arr = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InvalidInputError(
+            f"IKOptions.axis_tolerances must be 6 numbers, got {values!r}"
+        ) from None
+    if arr.shape != (6,):
+        raise InvalidInputError(
+            "IKOptions.axis_tolerances must have 6 values ordered (ωx, ωy, ωz, vx, vy, vz) "
+            f"[rad, m], got shape {arr.shape}"
+        )
+    if np.any(np.isnan(arr)) or np.any(arr <= 0):
+        raise InvalidInputError(
+            f"IKOptions.axis_tolerances must be > 0 (inf frees an axis), got {arr.tolist()}"
+        )
+    if np.all(np.isinf(arr)):
+        raise InvalidInputError("IKOptions.axis_tolerances must bound at least one axis")
+    if opts.position_only:
+        raise InvalidInputError(
+            "IKOptions.axis_tolerances and position_only cannot be combined: "
+            "give inf for the three ω bounds instead"
+        )
     return tuple(float(x) for x in arr)
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from kin_testing import erd_path
+from scipy.spatial.transform import Rotation
 
 from kinematics_node.core import IKOptions, InvalidInputError, SerialChain, se3, so3
 from kinematics_node.core._pose_error import relative_pose, se3_log, so3_log
@@ -195,6 +196,62 @@ def test_zero_weight_frees_rotation_about_the_tool_axis() -> None:
         # the tool z axis matches; the spin about it is free
         angle_z = math.acos(min(1.0, float(T_got[:3, 2] @ spun[:3, 2])))
         assert angle_z <= 2 * ORI_TOL
+
+
+def _axis_errors(T_got: np.ndarray, T_target: np.ndarray) -> np.ndarray:
+    """e = (log(Rᵀ R_t), Rᵀ(p_t − p)) in the tip axes, with SciPy's rotation vector as the log."""
+    R, p = T_got[:3, :3], T_got[:3, 3]
+    rotvec = Rotation.from_matrix(R.T @ T_target[:3, :3]).as_rotvec()
+    return np.r_[rotvec, R.T @ (T_target[:3, 3] - p)]
+
+
+def test_axis_tolerances_free_an_axis_that_full_pose_ik_cannot_meet() -> None:
+    """A planar arm cannot tilt its tool out of the plane: the tilted target fails as a full pose
+    and succeeds once the tilt axis (tool x) has an infinite bound; every bounded component of the
+    answer is then within its bound, checked with SciPy's rotation vector."""
+    from kinematics_node.robots import load_robot
+
+    chain = load_robot("planar3r")
+    bounds = (math.inf, 1e-4, 1e-4, 1e-5, 1e-5, 1e-5)
+    rng = np.random.default_rng(31)
+    for k in range(4):
+        q_goal = rng.uniform(-1.5, 1.5, chain.dof)
+        tilt = se3.exp(np.r_[0.3, 0.0, 0.0, 0.0, 0.0, 0.0])  # about the tool's x axis
+        T_target = chain.fk(q_goal) @ tilt
+        full = chain.ik(T_target, options=IKOptions(timeout=0.02, rng_seed=k))
+        assert not full.success and full.orientation_error > 0.29
+        res = chain.ik(T_target, options=IKOptions(axis_tolerances=bounds, rng_seed=k))
+        assert res.success, res.message
+        e = _axis_errors(chain.fk(res.q), T_target)
+        assert np.all(np.abs(e[1:]) <= np.array(bounds[1:]))
+        assert abs(e[0]) == pytest.approx(0.3, abs=1e-3)  # the free tilt is left as it is
+
+
+def test_loose_axis_tolerances_are_met_per_component_single_and_batch() -> None:
+    chain = arm("panda")
+    bounds = (2e-2, 2e-2, 5e-2, 1e-3, 1e-3, 4e-3)
+    _, T = random_targets(chain, 8, seed=33)
+    opts = IKOptions(axis_tolerances=bounds, timeout=0.5, rng_seed=2)
+    batch = chain.ik_batch(T, options=opts)
+    assert batch.success.all(), batch.message
+    for k, T_target in enumerate(T):
+        res = chain.ik(T_target, options=opts)
+        for q in (res.q, batch.q[k]):
+            e = _axis_errors(chain.fk(q), T_target)
+            assert np.all(np.abs(e) <= np.array(bounds)) and within_limits(chain, q)
+        assert res.success, res.message
+
+
+@pytest.mark.parametrize(
+    ("bounds", "match"),
+    [((1e-3,) * 5, "6 values"), ((0.0,) + (1e-3,) * 5, "> 0"), ((math.nan,) + (1e-3,) * 5, "> 0"),
+     ((math.inf,) * 6, "at least one"), ("tight", "6 numbers")],
+)  # fmt: skip
+def test_bad_axis_tolerances_are_refused(bounds: object, match: str) -> None:
+    with pytest.raises(InvalidInputError, match=match):
+        IKOptions(axis_tolerances=bounds)  # type: ignore[arg-type]
+    with pytest.raises(InvalidInputError, match="position_only"):
+        IKOptions(axis_tolerances=(math.inf,) * 3 + (1e-3,) * 3, position_only=True)
 
 
 def test_distance_mode_returns_the_closest_solution_found() -> None:

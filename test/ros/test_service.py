@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import msg_adapters as ma
-from kinematics_node.core import SerialChain
+from kinematics_node.core import SerialChain, se3
 from kinematics_node.core.exceptions import InvalidInputError, KinematicsError
 from kinematics_node.service import KinematicsService
 
@@ -386,11 +386,8 @@ def test_unexpected_errors_do_not_escape(ros, ur5):
 
 
 # =========================================================================== IK
-def _ik_or_skip(ros, svc, req):
-    resp = svc.compute_ik(req, ros.response("ComputeIK"))
-    if "IK solver not available" in resp.message or "not supported by this version" in resp.message:
-        pytest.skip(f"core IK not on this branch yet: {resp.message}")
-    return resp
+def _ik(ros, svc, req):
+    return svc.compute_ik(ros.roundtrip(req), ros.response("ComputeIK"))
 
 
 def _target(ros, T, frame_id=""):
@@ -422,7 +419,7 @@ def test_ik_reaches_targets_given_in_base_link_and_tf_frames(ros, ur5, q_ur5, fr
         target=_target(ros, np.linalg.inv(T_base_frame) @ T_base_goal, frame_id),
         timeout=0.5,
     )
-    resp = _ik_or_skip(ros, ur5, req)
+    resp = _ik(ros, ur5, req)
     assert resp.success, resp.message
     check_message(ros, resp)
     assert list(resp.solution.name) == list(chain.joint_names)
@@ -437,10 +434,39 @@ def test_ik_position_only(ros, ur5, q_ur5):
     T = chain.fk(q_ur5)
     T[:3, :3] = np.eye(3)  # orientation to ignore
     req = ros.request("ComputeIK", target=_target(ros, T), position_only=True, timeout=0.5)
-    resp = _ik_or_skip(ros, ur5, req)
+    resp = _ik(ros, ur5, req)
     assert resp.success, resp.message
     reached = chain.fk(np.asarray(resp.solution.position))[:3, 3]
     assert np.linalg.norm(reached - T[:3, 3]) <= 1e-5
+
+
+def test_ik_axis_tolerances_free_the_spin_about_the_tool_axis(ros, ur5, q_ur5):
+    chain = chain_of(ur5)
+    ur5.on_joint_state(js(ros, chain.joint_names, q_ur5, t=1.0))
+    T = chain.fk(q_ur5 + 0.1)
+    spun = T @ se3.exp(np.array([0.0, 0.0, 0.8, 0.0, 0.0, 0.0]))  # Rz(0.8) about the tool z
+    bounds = np.array([1e-4, 1e-4, np.inf, 1e-5, 1e-5, 1e-5])
+    req = ros.request("ComputeIK", target=_target(ros, spun), axis_tolerances=bounds, timeout=0.5)
+    resp = _ik(ros, ur5, req)
+    assert resp.success, resp.message
+    T_got = chain.fk(np.asarray(resp.solution.position))
+    assert np.linalg.norm(T_got[:3, 3] - spun[:3, 3]) <= 2e-5
+    tool_z_angle = math.acos(min(1.0, float(T_got[:3, 2] @ spun[:3, 2])))
+    assert tool_z_angle <= 2e-4  # the tool axis matches; the spin about it was free
+
+
+@pytest.mark.parametrize(
+    ("bounds", "needle"),
+    [([1e-3] * 5, "6 values"), ([0.0] + [1e-3] * 5, "> 0"), ([math.nan] + [1e-3] * 5, "> 0")],
+)
+def test_ik_bad_axis_tolerances_are_refused_with_the_reason(ros, ur5, q_ur5, bounds, needle):
+    chain = chain_of(ur5)
+    req = ros.request(
+        "ComputeIK", target=_target(ros, chain.fk(q_ur5)), axis_tolerances=np.array(bounds)
+    )
+    resp = _ik(ros, ur5, req)
+    assert resp.success is False and "axis_tolerances" in resp.message and needle in resp.message
+    check_message(ros, resp)
 
 
 def test_ik_unreachable_target_fails_with_the_best_configuration(ros, ur5, q_ur5):
@@ -448,7 +474,7 @@ def test_ik_unreachable_target_fails_with_the_best_configuration(ros, ur5, q_ur5
     T = np.eye(4)
     T[:3, 3] = [5.0, 0.0, 0.0]  # the UR5 reaches < 1 m
     req = ros.request("ComputeIK", target=_target(ros, T), timeout=0.05)
-    resp = _ik_or_skip(ros, ur5, req)
+    resp = _ik(ros, ur5, req)
     assert resp.success is False and "no solution" in resp.message
     check_message(ros, resp)
     q = np.asarray(resp.solution.position)
@@ -461,7 +487,7 @@ def test_ik_unreachable_target_fails_with_the_best_configuration(ros, ur5, q_ur5
 def test_ik_zero_timeout_means_the_node_default(ros, ur5, q_ur5):
     chain = chain_of(ur5)
     req = ros.request("ComputeIK", target=_target(ros, chain.fk(q_ur5 + 0.05)), timeout=0.0)
-    resp = _ik_or_skip(ros, ur5, req)
+    resp = _ik(ros, ur5, req)
     assert resp.success, resp.message
 
 
