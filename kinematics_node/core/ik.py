@@ -237,9 +237,11 @@ class IKResult:
     Attributes:
         q: (n,) the solution; on failure the best configuration found (smallest weighted
             residual). Always finite and within the limits.
-        success: whether `q` meets both tolerances.
-        position_error: ‖p_target − p(q)‖ [m] (weighted-out components excluded).
-        orientation_error: rotation angle of R(q)ᵀ R_target [rad] (0 when position_only).
+        success: whether `q` meets both tolerances (or every per-axis bound, if given).
+        position_error: ‖p_target − p(q)‖ [m]; components freed by a zero weight or an infinite
+            axis tolerance are excluded.
+        orientation_error: rotation angle of R(q)ᵀ R_target [rad] (0 when position_only); if a
+            rotation component is freed, the norm of the remaining rotation-vector components.
         iterations: Levenberg–Marquardt iterations over all attempts.
         restarts: random restarts used (attempts − 1).
         solutions: distinct solutions found, closest to the seed first (q is solutions[0] on
