@@ -134,3 +134,22 @@ def test_elbow_limited_to_plus_minus_pi_is_solved_across_the_limit() -> None:
     assert res.success, res.message
     assert np.all(res.q >= chain.lower) and np.all(res.q <= chain.upper)
     np.testing.assert_allclose(res.q, q_goal, atol=1e-8)
+
+
+@pytest.mark.parametrize(("mult", "kind"), [("-2", "continuous"), ("0.5", "revolute")])
+def test_ik_on_chains_with_a_mimic_joint_single_and_batch(mult, kind) -> None:
+    """The mimic follower is on the path, so IK works through θ_internal = G q + offset (the G
+    branch of the Jacobian), with a periodic (integer) and a non-periodic (0.5) leader."""
+    chain = SerialChain.from_urdf(_MIMIC_URDF.format(mult=mult, kind=kind), tip_link="c")
+    assert chain._G is not None
+    rng = np.random.default_rng(4)
+    lo, hi = np.maximum(chain.lower, -3.0), np.minimum(chain.upper, 3.0)
+    T = chain.fk(rng.uniform(lo, hi, (10, chain.dof)))
+    opts = IKOptions(position_tolerance=1e-8, orientation_tolerance=1e-8, timeout=0.2, rng_seed=1)
+    batch = chain.ik_batch(T, options=opts)
+    for k, T_target in enumerate(T):
+        res = chain.ik(T_target, options=opts)
+        for q in (res.q, batch.q[k]):
+            np.testing.assert_allclose(chain.fk(q), T_target, atol=1e-7)
+            assert np.all(q >= chain.lower) and np.all(q <= chain.upper)
+        assert res.success and batch.success[k]
