@@ -459,7 +459,8 @@ class SerialChain:
     ) -> IKBatchResult:
         """Vectorised IK for (N, 4, 4) targets and optional (N, n) seeds → `IKBatchResult`.
 
-        Same algorithm as `ik`, run in lock-step over the targets with batched NumPy kernels.
+        Same algorithm as `ik`, run in lock-step over the targets with batched NumPy kernels
+        (fewer than 48 targets: `ik` per target, which is faster there).
         Time budget for the whole call: `options.batch_timeout` if set, else `options.timeout` × N.
         Only mode "speed" with num_solutions = 1; see `kinematics_node.core.ik.solve_batch`.
         """

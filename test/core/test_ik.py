@@ -227,7 +227,7 @@ def test_axis_tolerances_free_an_axis_that_full_pose_ik_cannot_meet() -> None:
         assert abs(e[0]) == pytest.approx(0.3, abs=1e-3)  # the free tilt is left as it is
 
 
-def test_loose_axis_tolerances_are_met_per_component_single_and_batch() -> None:
+def test_loose_axis_tolerances_are_met_per_component_single_and_batch(batch_path: str) -> None:
     chain = arm("panda")
     bounds = (2e-2, 2e-2, 5e-2, 1e-3, 1e-3, 4e-3)
     _, T = random_targets(chain, 8, seed=33)
@@ -437,7 +437,7 @@ def test_concurrent_threads_match_single_thread_results() -> None:
 
 # ---------------------------------------------------------------------- batch
 @pytest.mark.parametrize("name", ["ur5", "panda"])
-def test_batch_agrees_with_single_calls(name: str) -> None:
+def test_batch_agrees_with_single_calls(name: str, batch_path: str) -> None:
     chain, fk_pin = arm(name), PinFK(name)
     N = 40
     _, T = random_targets(chain, N, seed=17)
@@ -455,7 +455,7 @@ def test_batch_agrees_with_single_calls(name: str) -> None:
         assert res.position_error[k] == pytest.approx(p_err, abs=1e-9)
 
 
-def test_batch_failure_reports_best_configuration_and_custom_seeds() -> None:
+def test_batch_failure_reports_best_configuration_and_custom_seeds(batch_path: str) -> None:
     chain = arm("ur5")
     Q, T = random_targets(chain, 6, seed=18)
     T[0, :3, 3] += (10.0, 0.0, 0.0)  # one unreachable target
@@ -467,7 +467,7 @@ def test_batch_failure_reports_best_configuration_and_custom_seeds() -> None:
     assert "5/6" in res.message
 
 
-def test_batch_position_only_and_continuous() -> None:
+def test_batch_position_only_and_continuous(batch_path: str) -> None:
     chain = _continuous_ur5()
     _, T = random_targets(chain, 10, seed=19)
     seeds = np.zeros((10, 6))
@@ -476,6 +476,21 @@ def test_batch_position_only_and_continuous() -> None:
     assert res.success.all() and np.all(res.orientation_error == 0.0)
     assert np.all(np.abs(res.q[:, 0] - 20.0) <= np.pi + 1e-12)
     np.testing.assert_allclose(chain.fk(res.q)[:, :3, 3], T[:, :3, 3], atol=POS_TOL)
+
+
+def test_small_batches_return_exactly_what_single_calls_return() -> None:
+    from kinematics_node.core.ik import SCALAR_BATCH_BELOW
+
+    chain = arm("panda")
+    N = SCALAR_BATCH_BELOW - 1
+    Q, T = random_targets(chain, N, seed=20)
+    opts = IKOptions(timeout=0.5, rng_seed=7)
+    res = chain.ik_batch(T, Q[::-1], opts)
+    for k in range(N):
+        single = chain.ik(T[k], Q[N - 1 - k], opts)
+        np.testing.assert_array_equal(res.q[k], single.q)  # same solver, same seed, same answer
+        assert (res.iterations[k], res.restarts[k]) == (single.iterations, single.restarts)
+    assert res.success.all() and f"{N}/{N}" in res.message
 
 
 # ---------------------------------------------------------------------- scalar log fast path

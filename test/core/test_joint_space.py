@@ -137,7 +137,7 @@ def test_elbow_limited_to_plus_minus_pi_is_solved_across_the_limit() -> None:
 
 
 @pytest.mark.parametrize(("mult", "kind"), [("-2", "continuous"), ("0.5", "revolute")])
-def test_ik_on_chains_with_a_mimic_joint_single_and_batch(mult, kind) -> None:
+def test_ik_on_chains_with_a_mimic_joint_single_and_batch(mult, kind, batch_path) -> None:
     """The mimic follower is on the path, so IK works through θ_internal = G q + offset (the G
     branch of the Jacobian), with a periodic (integer) and a non-periodic (0.5) leader."""
     chain = SerialChain.from_urdf(_MIMIC_URDF.format(mult=mult, kind=kind), tip_link="c")
