@@ -7,6 +7,7 @@ import math
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -491,6 +492,50 @@ def test_small_batches_return_exactly_what_single_calls_return() -> None:
         np.testing.assert_array_equal(res.q[k], single.q)  # same solver, same seed, same answer
         assert (res.iterations[k], res.restarts[k]) == (single.iterations, single.restarts)
     assert res.success.all() and f"{N}/{N}" in res.message
+
+
+@pytest.mark.filterwarnings("error")  # a NaN or overflow warning anywhere fails the test
+def test_random_option_mixes_never_return_nan_or_leave_the_limits(batch_path: str) -> None:
+    """Fuzz: bundled arms of 3–7 joints, targets reachable, perturbed or far away, seeds at the
+    limits, random weights / axis bounds / position-only / modes. Whatever happens, q is finite
+    and within the limits and the reported errors are finite (single and batch)."""
+    from kinematics_node.robots import load_robot
+
+    chains = [load_robot(n) for n in ("ur5e", "panda", "scara", "planar3r")]
+    rng = np.random.default_rng(99)
+    for it in range(48):
+        chain = chains[it % len(chains)]
+        lo = np.where(np.isfinite(chain.lower), chain.lower, -4.0)
+        hi = np.where(np.isfinite(chain.upper), chain.upper, 4.0)
+        T = chain.fk(rng.uniform(lo, hi))
+        if it % 3 == 1:
+            T = T @ se3.exp(rng.normal(size=6) * 0.3)  # perhaps unreachable
+        elif it % 3 == 2:
+            T[:3, 3] *= 5.0  # out of reach
+        seed = (lo, hi, rng.uniform(lo, hi))[it % 3]
+        weights = tuple(rng.choice([0.0, 0.5, 1.0, 3.0], 6)) if it % 4 == 1 else None
+        bounds = (
+            tuple(rng.choice([1e-5, 1e-3, 0.1, math.inf], 5)) + (1e-3,) if it % 4 == 2 else None
+        )
+        if weights is not None and not any(weights):
+            weights = None
+        opts = IKOptions(
+            weights=weights,
+            axis_tolerances=bounds,
+            position_only=it % 4 == 3,
+            timeout=0.005,
+            rng_seed=it,
+            mode="distance" if it % 5 == 0 else "speed",
+        )
+        res = chain.ik(T, seed, opts)
+        batch = chain.ik_batch(
+            np.stack([T, T]), np.stack([seed, seed]), replace(opts, mode="speed")
+        )
+        for q in (res.q, *batch.q):
+            assert np.all(np.isfinite(q)) and within_limits(chain, q)
+        errors = [res.position_error, res.orientation_error]
+        errors += [*batch.position_error, *batch.orientation_error]
+        assert all(math.isfinite(x) for x in errors)
 
 
 # ---------------------------------------------------------------------- scalar log fast path
