@@ -14,7 +14,6 @@ solved by its first converged lane; its other lanes are dropped.
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -32,7 +31,13 @@ from ._ik_single import (
     STALL_FRACTION,
     STALL_STEPS,
 )
-from ._joint_space import into_limits_batch, nearest_equivalent_batch, periodic_mask
+from ._joint_space import (
+    into_limits_batch,
+    nearest_equivalent_batch,
+    periodic_mask,
+    pinnable_mask,
+    sample_bounds,
+)
 
 if TYPE_CHECKING:
     from .chain import SerialChain
@@ -171,10 +176,8 @@ def solve_batch_arrays(
     prob = _BatchProblem(chain, T, opts)
     lower, upper = np.asarray(chain.lower), np.asarray(chain.upper)
     periodic = periodic_mask(chain)
-    can_pin = ~(periodic & (upper - lower >= 2.0 * math.pi))  # else a turn always fits
-    finite = np.isfinite(lower) & np.isfinite(upper)
-    lo = np.where(finite, lower, np.maximum(lower, seeds - math.pi))
-    hi = np.where(finite, upper, np.minimum(upper, seeds + math.pi))
+    can_pin = pinnable_mask(chain, periodic)
+    lo, hi = sample_bounds(lower, upper, seeds)
     rng = np.random.default_rng(opts.rng_seed)
 
     success = np.zeros(N, dtype=bool)

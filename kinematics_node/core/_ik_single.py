@@ -22,7 +22,13 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg.lapack import dposv
 
-from ._joint_space import into_limits, nearest_equivalent, periodic_mask
+from ._joint_space import (
+    into_limits,
+    nearest_equivalent,
+    periodic_mask,
+    pinnable_mask,
+    sample_bounds,
+)
 from ._pose_error import relative_pose, se3_log, so3_log
 
 if TYPE_CHECKING:
@@ -79,22 +85,18 @@ class SingleSolver:
         joint_weights: FloatArray,
     ) -> None:
         self.opts = opts
-        self.kernel = chain._kernel
         self.internal = None if chain._mimic_index is None else chain._internal_scalar
         self.G = chain._G
-        self.prismatic = self.kernel.prismatic
+        self.prismatic = chain._kernel.prismatic
         self.n = chain.dof
         R, p = T_target[:3, :3], T_target[:3, 3]
         self.target = tuple(R.ravel().tolist() + p.tolist())
         self.seed: list[float] = seed.tolist()
         self.lower: list[float] = chain.lower.tolist()
         self.upper: list[float] = chain.upper.tolist()
-        self.periodic: list[bool] = periodic_mask(chain).tolist()
-        # a joint at a limit is pinned there unless a whole turn always fits (range ≥ 2π)
-        self.pinnable = [
-            not (per and hi - lo >= TWO_PI)
-            for per, lo, hi in zip(self.periodic, self.lower, self.upper, strict=True)
-        ]
+        periodic = periodic_mask(chain)
+        self.periodic: list[bool] = periodic.tolist()
+        self.pinnable: list[bool] = pinnable_mask(chain, periodic).tolist()
         self.joint_weights: list[float] = joint_weights.tolist()
         self._sampler: tuple[np.random.Generator, FloatArray, FloatArray] | None = None
 
@@ -327,16 +329,8 @@ class SingleSolver:
     def _random_start(self) -> list[float]:
         """A configuration drawn uniformly within the limits (unbounded sides: seed ± π)."""
         if self._sampler is None:  # built on the first restart: most calls never need it
-            lo = [
-                a if math.isfinite(a) and math.isfinite(b) else max(a, s - math.pi)
-                for s, a, b in zip(self.seed, self.lower, self.upper, strict=True)
-            ]
-            hi = [
-                b if math.isfinite(a) and math.isfinite(b) else min(b, s + math.pi)
-                for s, a, b in zip(self.seed, self.lower, self.upper, strict=True)
-            ]
-            rng = np.random.default_rng(self.opts.rng_seed)
-            self._sampler = (rng, np.array(lo), np.array(hi))
+            lo, hi = sample_bounds(np.array(self.lower), np.array(self.upper), np.array(self.seed))
+            self._sampler = (np.random.default_rng(self.opts.rng_seed), lo, hi)
         rng, lo_a, hi_a = self._sampler
         q: list[float] = rng.uniform(lo_a, hi_a).tolist()
         return q

@@ -41,6 +41,22 @@ def periodic_mask(chain: SerialChain) -> NDArray[np.bool_]:
     return periodic
 
 
+def pinnable_mask(chain: SerialChain, periodic: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Joints that can sit pinned at a limit: all but periodic joints whose range spans a whole
+    turn (for those a turn back inside always fits)."""
+    return ~(periodic & (chain.upper - chain.lower >= TWO_PI))
+
+
+def sample_bounds(
+    lower: FloatArray, upper: FloatArray, seed: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Range of IK restarts: the limits, or seed ± π on an unbounded side (seed: (n,) or (N, n))."""
+    finite = np.isfinite(lower) & np.isfinite(upper)
+    lo = np.where(finite, lower, np.maximum(lower, seed - math.pi))
+    hi = np.where(finite, upper, np.minimum(upper, seed + math.pi))
+    return lo, hi
+
+
 def into_limits(v: float, lo: float, hi: float, periodic: bool) -> float:
     """v moved into [lo, hi]: by a whole number of turns if periodic and one fits, else clamped."""
     if v > hi:
