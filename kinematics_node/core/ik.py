@@ -188,13 +188,16 @@ class IKOptions:
             )
 
 
-def _weights_tuple(values: object, name: str) -> tuple[float, ...]:
+def _float_array(values: object, name: str, expected: str) -> FloatArray:
+    """`values` as a float array, or an InvalidInputError saying what IKOptions.`name` must be."""
     try:
-        arr = np.asarray(values, dtype=np.float64)
+        return np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError):
-        raise InvalidInputError(
-            f"IKOptions.{name} must be a sequence of numbers, got {values!r}"
-        ) from None
+        raise InvalidInputError(f"IKOptions.{name} must be {expected}, got {values!r}") from None
+
+
+def _weights_tuple(values: object, name: str) -> tuple[float, ...]:
+    arr = _float_array(values, name, "a sequence of numbers")
     if arr.ndim != 1:
         raise InvalidInputError(f"IKOptions.{name} must be a flat sequence, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)) or np.any(arr < 0):
@@ -203,13 +206,7 @@ def _weights_tuple(values: object, name: str) -> tuple[float, ...]:
 
 
 def _axis_tolerances(opts: IKOptions) -> tuple[float, ...]:
-    values = opts.axis_tolerances
-    try:
-        arr = np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InvalidInputError(
-            f"IKOptions.axis_tolerances must be 6 numbers, got {values!r}"
-        ) from None
+    arr = _float_array(opts.axis_tolerances, "axis_tolerances", "6 numbers")
     if arr.shape != (6,):
         raise InvalidInputError(
             "IKOptions.axis_tolerances must have 6 values ordered (ωx, ωy, ωz, vx, vy, vz) "
