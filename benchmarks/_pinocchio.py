@@ -12,3 +12,10 @@ def chain_model(pin: Any, path: Path, joint_names: tuple[str, ...]) -> Any:
     full = pin.buildModelFromUrdf(str(path))
     locked = [full.getJointId(n) for n in full.names[1:] if n not in joint_names]
     return pin.buildReducedModel(full, locked, pin.neutral(full)) if locked else full
+
+
+def chain_setup(pin: Any, path: Path, chain: Any) -> tuple[Any, Any, int, list[int]]:
+    """(model, data, frame id of the tip, index in q of each chain joint) for `chain`."""
+    model = chain_model(pin, path, chain.joint_names)
+    idx = [model.joints[model.getJointId(n)].idx_q for n in chain.joint_names]
+    return model, model.createData(), model.getFrameId(chain.tip_link), idx

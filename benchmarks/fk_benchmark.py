@@ -23,7 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from kinematics_node.core import SerialChain  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _pinocchio import chain_model  # noqa: E402
+from _pinocchio import chain_setup  # noqa: E402
 
 ERD = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
 ARMS = {
@@ -55,10 +55,7 @@ def bench_pinocchio(
         import pinocchio as pin
     except ImportError:
         return "not installed (pip install pin)"
-    model = chain_model(pin, path, chain.joint_names)
-    data = model.createData()
-    fid = model.getFrameId(chain.tip_link)
-    idx = [model.joints[model.getJointId(n)].idx_q for n in chain.joint_names]
+    model, data, fid, idx = chain_setup(pin, path, chain)
     if model.nq != chain.dof:
         return f"skipped: model has {model.nq} coordinates, chain {chain.dof}"
     order = np.argsort(idx)

@@ -44,7 +44,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from kinematics_node.core import IKOptions, SerialChain, so3  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _pinocchio import chain_model  # noqa: E402
+from _pinocchio import chain_setup  # noqa: E402
 
 ERD = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
 TOL = 1e-5
@@ -170,10 +170,7 @@ def peer_pinocchio(path: Path, chain: SerialChain) -> Callable[[np.ndarray], np.
         import pinocchio as pin
     except ImportError:
         return "pinocchio not installed (pip install pin)"
-    model = chain_model(pin, path, chain.joint_names)
-    data = model.createData()
-    fid = model.getFrameId(chain.tip_link)
-    idx = [model.joints[model.getJointId(j)].idx_q for j in chain.joint_names]
+    model, data, fid, idx = chain_setup(pin, path, chain)
     mid = 0.5 * (chain.lower + chain.upper)
     DT, damp = 1e-1, 1e-12
 
