@@ -17,7 +17,7 @@ from typing import TextIO
 import numpy as np
 
 from .core import IKOptions, SerialChain
-from .ee_state import JointStateTracker, compute_ee_state
+from .ee_state import JointStateTracker, compute_ee_state, conditioning
 
 
 @dataclass
@@ -82,7 +82,7 @@ def run_demo(robot: str, duration: float, rate: float, n_ik: int, stream: TextIO
         q_log.append(state.q)
         p_log.append(state.T_base_tip[:3, 3])
         v_log.append(np.nan if state.twist is None else float(np.linalg.norm(state.twist[3:])))
-        w_log.append(state.manipulability)
+        w_log.append(conditioning(chain, state.q).manipulability)
         bar.update(k + 1)
     bar.close()
 

@@ -27,37 +27,60 @@ FloatArray = NDArray[np.float64]
 
 
 class JointStateTracker:
-    """Latest position and velocity of each chain joint, fed by (possibly partial) samples.
+    """Latest position and velocity of each tracked joint, fed by (possibly partial) samples.
+
+    `required` joints (default: all) must be valid in every sample that names them: a NaN or
+    infinite position of one rejects the sample. Other tracked joints (e.g. a gripper next to the
+    arm's chain) are skipped when invalid, so they never block the required ones.
 
     Not thread-safe: feed it from one callback (or guard it with a lock).
     """
 
     def __init__(
-        self, joint_names: Sequence[str], continuous: Sequence[bool] | None = None
+        self,
+        joint_names: Sequence[str],
+        continuous: Sequence[bool] | None = None,
+        required: Sequence[str] | None = None,
     ) -> None:
         self.joint_names = tuple(joint_names)
         self._index = {name: i for i, name in enumerate(self.joint_names)}
         n = len(self.joint_names)
-        self._continuous = np.zeros(n, bool) if continuous is None else np.asarray(continuous, bool)
-        self._q = np.full(n, np.nan)
-        self._qdot = np.full(n, np.nan)
-        self._stamp = np.full(n, -np.inf)  # per joint: stamp of its last accepted sample [s]
+        self._continuous = [False] * n if continuous is None else [bool(c) for c in continuous]
+        if len(self._continuous) != n:
+            raise InvalidInputError(f"{len(self._continuous)} continuous flags for {n} joints")
+        self._required = (
+            [True] * n if required is None else [name in set(required) for name in self.joint_names]
+        )
+        self._q = [math.nan] * n
+        self._qdot = [math.nan] * n
+        self._stamp = [-math.inf] * n  # per joint: stamp of its last accepted sample [s]
         self.latest_stamp = -math.inf
         self.stale_samples = 0
 
     @property
     def complete(self) -> bool:
-        """True once every chain joint has a position."""
-        return bool(np.all(np.isfinite(self._q)))
+        """True once every joint has a position."""
+        return all(math.isfinite(v) for v in self._q)
 
     @property
     def q(self) -> FloatArray:
-        return self._q.copy()
+        return np.array(self._q)
 
     @property
     def qdot(self) -> FloatArray | None:
         """Joint velocities, or None while any of them is unknown."""
-        return self._qdot.copy() if np.all(np.isfinite(self._qdot)) else None
+        return np.array(self._qdot) if all(math.isfinite(v) for v in self._qdot) else None
+
+    def positions(self, index: Sequence[int]) -> list[float]:
+        """Positions of the joints at `index` (NaN where not yet received)."""
+        q = self._q
+        return [q[i] for i in index]
+
+    def velocities(self, index: Sequence[int]) -> list[float] | None:
+        """Velocities of the joints at `index`, or None while any of them is unknown."""
+        qdot = self._qdot
+        v = [qdot[i] for i in index]
+        return v if all(math.isfinite(x) for x in v) else None
 
     def update(
         self,
@@ -66,53 +89,65 @@ class JointStateTracker:
         velocities: Sequence[float] | None,
         stamp: float,
     ) -> bool:
-        """Merge one sample; return True if it changed at least one chain joint.
+        """Merge one sample; return True if it changed at least one tracked joint.
 
-        Joints not in the chain are ignored. A sample whose stamp is older than the last accepted
-        sample of a joint it names is ignored for that joint (counted in `stale_samples`).
+        Untracked joints are ignored. A sample whose stamp is older than the last accepted sample
+        of a joint it names is ignored for that joint (counted in `stale_samples`).
 
         Raises:
-            InvalidInputError: lengths disagree, or a chain joint's position is NaN or infinite.
+            InvalidInputError: lengths disagree, a tracked joint is named twice, the stamp is not
+                finite, or a required joint's position is NaN or infinite or its velocity is
+                infinite (a NaN velocity means "unknown"). Nothing is merged then.
         """
-        if len(positions) != len(names):
+        n_names = len(names)
+        if len(positions) != n_names:
             raise InvalidInputError(
-                f"joint state has {len(names)} names but {len(positions)} positions"
+                f"joint state has {n_names} names but {len(positions)} positions"
             )
         have_vel = velocities is not None and len(velocities) > 0
-        if have_vel and velocities is not None and len(velocities) != len(names):
+        if have_vel and velocities is not None and len(velocities) != n_names:
             raise InvalidInputError(
-                f"joint state has {len(names)} names but {len(velocities)} velocities"
+                f"joint state has {n_names} names but {len(velocities)} velocities"
             )
         if not math.isfinite(stamp):
             raise InvalidInputError(f"joint state stamp must be finite, got {stamp}")
+        index = self._index
         updates = []
         for j, name in enumerate(names):
-            i = self._index.get(name)
+            i = index.get(name)
             if i is None:
                 continue
             p = float(positions[j])
-            if not math.isfinite(p):
-                raise InvalidInputError(f"joint state position of {name!r} is {p}")
             v = float(velocities[j]) if have_vel and velocities is not None else math.nan
+            if not math.isfinite(p) or v in (math.inf, -math.inf):
+                if self._required[i]:
+                    what = "position" if not math.isfinite(p) else "velocity"
+                    raise InvalidInputError(
+                        f"joint state {what} of {name!r} is {p if what == 'position' else v}"
+                    )
+                continue
             updates.append((i, p, v))
+        hit = [i for i, _, _ in updates]
+        if len(set(hit)) != len(hit):
+            dup = next(self.joint_names[i] for k, i in enumerate(hit) if i in hit[:k])
+            raise InvalidInputError(f"joint state names {dup!r} more than once")
         changed = False
+        q, qdot, stamps = self._q, self._qdot, self._stamp
         for i, p, v in updates:
-            last = self._stamp[i]
+            last = stamps[i]
             if stamp < last:
                 self.stale_samples += 1
                 continue
-            if not math.isfinite(
-                v
-            ):  # missing or NaN (ros2_control fills absent interfaces with NaN)
+            if not math.isfinite(v):  # missing or NaN (ros2_control fills absent interfaces so)
                 dt = stamp - last
-                if math.isfinite(self._q[i]) and dt > 0:
-                    dq = p - self._q[i]
+                if math.isfinite(q[i]) and dt > 0:
+                    dq = p - q[i]
                     if self._continuous[i]:
                         dq = math.remainder(dq, 2 * math.pi)
                     v = dq / dt
-                elif dt == 0 and math.isfinite(self._qdot[i]):
-                    v = self._qdot[i]  # duplicate stamp: keep the previous estimate
-            self._q[i], self._qdot[i], self._stamp[i] = p, v, stamp
+                elif dt == 0 and math.isfinite(qdot[i]):
+                    v = qdot[i]  # duplicate stamp: keep the previous estimate
+            q[i], qdot[i], stamps[i] = p, v, stamp
             changed = True
         if changed:
             self.latest_stamp = max(self.latest_stamp, stamp)
@@ -121,7 +156,7 @@ class JointStateTracker:
 
 @dataclass(frozen=True)
 class EndEffectorState:
-    """End-effector quantities at one instant.
+    """End-effector quantities at one instant: what the node publishes per joint state.
 
     Attributes:
         stamp: time of the joint state [s].
@@ -129,9 +164,6 @@ class EndEffectorState:
         T_base_tip: pose of the tip in the base (4×4).
         twist: (ω, v) of the tip: angular velocity and velocity of the tip origin, in base axes for
             frame "world", in tip axes for frame "body"; None when qdot is unknown.
-        manipulability: Yoshikawa measure of the linear rows of the world Jacobian [m].
-        condition_number: of the full world Jacobian (∞ at a singularity).
-        near_singular: smallest singular value of the full Jacobian below the threshold.
     """
 
     stamp: float
@@ -139,8 +171,24 @@ class EndEffectorState:
     qdot: FloatArray | None
     T_base_tip: FloatArray
     twist: FloatArray | None
+
+
+@dataclass(frozen=True)
+class Conditioning:
+    """How well-conditioned the arm is at one configuration (from the world Jacobian).
+
+    Attributes:
+        manipulability: Yoshikawa measure √det(J_v J_vᵀ) of the linear rows: a volume, in
+            (m/rad)³ for a spatial arm of revolute joints.
+        condition_number: σ_max / σ_min of the full 6×n Jacobian (∞ at a singularity). It mixes
+            rad/s and m/s rows, so it depends on the unit of length.
+        min_singular_value: σ_min of the full Jacobian.
+        near_singular: σ_min below the threshold.
+    """
+
     manipulability: float
     condition_number: float
+    min_singular_value: float
     near_singular: bool
 
 
@@ -150,9 +198,9 @@ def compute_ee_state(
     qdot: FloatArray | None,
     stamp: float,
     twist_frame: Literal["world", "body"] = "world",
-    singular_threshold: float = 1e-3,
 ) -> EndEffectorState:
-    """Pose, twist and conditioning of the tip for one configuration (one FK/Jacobian pass)."""
+    """Pose and twist of the tip for one configuration (one FK/Jacobian pass, no decomposition:
+    this runs once per joint state)."""
     T, J = chain.fk_jacobian(q, "world")
     twist = None
     if qdot is not None:
@@ -160,14 +208,21 @@ def compute_ee_state(
         if twist_frame == "body":
             Rt = T[:3, :3].T
             twist = np.concatenate((Rt @ twist[:3], Rt @ twist[3:]))
-    sv = np.linalg.svd(J, compute_uv=False)
     return EndEffectorState(
-        stamp=stamp,
-        q=np.asarray(q, dtype=np.float64),
-        qdot=qdot,
-        T_base_tip=T,
-        twist=twist,
+        stamp=stamp, q=np.asarray(q, dtype=np.float64), qdot=qdot, T_base_tip=T, twist=twist
+    )
+
+
+def conditioning(
+    chain: SerialChain, q: FloatArray, singular_threshold: float = 1e-3
+) -> Conditioning:
+    """Manipulability, condition number and near-singularity at `q` (one SVD and the measures of
+    `kinematics_node.core.analysis`)."""
+    _, J = chain.fk_jacobian(q, "world")
+    sigma_min = float(np.linalg.svd(J, compute_uv=False)[-1])
+    return Conditioning(
         manipulability=float(manipulability(J, "linear")),
         condition_number=float(condition_number(J, "full")),
-        near_singular=bool(sv[-1] < singular_threshold),
+        min_singular_value=sigma_min,
+        near_singular=bool(sigma_min < singular_threshold),
     )

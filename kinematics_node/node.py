@@ -9,13 +9,28 @@ Topics (relative names, so namespaces and remaps apply):
   pub  ee_pose            geometry_msgs/PoseStamped
   pub  ee_twist           geometry_msgs/TwistStamped
   pub  /diagnostics       diagnostic_msgs/DiagnosticArray (absolute, as aggregators expect)
-Services: compute_fk, compute_jacobian, compute_ik (kinematics_service/srv/...), in a reentrant
-callback group of their own, run by a MultiThreadedExecutor, so a long IK call never delays the
-joint_states → ee_pose path. Uses only API available in both Humble and Jazzy.
+Services: compute_fk, compute_jacobian, compute_ik (kinematics_service/srv/...).
+
+Threads and processes. One SingleThreadedExecutor runs every callback: rclpy's
+MultiThreadedExecutor cannot carry 1 kHz joint_states, and a busy Python thread in this process
+would hold the GIL away from the pose path. FK and Jacobian requests take microseconds and are
+answered in place. IK runs in worker processes (`IKPool`, `ik.workers`, at a lower CPU priority):
+`compute_ik` is a coroutine that hands the job to the pool and awaits its answer, which a guard
+condition brings back into the executor thread; meanwhile joint_states keep flowing. Every IK
+request is answered by its timeout (plus a few ms), queue time included.
+
+TF: target frames that are not robot links are looked up with tf2_ros when it is installed (it is
+not on PyPI); without it such targets are refused with a message saying so. Uses only API
+available in both Humble and Jazzy.
 """
 
 from __future__ import annotations
 
+import math
+import os
+import queue
+import sys
+import time
 from typing import Any
 
 import numpy as np
@@ -29,8 +44,8 @@ from rcl_interfaces.msg import (
     ParameterDescriptor,
     SetParametersResult,
 )
-from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import (
@@ -39,16 +54,26 @@ from rclpy.qos import (
     ReliabilityPolicy,
     qos_profile_sensor_data,
 )
+from rclpy.task import Future
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
-from tf2_ros import Buffer, TransformListener
 
 from msg_adapters import MessageTypes, matrix_from_transform
 
-from .core.exceptions import KinematicsError
-from .parameters import PARAMETERS, SPECS, ParameterSpec
+from .core.exceptions import InvalidInputError, KinematicsError
+from .ik_pool import IKOutcome, IKPool
+from .parameters import PARAMETERS, SPECS, STARTUP_ONLY, ParameterSpec
 from .service import KinematicsService
+
+try:  # not on PyPI: present on a full ROS 2 installation
+    from tf2_ros import Buffer, TransformListener
+except ImportError:  # pragma: no cover - depends on the installation
+    Buffer = TransformListener = None
+
+#: Seconds between two log lines about the same joint_states problem.
+WARN_PERIOD = 5.0
+TF_MISSING = "TF frames need tf2_ros, which is not installed here (it comes with a full ROS 2)"
 
 
 def _descriptor(spec: ParameterSpec) -> ParameterDescriptor:
@@ -80,63 +105,56 @@ class KinematicsNode(Node):
             self.declare_parameter(spec.name, spec.default, _descriptor(spec))
         values = {spec.name: self.get_parameter(spec.name).value for spec in PARAMETERS}
 
-        self._tf_buffer = Buffer()
-        self._tf_listener = TransformListener(self._tf_buffer, self)
+        self._tf_buffer = None
+        lookup = self._lookup_transform
+        if Buffer is not None and TransformListener is not None:
+            self._tf_buffer = Buffer()
+            self._tf_listener = TransformListener(self._tf_buffer, self)
+        else:
+            self.get_logger().info(f"{TF_MISSING}; IK targets in robot links still work")
         self._logic = KinematicsService(
             MessageTypes.from_rclpy(),
-            {k: v for k, v in values.items() if k != "robot_description"},
-            lookup_transform=self._lookup_transform,
+            {k: v for k, v in values.items() if k != "robot_description"},  # validated there
+            lookup_transform=lookup,
             clock=lambda: self.get_clock().now().nanoseconds * 1e-9,
         )
         if values["robot_description"]:
             self._load(values["robot_description"], "the robot_description parameter")
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
-        state_group = MutuallyExclusiveCallbackGroup()  # joint_states and description, in order
-        service_group = ReentrantCallbackGroup()  # IK calls may overlap each other
+        self._pool = IKPool(int(values["ik.workers"]) or _default_workers())
+        self._ik_done: queue.SimpleQueue[tuple[Future, IKOutcome]] = queue.SimpleQueue()
+        self._ik_wake = self.create_guard_condition(self._deliver_ik_answers)
+
         self._pose_pub = self.create_publisher(PoseStamped, "ee_pose", 10)
         self._twist_pub = self.create_publisher(TwistStamped, "ee_twist", 10)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_subscription(
-            JointState,
-            "joint_states",
-            self._on_joint_state,
-            qos_profile_sensor_data,
-            callback_group=state_group,
+            JointState, "joint_states", self._on_joint_state, qos_profile_sensor_data
         )
         latched = QoSProfile(
             depth=1,
             durability=DurabilityPolicy.TRANSIENT_LOCAL,
             reliability=ReliabilityPolicy.RELIABLE,
         )
-        self.create_subscription(
-            String, "robot_description", self._on_description, latched, callback_group=state_group
-        )
-        self.create_service(
-            ComputeFK, "compute_fk", self._logic.compute_fk, callback_group=service_group
-        )
-        self.create_service(
-            ComputeJacobian,
-            "compute_jacobian",
-            self._logic.compute_jacobian,
-            callback_group=service_group,
-        )
-        self.create_service(
-            ComputeIK, "compute_ik", self._logic.compute_ik, callback_group=service_group
-        )
+        self.create_subscription(String, "robot_description", self._on_description, latched)
+        self.create_service(ComputeFK, "compute_fk", self._logic.compute_fk)
+        self.create_service(ComputeJacobian, "compute_jacobian", self._logic.compute_jacobian)
+        self.create_service(ComputeIK, "compute_ik", self._compute_ik)
         self._diag_timer = self.create_timer(
-            float(values["diagnostics_period"]),
-            self._publish_diagnostics,
-            callback_group=MutuallyExclusiveCallbackGroup(),
+            float(values["diagnostics_period"]), self._publish_diagnostics
         )
-        self._warned: str | None = None
+        self._warned: dict[str, float] = {}  # problem -> when it was last logged
 
     # -------------------------------------------------------------- callbacks
     def _load(self, description: str, source: str) -> bool:
         try:
             model = self._logic.load_description(description)
         except KinematicsError as exc:
-            self.get_logger().error(f"cannot use the robot description from {source}: {exc}")
+            self.get_logger().error(
+                f"cannot use the robot description from {source}: {exc}; "
+                + ("keeping the model loaded before" if self._logic.model else "still no model")
+            )
             return False
         chain = model.chain
         self.get_logger().info(
@@ -156,24 +174,60 @@ class KinematicsNode(Node):
             self._pose_pub.publish(out.pose)
         if out.twist is not None:
             self._twist_pub.publish(out.twist)
-        if out.problem and out.problem != "velocity unknown" and out.problem != self._warned:
-            self.get_logger().warn(out.problem, throttle_duration_sec=5.0)
-        self._warned = out.problem
+        problem = out.problem
+        if problem is not None and problem != "velocity unknown":
+            self._warn_throttled(problem)
+
+    def _warn_throttled(self, problem: str) -> None:
+        """Log each distinct problem at most once per WARN_PERIOD seconds (at 1 kHz a bad stream
+        would otherwise flood the log; rclpy's own throttle would hide all but one kind)."""
+        now = time.monotonic()
+        if now - self._warned.get(problem, -math.inf) < WARN_PERIOD:
+            return
+        if len(self._warned) > 256:
+            self._warned.clear()
+        self._warned[problem] = now
+        self.get_logger().warn(f"{problem} (repeats are not logged for {WARN_PERIOD:g} s)")
+
+    async def _compute_ik(self, request: Any, response: Any) -> Any:
+        pending = self._logic.prepare_ik(request, response)
+        if pending is None:
+            return response
+        answer = Future()
+        self._pool.submit(pending.job, lambda outcome: self._hand_back(answer, outcome))
+        outcome = await answer
+        return self._logic.finish_ik(pending, outcome, response)
+
+    def _hand_back(self, answer: Future, outcome: IKOutcome) -> None:
+        """From a pool thread: queue the outcome and wake the executor thread for it."""
+        self._ik_done.put((answer, outcome))
+        self._ik_wake.trigger()
+
+    def _deliver_ik_answers(self) -> None:
+        while True:
+            try:
+                answer, outcome = self._ik_done.get_nowait()
+            except queue.Empty:
+                return
+            answer.set_result(outcome)
 
     def _publish_diagnostics(self) -> None:
         if self.get_parameter("publish_diagnostics").value:
             self._diag_pub.publish(self._logic.diagnostics())
 
     def _lookup_transform(self, target_frame: str, source_frame: str) -> np.ndarray:
-        """T_target_source from TF (latest available); raises tf2 exceptions when unavailable."""
+        """T_target_source from TF (latest available); raises when unavailable."""
+        if self._tf_buffer is None:
+            raise KinematicsError(TF_MISSING)
         stamped = self._tf_buffer.lookup_transform(target_frame, source_frame, Time())
         return matrix_from_transform(stamped.transform, "TF transform")
 
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
         changes = {p.name: p.value for p in params if p.name in SPECS}  # e.g. not use_sim_time
-        if "diagnostics_period" in changes:
+        fixed = sorted(set(changes) & STARTUP_ONLY)
+        if fixed:
             return SetParametersResult(
-                successful=False, reason="diagnostics_period is read at start-up only"
+                successful=False, reason=f"{', '.join(fixed)}: read at start-up only"
             )
         try:
             self._logic.configure(changes)
@@ -181,22 +235,37 @@ class KinematicsNode(Node):
             return SetParametersResult(successful=False, reason=str(exc))
         return SetParametersResult(successful=True)
 
+    def destroy_node(self) -> None:
+        self._pool.shutdown()
+        super().destroy_node()
 
-def main(args: list[str] | None = None) -> None:
-    """Entry point of the `kinematics_node` executable."""
+
+def _default_workers() -> int:
+    """Solves that may run at once: one per core, at least 2 (the workers run niced, so the pose
+    path still preempts them), at most 4 (each worker holds the model and ~50 MB)."""
+    return min(max(os.cpu_count() or 1, 2), 4)
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of the `kinematics_node` executable: 0 after SIGINT/SIGTERM, 2 when a
+    start-up parameter is invalid (one line on stderr saying which)."""
     rclpy.init(args=args)
     node = None
     try:
         node = KinematicsNode()
-        executor = MultiThreadedExecutor()
+        executor = SingleThreadedExecutor()
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except (InvalidInputError, ParameterException) as exc:  # a bad start-up parameter
+        print(f"kinematics_node: {exc}", file=sys.stderr)
+        return 2
     finally:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+    return 0
 
 
 if __name__ == "__main__":

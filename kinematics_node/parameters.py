@@ -82,6 +82,14 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         maximum=100000,
     ),
     ParameterSpec(
+        "ik.workers",
+        0,
+        "Worker processes that solve IK requests in parallel (read at start-up); 0 = one per "
+        "core, between 2 and 4. Workers run at a lower CPU priority than the pose path.",
+        minimum=0,
+        maximum=64,
+    ),
+    ParameterSpec(
         "singular_threshold",
         1e-3,
         "Smallest singular value of the 6 x n world Jacobian below which the arm is reported "
@@ -111,6 +119,9 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
 )
 
 SPECS: dict[str, ParameterSpec] = {spec.name: spec for spec in PARAMETERS}
+
+#: Parameters the node reads once at start-up; changing them at run time is refused.
+STARTUP_ONLY = frozenset({"diagnostics_period", "ik.workers"})
 
 
 def defaults() -> dict[str, Any]:

@@ -5,10 +5,13 @@ builds come from a `MessageTypes`), so everything the node does except the rclpy
 machines without ROS. Conventions at this boundary: twists as geometry_msgs/Twist (linear, angular),
 Jacobian rows (linear x, y, z, angular x, y, z), quaternions (x, y, z, w), [m], [rad], [s].
 
-Threading: `on_joint_state` runs in the subscription thread while service callbacks run in other
-threads of a MultiThreadedExecutor. Shared state (model, trackers, parameters) is swapped or read
-under one lock held only briefly; FK/Jacobian/IK math runs outside it, so a long IK never delays
-pose publishing.
+Threading: not thread-safe. The node calls every method from its one executor thread; IK runs in
+worker processes (`kinematics_node.ik_pool`) between `prepare_ik` and `finish_ik`, which are cheap.
+`compute_ik` does both and the solve in between, in the caller's thread (tests, tools).
+
+The pose path (`on_joint_state`) computes per message only what is published: one FK + world
+Jacobian pass, the twist, and the two messages. Conditioning (SVDs) is computed for diagnostics,
+at their rate.
 
 Service callbacks follow rclpy's `(request, response) -> response` and never raise: any failure
 gives `success = False` and a `message` naming the problem.
@@ -18,7 +21,7 @@ from __future__ import annotations
 
 import logging
 import math
-import threading
+import pickle
 import time
 from collections import deque
 from collections.abc import Callable, Mapping
@@ -44,7 +47,8 @@ from msg_adapters import (
 from .core import IKOptions, SerialChain, manipulability
 from .core._checks import check_transform
 from .core.exceptions import InvalidInputError, KinematicsError, RobotDescriptionError
-from .ee_state import EndEffectorState, JointStateTracker, compute_ee_state
+from .ee_state import EndEffectorState, JointStateTracker, compute_ee_state, conditioning
+from .ik_pool import IKJob, IKOutcome, solve_job
 from .parameters import defaults, validate_parameters
 from .robot_model import RobotModel
 
@@ -100,6 +104,17 @@ class _Rates:
         return float(np.mean(self._latencies)) if self._latencies else 0.0
 
 
+@dataclass(frozen=True)
+class PendingIK:
+    """An IK request between `prepare_ik` and `finish_ik`: the job for a worker, and what the
+    answer needs."""
+
+    job: IKJob
+    joint_names: tuple[str, ...]
+    stamp: Any
+    options: IKOptions
+
+
 class KinematicsService:
     """The kinematics node's behaviour on messages.
 
@@ -107,7 +122,8 @@ class KinematicsService:
         types: message classes to build outputs with.
         params: parameter values by name (see `kinematics_node.parameters`); missing = defaults.
             A non-empty `robot_description` is loaded at once.
-        lookup_transform: TF lookup for IK target frames that are not robot links (None = no TF).
+        lookup_transform: TF lookup for IK target frames that are not robot links (None = no TF:
+            such targets are refused, saying that TF frames need tf2_ros).
         clock: current time [s] in the time base of the joint_states stamps (the node passes its
             ROS clock, so simulated time works); used for diagnostics only.
 
@@ -126,11 +142,12 @@ class KinematicsService:
         self._types = types
         self._lookup = lookup_transform
         self._clock = clock
-        self._lock = threading.Lock()
         self._params: dict[str, Any] = defaults()
         self._model: RobotModel | None = None
-        self._chain_tracker: JointStateTracker | None = None
-        self._robot_tracker: JointStateTracker | None = None
+        self._generation = 0  # counts installed models: names chains for the IK workers
+        self._tracker: JointStateTracker | None = None
+        self._chain_index: list[int] = []
+        self._chain_blobs: dict[tuple[int, str, str], bytes] = {}
         self._rates = _Rates()
         self._last_state: EndEffectorState | None = None
         self._last_problem: str | None = None
@@ -139,8 +156,7 @@ class KinematicsService:
     # ------------------------------------------------------------------ configuration
     @property
     def params(self) -> dict[str, Any]:
-        with self._lock:
-            return dict(self._params)
+        return dict(self._params)
 
     @property
     def model(self) -> RobotModel | None:
@@ -157,9 +173,8 @@ class KinematicsService:
         problem = validate_parameters(changes)
         if problem is not None:
             raise InvalidInputError(problem)
-        with self._lock:
-            merged = {**self._params, **changes}
-            model = self._model
+        merged = {**self._params, **changes}
+        model = self._model
         structural = ("robot_description", "base_link", "tip_link")
         rebuild = any(merged[k] != self._params[k] for k in structural)
         new_model = model
@@ -170,10 +185,9 @@ class KinematicsService:
                 )
             elif model is not None:  # description came from the topic: rebuild from it
                 new_model = RobotModel(model.xml, merged["base_link"], merged["tip_link"])
-        with self._lock:
-            self._params = merged
-            if new_model is not model:
-                self._install(new_model)
+        self._params = merged
+        if new_model is not model:
+            self._install(new_model)
 
     def load_description(self, description: str) -> RobotModel:
         """Load a robot description (e.g. from the robot_description topic), keeping base_link
@@ -182,23 +196,30 @@ class KinematicsService:
         Raises:
             RobotDescriptionError, UnknownNameError: as `RobotModel`.
         """
-        with self._lock:
-            base, tip = self._params["base_link"], self._params["tip_link"]
-        model = RobotModel(description, base, tip)
-        with self._lock:
-            self._install(model)
+        model = RobotModel(description, self._params["base_link"], self._params["tip_link"])
+        self._install(model)
         return model
 
-    def _install(self, model: RobotModel | None) -> None:  # called with the lock held
+    def _install(self, model: RobotModel | None) -> None:
+        """Swap in `model` (all at once: every later message and request sees only the new one)."""
         self._model = model
+        self._generation += 1
+        self._chain_blobs.clear()
         self._last_state = None
         self._last_problem = None
         if model is None:
-            self._chain_tracker = self._robot_tracker = None
+            self._tracker = None
+            self._chain_index = []
             return
         chain = model.chain
-        self._chain_tracker = JointStateTracker(chain.joint_names, chain.continuous)
-        self._robot_tracker = JointStateTracker(model.moving_joint_names)
+        # One tracker for every moving joint of the robot: the chain's joints are required (a bad
+        # value rejects the sample); the others only serve requests that name some joints.
+        names = list(chain.joint_names) + [
+            j for j in model.moving_joint_names if j not in chain.joint_names
+        ]
+        continuous = list(chain.continuous) + [False] * (len(names) - chain.dof)
+        self._tracker = JointStateTracker(names, continuous, required=chain.joint_names)
+        self._chain_index = list(range(chain.dof))
 
     # ------------------------------------------------------------------ joint states
     def on_joint_state(self, msg: Any) -> EEMessages:
@@ -207,73 +228,54 @@ class KinematicsService:
         Both are stamped with this message's stamp and expressed in base_link (the twist in tip_link
         axes when twist_frame is "body"); the twist's reference point is the tip origin. Nothing is
         returned until every chain joint has been received, for stale (older-stamped) samples, for
-        invalid samples (NaN position, length mismatch), or if a result is not finite. The twist is
-        None until velocities are known (from the message, or estimated from two samples).
+        invalid samples (NaN position, length mismatch, a joint named twice), or if a result is not
+        finite. The twist is None until velocities are known (from the message, or estimated from
+        two samples).
         """
-        problem = self._merge(msg)
-        if isinstance(problem, EEMessages):
-            return problem
-        chain, q, qdot, params = problem
-        stamp = seconds_from_time(msg.header.stamp)
+        model, tracker = self._model, self._tracker
+        if model is None or tracker is None:
+            return self._problem(NO_DESCRIPTION)
         try:
-            state = compute_ee_state(
-                chain, q, qdot, stamp, params["twist_frame"], params["singular_threshold"]
-            )
-        except KinematicsError as exc:
-            return self._problem(f"cannot compute the end-effector state: {exc}")
-        if not np.all(np.isfinite(state.T_base_tip)):
+            stamp = seconds_from_time(msg.header.stamp)
+            stale_before = tracker.stale_samples
+            changed = tracker.update(msg.name, msg.position, msg.velocity, stamp)
+        except (KinematicsError, TypeError, ValueError, AttributeError, OverflowError) as exc:
+            return self._problem(f"joint_states sample rejected: {_short(exc)}")
+        self._rates.record(self._clock(), stamp)
+        if not changed:
+            if tracker.stale_samples > stale_before:
+                return EEMessages(problem="stale joint_states sample (older stamp) ignored")
+            return EEMessages(problem=None)
+        index = self._chain_index
+        q = tracker.positions(index)
+        chain = model.chain
+        if not all(math.isfinite(v) for v in q):
+            missing = [chain.joint_names[k] for k, v in enumerate(q) if not math.isfinite(v)]
+            return EEMessages(problem=f"waiting for joint_states of {missing}")
+        qdot = tracker.velocities(index)
+        twist_frame = self._params["twist_frame"]
+        state = compute_ee_state(
+            chain,
+            np.array(q),
+            None if qdot is None else np.array(qdot),
+            stamp,
+            twist_frame,
+        )
+        if not np.isfinite(state.T_base_tip).all():
             return self._problem("end-effector pose is not finite; nothing published")
-        twist_ok = state.twist is not None and bool(np.all(np.isfinite(state.twist)))
-        with self._lock:
-            self._last_state = state
-            self._last_problem = None
+        twist_ok = state.twist is not None and bool(np.isfinite(state.twist).all())
+        self._last_state = state
+        self._last_problem = None
         types = self._types
         pose = pose_stamped_from_matrix(types, state.T_base_tip, chain.base_link, msg.header.stamp)
         twist = None
         if twist_ok:
-            frame = chain.tip_link if params["twist_frame"] == "body" else chain.base_link
+            frame = chain.tip_link if twist_frame == "body" else chain.base_link
             twist = twist_stamped_from_core(types, state.twist, frame, msg.header.stamp)
         return EEMessages(pose=pose, twist=twist, problem=None if twist_ok else "velocity unknown")
 
-    def _merge(
-        self, msg: Any
-    ) -> EEMessages | tuple[SerialChain, FloatArray, FloatArray | None, dict[str, Any]]:
-        with self._lock:
-            model, tracker = self._model, self._chain_tracker
-            if model is None or tracker is None or self._robot_tracker is None:
-                return self._problem(NO_DESCRIPTION, locked=True)
-            try:
-                stamp = seconds_from_time(msg.header.stamp)
-                names = [str(n) for n in msg.name]
-                velocity = list(msg.velocity)
-                stale_before = tracker.stale_samples
-                changed = tracker.update(names, list(msg.position), velocity, stamp)
-            except (KinematicsError, TypeError, ValueError, AttributeError) as exc:
-                return self._problem(f"joint_states sample rejected: {exc}", locked=True)
-            self._rates.record(self._clock(), stamp)
-            try:  # all robot joints, for service requests that name only some of them
-                self._robot_tracker.update(names, list(msg.position), velocity, stamp)
-            except KinematicsError:
-                pass  # a bad value of a joint outside the chain must not block the chain
-            if not changed:
-                if tracker.stale_samples > stale_before:
-                    return EEMessages(problem="stale joint_states sample (older stamp) ignored")
-                return EEMessages(problem=None)
-            if not tracker.complete:
-                missing = [
-                    n
-                    for n, v in zip(tracker.joint_names, tracker.q, strict=True)
-                    if not math.isfinite(v)
-                ]
-                return EEMessages(problem=f"waiting for joint_states of {missing}")
-            return model.chain, tracker.q, tracker.qdot, dict(self._params)
-
-    def _problem(self, text: str, locked: bool = False) -> EEMessages:
-        if locked:
-            self._last_problem = text
-        else:
-            with self._lock:
-                self._last_problem = text
+    def _problem(self, text: str) -> EEMessages:
+        self._last_problem = text
         return EEMessages(problem=text)
 
     # ------------------------------------------------------------------ services
@@ -286,8 +288,40 @@ class KinematicsService:
         return self._answer("compute_jacobian", self._jacobian, request, response)
 
     def compute_ik(self, request: Any, response: Any) -> Any:
-        """ComputeIK: joint positions placing tip_link at request.target, see the srv."""
-        return self._answer("compute_ik", self._ik, request, response)
+        """ComputeIK: joint positions placing tip_link at request.target, see the srv.
+
+        Solves in the calling thread; the node instead runs `prepare_ik`, the solve in a worker
+        process (`ik_pool.solve_job`), then `finish_ik`: the same answer without blocking its thread.
+        """
+        pending = self.prepare_ik(request, response)
+        if pending is None:
+            return response
+        return self.finish_ik(pending, solve_job(pending.job), response)
+
+    def prepare_ik(self, request: Any, response: Any, now: float | None = None) -> PendingIK | None:
+        """Check an IK request and turn it into a job for a worker. Returns None when the request
+        is refused; `response` then holds `success = False` and the reason.
+
+        `now` is the request's arrival on `time.monotonic()` [s] (default: now): the job's
+        deadline is now + timeout, so time spent waiting for a worker counts against the timeout.
+        """
+        arrival = time.monotonic() if now is None else now
+        box: list[PendingIK] = []
+
+        def prepare(request: Any, response: Any) -> None:
+            box.append(self._prepare_ik(request, arrival))
+
+        self._answer("compute_ik", prepare, request, response)
+        return box[0] if box and response.success else None
+
+    def finish_ik(self, pending: PendingIK, outcome: IKOutcome, response: Any) -> Any:
+        """Fill `response` from a worker's `outcome` of `pending` (success, solution, errors and a
+        message that says why when it failed)."""
+
+        def finish(request: Any, response: Any) -> str | None:
+            return self._finish_ik(pending, outcome, response)
+
+        return self._answer("compute_ik", finish, None, response)
 
     def _answer(
         self, service: str, fn: Callable[[Any, Any], str | None], request: Any, response: Any
@@ -307,16 +341,14 @@ class KinematicsService:
 
     def _snapshot(self) -> tuple[RobotModel, dict[str, float], dict[str, Any]]:
         """(model, {joint: current position} of the joints received so far, params)."""
-        with self._lock:
-            if self._model is None or self._robot_tracker is None:
-                raise RobotDescriptionError(NO_DESCRIPTION)
-            tracker = self._robot_tracker
-            current = {
-                n: float(v)
-                for n, v in zip(tracker.joint_names, tracker.q, strict=True)
-                if math.isfinite(v)
-            }
-            return self._model, current, dict(self._params)
+        model, tracker = self._model, self._tracker
+        if model is None or tracker is None:
+            raise RobotDescriptionError(NO_DESCRIPTION)
+        current = {
+            n: v for n, v in zip(tracker.joint_names, tracker.q.tolist(), strict=True)
+            if math.isfinite(v)
+        }
+        return model, current, self._params
 
     def _q(
         self, model: RobotModel, chain: SerialChain, js: Any, current: dict[str, float], name: str
@@ -361,7 +393,7 @@ class KinematicsService:
         response.condition_number = float(sv[0] / sv[-1]) if sv[-1] > 0 else -1.0
         return None
 
-    def _ik(self, request: Any, response: Any) -> str | None:
+    def _prepare_ik(self, request: Any, arrival: float) -> PendingIK:
         model, current, params = self._snapshot()
         chain = model.chain_to(str(request.tip_link))
         T_frame_target = matrix_from_pose(request.target.pose, "target.pose")
@@ -375,31 +407,44 @@ class KinematicsService:
             math.isfinite(current.get(j, math.nan)) for j in chain.joint_names
         ):
             q_seed = self._q(model, chain, seed, current, "seed")
-        result = chain.ik(T_base_target, q_seed, options)
-        q = np.asarray(result.q, dtype=np.float64)
-        _require_finite(q, "IK solution")
+        key = (self._generation, chain.base_link, chain.tip_link)
+        blob = self._chain_blobs.get(key)
+        if blob is None:
+            blob = self._chain_blobs[key] = pickle.dumps(chain, pickle.HIGHEST_PROTOCOL)
+        job = IKJob(key, blob, T_base_target, q_seed, options, arrival + options.timeout)
+        return PendingIK(job, chain.joint_names, request.target.header.stamp, options)
+
+    def _finish_ik(self, pending: PendingIK, outcome: IKOutcome, response: Any) -> str | None:
+        options = pending.options
+        q = outcome.q
+        if q is None:  # no solve ran: answer with the seed (or nothing) and say why
+            q = pending.job.q_seed
         response.solution = joint_state_from_q(
             self._types,
-            chain.joint_names,
-            q,
-            header(self._types, request.target.header.stamp, ""),
+            pending.joint_names if q is not None else (),
+            np.zeros(0) if q is None else q,
+            header(self._types, pending.stamp, ""),
         )
-        response.position_error = _finite_or(result.position_error, -1.0)
-        response.orientation_error = _finite_or(result.orientation_error, -1.0)
-        response.iterations = int(min(max(int(result.iterations), 0), 2**32 - 1))
-        if bool(result.success):
+        if q is not None:
+            _require_finite(q, "IK solution")
+        response.position_error = _finite_or(outcome.position_error, -1.0)
+        response.orientation_error = _finite_or(outcome.orientation_error, -1.0)
+        response.iterations = int(min(max(outcome.iterations, 0), 2**32 - 1))
+        if outcome.success:
             return None
-        detail = str(getattr(result, "message", "") or "")
         tolerances = (
             f"per-axis bounds {list(options.axis_tolerances)}"
             if options.axis_tolerances is not None
             else f"tolerances ({options.position_tolerance:g} m, "
             f"{options.orientation_tolerance:g} rad)"
         )
+        if outcome.q is None:
+            return f"no solution within {options.timeout:g} s ({outcome.message})"
         return (
             f"no solution within {tolerances} in {options.timeout:g} s: best position error "
             f"{response.position_error:.3g} m, orientation error "
-            f"{response.orientation_error:.3g} rad" + (f" ({detail})" if detail else "")
+            f"{response.orientation_error:.3g} rad"
+            + (f" ({outcome.message})" if outcome.message else "")
         )
 
     def _frame_pose(self, model: RobotModel, frame: str, current: dict[str, float]) -> FloatArray:
@@ -432,7 +477,8 @@ class KinematicsService:
                 return np.linalg.inv(T) if invert else T
         if self._lookup is None:
             raise InvalidInputError(
-                f"unknown target frame {name!r}: not a link of the robot and no TF lookup available"
+                f"unknown target frame {name!r}: not a link of the robot, and frames from TF "
+                "need tf2_ros, which this node runs without"
                 + (f" ({'; '.join(reasons)})" if reasons else "")
             )
         try:
@@ -452,11 +498,10 @@ class KinematicsService:
         types = self._types
         S = types.DiagnosticStatus
         now = self._clock()
-        with self._lock:
-            model, state, problem = self._model, self._last_state, self._last_problem
-            params = dict(self._params)
-            last = self._rates.last_arrival
-            rate, latency = self._rates.rate(), self._rates.latency()
+        model, state, problem = self._model, self._last_state, self._last_problem
+        params = self._params
+        last = self._rates.last_arrival
+        rate, latency = self._rates.rate(), self._rates.latency()
         severity, notes = 0, []
         values: list[tuple[str, str]] = []
         if model is None:
@@ -475,13 +520,14 @@ class KinematicsService:
                 ("joint_states_latency_s", f"{latency:.6f}"),
             ]
             if state is not None:
-                cond = state.condition_number
+                c = conditioning(model.chain, state.q, params["singular_threshold"])
+                cond = c.condition_number
                 values += [
-                    ("manipulability", f"{state.manipulability:.6g}"),
+                    ("manipulability", f"{c.manipulability:.6g}"),
                     ("condition_number", f"{cond:.6g}" if math.isfinite(cond) else "inf"),
-                    ("near_singular", str(state.near_singular).lower()),
+                    ("near_singular", str(c.near_singular).lower()),
                 ]
-                if state.near_singular:
+                if c.near_singular:
                     severity = max(severity, 1)
                     notes.append("near a singularity")
             if problem and problem != "velocity unknown":
@@ -498,6 +544,13 @@ class KinematicsService:
         return types.DiagnosticArray(
             header=types.Header(stamp=time_from_seconds(types, now), frame_id=""), status=[status]
         )
+
+
+def _short(exc: BaseException, limit: int = 200) -> str:
+    """The exception's text, cut to `limit` characters (a sample with 10,000 names must not make
+    a 10,000-name log line)."""
+    text = str(exc)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _require_finite(a: ArrayLike, what: str) -> None:

@@ -11,6 +11,9 @@ accurate near θ = 0 and near θ = π where the trace formula loses all precisio
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -83,6 +86,33 @@ def quaternion_from_matrix(R: ArrayLike) -> FloatArray:
     q = np.take_along_axis(cand, k[..., None, None], -2)[..., 0, :]
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
     return np.where(q[..., 3:4] < 0.0, -q, q)
+
+
+def quaternion_from_rows(m: Sequence[float]) -> tuple[float, float, float, float]:
+    """`quaternion_from_matrix` of one rotation given as 9 floats, row-major: (x, y, z, w), w ≥ 0.
+
+    The same Shepperd's method (largest pivot) in a few float operations, with no array: about
+    1 µs against tens of µs for the array routine on a single matrix. For hot paths (the node's
+    pose publishing); `m` is not checked.
+    """
+    m00, m01, m02, m10, m11, m12, m20, m21, m22 = m[:9]
+    tr = m00 + m11 + m22
+    pivots = (1.0 + 2.0 * m00 - tr, 1.0 + 2.0 * m11 - tr, 1.0 + 2.0 * m22 - tr, 1.0 + tr)
+    k = max(range(4), key=pivots.__getitem__)
+    r = math.sqrt(max(pivots[k], 0.0))
+    s = 0.5 / r if r > 0 else 0.5
+    if k == 0:
+        q = (0.5 * r, (m10 + m01) * s, (m02 + m20) * s, (m21 - m12) * s)
+    elif k == 1:
+        q = ((m10 + m01) * s, 0.5 * r, (m21 + m12) * s, (m02 - m20) * s)
+    elif k == 2:
+        q = ((m02 + m20) * s, (m21 + m12) * s, 0.5 * r, (m10 - m01) * s)
+    else:
+        q = ((m21 - m12) * s, (m02 - m20) * s, (m10 - m01) * s, 0.5 * r)
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if q[3] < 0.0:
+        n = -n
+    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 
 
 def log(R: ArrayLike) -> FloatArray:

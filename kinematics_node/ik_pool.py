@@ -1,0 +1,220 @@
+"""IK solves in worker processes, each answered by its deadline (no rclpy here).
+
+Why processes: the node's pose path must keep up with 1 kHz joint_states, and a Python thread that
+runs IK in the same process holds the GIL away from it (measured in ../shared/ROS2_FROM_PYPI.md:
+69 % of messages answered instead of 100 %). So IK runs in a `concurrent.futures` process pool
+whose workers run at a lower CPU priority (`nice`), so the pose path keeps its core whenever it
+has work, and the solves share what is left.
+
+Deadlines: a job carries the monotonic time by which it must be answered (request arrival +
+timeout; `time.monotonic` is the system-wide CLOCK_MONOTONIC, the same in every process). A worker
+solves with the time left, so time spent waiting in the queue counts against the timeout, and a
+job whose deadline has passed before a worker takes it is answered at once as timed out. A
+watchdog thread answers, as timed out, any job still running `grace` seconds after its deadline
+(all workers busy, a worker died). So `on_done` is called exactly once per job, by its
+deadline + grace at the latest, from a pool thread: the caller hands the result to its own thread.
+
+Models: a job names its chain by a key and carries the pickled chain (a few kB); each worker keeps
+the chains it has seen, so a model reload is atomic per job: a job is solved on the model it was
+submitted with, never on half of one.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import multiprocessing
+import os
+import pickle
+import signal
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import Future, ProcessPoolExecutor
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .core import IKOptions, SerialChain
+
+FloatArray = NDArray[np.float64]
+
+#: Solves shorter than this are not started: the answer could not arrive in time anyway [s].
+MIN_SOLVE_TIME = 5e-4
+
+
+@dataclass(frozen=True)
+class IKJob:
+    """One IK problem for a worker.
+
+    Attributes:
+        chain_key: names `chain_blob` (equal keys must mean equal chains).
+        chain_blob: the pickled `SerialChain`.
+        T_base_target: (4, 4) target pose of the tip in the chain's base.
+        q_seed: (n,) seed, or None for the middle of the limits.
+        options: IK options; `timeout` is replaced by the time left before `deadline`.
+        deadline: `time.monotonic()` by which the answer is due [s].
+    """
+
+    chain_key: Any
+    chain_blob: bytes
+    T_base_target: FloatArray
+    q_seed: FloatArray | None
+    options: IKOptions
+    deadline: float
+
+
+@dataclass(frozen=True)
+class IKOutcome:
+    """A worker's answer. `q` is None when no solve ran (timed out in the queue, worker failure);
+    then `message` says why. Errors are [m] and [rad]."""
+
+    q: FloatArray | None
+    success: bool
+    position_error: float
+    orientation_error: float
+    iterations: int
+    message: str
+
+
+# ---------------------------------------------------------------------- worker process side
+_chains: dict[Any, SerialChain] = {}
+_CHAINS_KEPT = 4
+
+
+def _init_worker(niceness: int) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when workers stop
+    if niceness:
+        os.nice(niceness)
+
+
+def solve_job(job: IKJob) -> IKOutcome:
+    """Solve `job` in this process with the time left before its deadline (what a worker runs)."""
+    left = job.deadline - time.monotonic()
+    if left < MIN_SOLVE_TIME:
+        return _timed_out(f"waited {job.options.timeout * 1e3:.1f} ms for a free IK worker")
+    chain = _chains.get(job.chain_key)
+    if chain is None:
+        chain = pickle.loads(job.chain_blob)
+        if len(_chains) >= _CHAINS_KEPT:
+            _chains.pop(next(iter(_chains)))
+        _chains[job.chain_key] = chain
+        left = job.deadline - time.monotonic()
+    result = chain.ik(job.T_base_target, job.q_seed, replace(job.options, timeout=max(left, 1e-4)))
+    return IKOutcome(
+        q=np.asarray(result.q, dtype=np.float64),
+        success=bool(result.success),
+        position_error=float(result.position_error),
+        orientation_error=float(result.orientation_error),
+        iterations=int(result.iterations),
+        message=str(getattr(result, "message", "") or ""),
+    )
+
+
+def _timed_out(reason: str) -> IKOutcome:
+    return IKOutcome(None, False, float("nan"), float("nan"), 0, f"timeout: {reason}")
+
+
+# ---------------------------------------------------------------------- caller side
+class IKPool:
+    """Runs `IKJob`s in `workers` processes at CPU priority `nice` and calls back by each deadline.
+
+    Args:
+        workers: number of processes (solves that run at once; more jobs wait in a queue).
+        niceness: added to the workers' nice value (0 = same priority as the caller).
+        grace: how long after a job's deadline the watchdog answers it as timed out [s].
+    """
+
+    def __init__(self, workers: int, niceness: int = 10, grace: float = 0.01) -> None:
+        if workers < 1:
+            raise ValueError(f"workers must be >= 1, got {workers}")
+        ctx = multiprocessing.get_context("forkserver")
+        # Workers fork from a server that has imported the core once, so each starts in ~10 ms.
+        ctx.set_forkserver_preload(["kinematics_node.core", "kinematics_node.ik_pool"])
+        self._executor = ProcessPoolExecutor(
+            workers, mp_context=ctx, initializer=_init_worker, initargs=(niceness,)
+        )
+        self.workers = workers
+        self._grace = grace
+        self._lock = threading.Lock()
+        self._wake = threading.Condition(self._lock)
+        self._pending: dict[int, Callable[[IKOutcome], None]] = {}
+        self._deadlines: list[tuple[float, int]] = []  # heap of (deadline + grace, job id)
+        self._ids = itertools.count()
+        self._closed = False
+        self._watchdog = threading.Thread(target=self._watch, name="ik-watchdog", daemon=True)
+        self._watchdog.start()
+
+    def warm_up(self) -> None:
+        """Start every worker process now rather than on the first requests."""
+        futures = [self._executor.submit(time.sleep, 0.05) for _ in range(self.workers)]
+        for f in futures:
+            f.result()
+
+    def submit(self, job: IKJob, on_done: Callable[[IKOutcome], None]) -> None:
+        """Queue `job`; `on_done(outcome)` follows exactly once, by `job.deadline + grace`."""
+        with self._lock:
+            if self._closed:
+                raise RuntimeError("the IK pool is shut down")
+            job_id = next(self._ids)
+            self._pending[job_id] = on_done
+            heapq.heappush(self._deadlines, (job.deadline + self._grace, job_id))
+            self._wake.notify()
+        future = self._executor.submit(solve_job, job)
+        future.add_done_callback(lambda f: self._finish(job_id, _outcome_of(f)))
+
+    def _finish(self, job_id: int, outcome: IKOutcome) -> None:
+        with self._lock:
+            on_done = self._pending.pop(job_id, None)
+        if on_done is not None:
+            on_done(outcome)
+
+    def _watch(self) -> None:
+        while True:
+            expired = []
+            with self._lock:
+                while not self._closed:
+                    now = time.monotonic()
+                    while self._deadlines and (
+                        self._deadlines[0][0] <= now or self._deadlines[0][1] not in self._pending
+                    ):
+                        _, job_id = heapq.heappop(self._deadlines)
+                        if job_id in self._pending:
+                            expired.append(self._pending.pop(job_id))
+                    if expired:
+                        break
+                    wait = self._deadlines[0][0] - now if self._deadlines else None
+                    self._wake.wait(wait)
+                if self._closed and not expired:
+                    return
+            for on_done in expired:
+                on_done(_timed_out("no IK worker answered before the deadline"))
+
+    def shutdown(self) -> None:
+        """Stop the workers (running solves are abandoned) and answer every pending job."""
+        with self._lock:
+            self._closed = True
+            pending = list(self._pending.values())
+            self._pending.clear()
+            self._wake.notify()
+        # Abandon running solves: stopping must not wait for them (up to their timeouts). The
+        # executor has no public way to stop busy workers before Python 3.14's terminate_workers.
+        processes = list((getattr(self._executor, "_processes", None) or {}).values())
+        self._executor.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            process.terminate()
+        for on_done in pending:
+            on_done(_timed_out("the node is shutting down"))
+
+
+def _outcome_of(future: Future[IKOutcome]) -> IKOutcome:
+    if future.cancelled():
+        return _timed_out("the job was cancelled")
+    exc = future.exception()
+    if exc is not None:
+        return IKOutcome(
+            None, False, float("nan"), float("nan"), 0, f"IK worker failed: {exc!r}"
+        )
+    return future.result()

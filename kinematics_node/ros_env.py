@@ -1,0 +1,85 @@
+"""Starting ROS 2 processes from tests, benchmarks and the demo (no rclpy import here).
+
+* DDS discovery stays on this machine: by default Fast DDS announces itself by multicast on every
+  network interface. `local_ros_env` sets ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST (Jazzy and later;
+  on Humble, ROS_LOCALHOST_ONLY=1) and a ROS_DOMAIN_ID of the run's own, so parallel runs do not
+  see each other. Call `keep_discovery_local` before `rclpy.init` in the calling process too.
+* The package's executables: from `tools/ros-from-pypi`'s environment (`KINEMATICS_*_EXECUTABLE`,
+  set by `make`), else from a sourced ROS 2 workspace (the ament index on AMENT_PREFIX_PATH).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+
+PACKAGE = "kinematics_service"
+_EXECUTABLE_VARIABLES = {
+    "kinematics_node": "KINEMATICS_NODE_EXECUTABLE",
+    "sim_arm": "KINEMATICS_SIM_ARM_EXECUTABLE",
+}
+
+
+def run_domain_id() -> int:
+    """A ROS_DOMAIN_ID for this run: from the process id, in 100..199 (valid for Fast DDS's port
+    mapping, and away from the default 0 that other ROS users on the machine share)."""
+    return 100 + os.getpid() % 100
+
+
+def local_ros_env(
+    domain_id: int | None = None, base: Mapping[str, str] | None = None
+) -> dict[str, str]:
+    """A copy of `base` (default: this process's environment) with discovery on loopback and the
+    given (default: `run_domain_id()`) ROS_DOMAIN_ID."""
+    env = dict(os.environ if base is None else base)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    if env.get("ROS_DISTRO", "").lower() == "humble":  # Humble predates the discovery range
+        env["ROS_LOCALHOST_ONLY"] = "1"
+    env["ROS_DOMAIN_ID"] = str(run_domain_id() if domain_id is None else domain_id)
+    return env
+
+
+def keep_discovery_local(domain_id: int | None = None) -> int:
+    """Apply `local_ros_env` to this process (before `rclpy.init`); returns the domain id."""
+    env = local_ros_env(domain_id)
+    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOCALHOST_ONLY", "ROS_DOMAIN_ID"):
+        if key in env:
+            os.environ[key] = env[key]
+    return int(env["ROS_DOMAIN_ID"])
+
+
+def executable(name: str) -> list[str] | None:
+    """argv prefix that runs the package's executable `name` (kinematics_node or sim_arm) with
+    this environment's Python, or None when the package is not built here."""
+    variable = _EXECUTABLE_VARIABLES.get(name)
+    path = os.environ.get(variable, "") if variable else ""
+    candidates = [Path(path)] if path else []
+    for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
+        if prefix:
+            candidates.append(Path(prefix) / "lib" / PACKAGE / name)
+    for candidate in candidates:
+        if candidate.is_file():
+            python = os.environ.get("KINEMATICS_ROS_PYTHON") or sys.executable
+            return [python, str(candidate)]
+    return None
+
+
+def unavailable_reason() -> str | None:
+    """Why the real node cannot be run from this process (None when it can)."""
+    try:
+        import rclpy  # noqa: F401
+    except ImportError as exc:
+        return f"rclpy is not importable ({exc}): run `make test`, or source a ROS 2 installation"
+    try:
+        import kinematics_service.srv  # noqa: F401
+    except ImportError as exc:
+        return (
+            f"the kinematics_service interfaces are not built or not on the path ({exc}): run "
+            "`make test` (or `make ros`, then `. build/ros/env.sh`), or colcon build and source "
+            "install/setup.bash"
+        )
+    if executable("kinematics_node") is None:
+        return "the kinematics_node executable is not found: run `make ros`, then . build/ros/env.sh"
+    return None
