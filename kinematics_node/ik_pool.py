@@ -132,7 +132,9 @@ class IKPool:
             raise ValueError(f"workers must be >= 1, got {workers}")
         ctx = multiprocessing.get_context("forkserver")
         # Workers fork from a server that has imported the core once, so each starts in ~10 ms.
-        ctx.set_forkserver_preload(["kinematics_node.core", "kinematics_node.ik_pool"])
+        # "__main__" too: a worker otherwise re-imports the main script (the node's, with rclpy)
+        # by itself; imported once in the server, the workers inherit it.
+        ctx.set_forkserver_preload(["__main__", "kinematics_node.core", "kinematics_node.ik_pool"])
         self._executor = ProcessPoolExecutor(
             workers, mp_context=ctx, initializer=_init_worker, initargs=(niceness,)
         )
@@ -148,8 +150,11 @@ class IKPool:
         self._watchdog.start()
 
     def warm_up(self) -> None:
-        """Start every worker process now rather than on the first requests."""
-        futures = [self._executor.submit(time.sleep, 0.05) for _ in range(self.workers)]
+        """Start every worker process now (about a second, for the first import of the core in
+        the fork server): `submit` starts missing workers itself, but blocks its caller meanwhile.
+        The executor starts a process for each job submitted while none is idle, so `workers`
+        jobs submitted at once start them all."""
+        futures = [self._executor.submit(time.sleep, 0.1) for _ in range(self.workers)]
         for f in futures:
             f.result()
 
@@ -201,10 +206,9 @@ class IKPool:
             self._wake.notify()
         # Abandon running solves: stopping must not wait for them (up to their timeouts). The
         # executor has no public way to stop busy workers before Python 3.14's terminate_workers.
-        processes = list((getattr(self._executor, "_processes", None) or {}).values())
-        self._executor.shutdown(wait=False, cancel_futures=True)
-        for process in processes:
+        for process in list((getattr(self._executor, "_processes", None) or {}).values()):
             process.terminate()
+        self._executor.shutdown(wait=True, cancel_futures=True)  # returns once they are gone
         for on_done in pending:
             on_done(_timed_out("the node is shutting down"))
 

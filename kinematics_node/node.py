@@ -44,6 +44,7 @@ from rcl_interfaces.msg import (
     ParameterDescriptor,
     SetParametersResult,
 )
+from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
@@ -123,26 +124,42 @@ class KinematicsNode(Node):
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self._pool = IKPool(int(values["ik.workers"]) or _default_workers())
+        self._pool.warm_up()  # start the workers now: starting one later would block this thread
         self._ik_done: queue.SimpleQueue[tuple[Future, IKOutcome]] = queue.SimpleQueue()
-        self._ik_wake = self.create_guard_condition(self._deliver_ik_answers)
+        # One thread runs everything, so callbacks never overlap; the group must still be
+        # reentrant: a mutually exclusive one would hold every other callback (joint_states, the
+        # guard condition that brings IK answers back) while a compute_ik coroutine awaits.
+        group = ReentrantCallbackGroup()
+        self._ik_wake = self.create_guard_condition(self._deliver_ik_answers, group)
 
         self._pose_pub = self.create_publisher(PoseStamped, "ee_pose", 10)
         self._twist_pub = self.create_publisher(TwistStamped, "ee_twist", 10)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self.create_subscription(
-            JointState, "joint_states", self._on_joint_state, qos_profile_sensor_data
+            JointState,
+            "joint_states",
+            self._on_joint_state,
+            qos_profile_sensor_data,
+            callback_group=group,
         )
         latched = QoSProfile(
             depth=1,
             durability=DurabilityPolicy.TRANSIENT_LOCAL,
             reliability=ReliabilityPolicy.RELIABLE,
         )
-        self.create_subscription(String, "robot_description", self._on_description, latched)
-        self.create_service(ComputeFK, "compute_fk", self._logic.compute_fk)
-        self.create_service(ComputeJacobian, "compute_jacobian", self._logic.compute_jacobian)
-        self.create_service(ComputeIK, "compute_ik", self._compute_ik)
+        self.create_subscription(
+            String, "robot_description", self._on_description, latched, callback_group=group
+        )
+        self.create_service(ComputeFK, "compute_fk", self._logic.compute_fk, callback_group=group)
+        self.create_service(
+            ComputeJacobian,
+            "compute_jacobian",
+            self._logic.compute_jacobian,
+            callback_group=group,
+        )
+        self.create_service(ComputeIK, "compute_ik", self._compute_ik, callback_group=group)
         self._diag_timer = self.create_timer(
-            float(values["diagnostics_period"]), self._publish_diagnostics
+            float(values["diagnostics_period"]), self._publish_diagnostics, callback_group=group
         )
         self._warned: dict[str, float] = {}  # problem -> when it was last logged
 
@@ -241,9 +258,11 @@ class KinematicsNode(Node):
 
 
 def _default_workers() -> int:
-    """Solves that may run at once: one per core, at least 2 (the workers run niced, so the pose
-    path still preempts them), at most 4 (each worker holds the model and ~50 MB)."""
-    return min(max(os.cpu_count() or 1, 2), 4)
+    """Solves that may run at once: 4, or one per core where there are more (at most 8). Fewer
+    than the clients calling at once would queue reachable targets behind unreachable ones, which
+    take their whole timeout. The workers run niced, so the pose path preempts them; each holds
+    the core and the model (~50 MB, mostly shared with the fork server)."""
+    return min(max(os.cpu_count() or 1, 4), 8)
 
 
 def main(args: list[str] | None = None) -> int:

@@ -76,8 +76,10 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ),
     ParameterSpec(
         "ik.max_restarts",
-        50,
-        "Maximum random restarts of the IK solver within its timeout.",
+        100000,
+        "Maximum random restarts of the IK solver within its timeout. The default leaves the "
+        "timeout to decide (one restart takes ~0.5 ms); lower it to give up on unreachable "
+        "targets before their timeout.",
         minimum=0,
         maximum=100000,
     ),
@@ -85,7 +87,7 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         "ik.workers",
         0,
         "Worker processes that solve IK requests in parallel (read at start-up); 0 = one per "
-        "core, between 2 and 4. Workers run at a lower CPU priority than the pose path.",
+        "core, between 4 and 8. Workers run at a lower CPU priority than the pose path.",
         minimum=0,
         maximum=64,
     ),

@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import UR5E_JOINTS, ROBOTS, wait_until, ur5e_description
+from conftest import ROBOTS, UR5E_JOINTS, ur5e_description, wait_until
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
