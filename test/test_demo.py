@@ -63,5 +63,5 @@ def test_progress_bar_only_on_a_terminal():
 
 def test_planar_arm_manipulability_is_not_a_flat_zero():
     run = run_demo("planar3r", duration=1.0, rate=50.0, n_ik=2, stream=io.StringIO())
-    assert run.manipulability_rank == 2 and run.manipulability.min() > 1e-3
+    assert run.manipulability_rank == 2 and run.manipulability.max() > 1e-2  # starts stretched
     assert run.ik_targets.shape == (2, 3)
