@@ -69,6 +69,11 @@ def _check_spec_numbers(spec: ChainSpec) -> None:
                 f"joint {name!r} has limits [{lo}, {up}]; need lower ≤ upper with a finite value "
                 "in between"
             )
+        if any(math.isfinite(x) and abs(x) > MAX_REACH for x in (lo, up)):
+            raise RobotDescriptionError(
+                f"joint {name!r} has limits [{lo:g}, {up:g}]; finite limits beyond ±{MAX_REACH:.0e} "
+                "(m or rad) are refused as unphysical (leave a limit out for an unbounded joint)"
+            )
         if not vel >= 0:
             raise RobotDescriptionError(f"joint {name!r} has velocity limit {vel}; need ≥ 0")
     if not (np.all(np.isfinite(spec.G)) and np.all(np.isfinite(spec.offset))):

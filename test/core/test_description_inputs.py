@@ -152,3 +152,12 @@ def test_non_finite_values_are_printed_as_plain_floats():
     with pytest.raises(InvalidInputError) as info:
         chain.check_q([0.0, np.nan, 0.0])
     assert "np.float64" not in str(info.value) and "nan" in str(info.value)
+
+
+def test_huge_finite_limits_are_refused_before_ik_overflows():
+    # found by the fuzz run: IK's random restarts overflowed (inf error, OverflowError)
+    row = {"a": 0, "alpha": 0, "d": 0, "theta": 0, "type": "P", "lower": -1e308, "upper": 1e308}
+    with pytest.raises(RobotDescriptionError, match="refused as unphysical"):
+        SerialChain.from_dh([row])
+    chain = SerialChain.from_dh([{**row, "lower": -0.5, "upper": 0.5}])
+    assert chain.ik(chain.fk([0.2])).success
