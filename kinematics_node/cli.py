@@ -1,71 +1,133 @@
 """`kinematics`: forward kinematics, Jacobians and IK from the command line, without ROS.
 
     kinematics info --urdf arm.urdf [--base B] [--tip T] [--json]
-    kinematics fk --urdf arm.urdf --q 0,0.5,-1,0,0,0 [--json]
+    kinematics fk --robot ur5e --q 0,0.5,-1,0,0,0 [--json]
+    kinematics fk --robot ur5e --q-file poses.txt --json      # one configuration per line; - = stdin
     kinematics jacobian --dh scara.json --q 0.1,0.2,0.05,0 --frame body [--json]
 
 Joint values are comma-separated, in rad (m for prismatic joints), in the order `info` lists.
 Errors print one line on stderr and exit with status 1 (2 for command-line usage errors).
+`--json` output is strict JSON (RFC 8259): an unbounded limit or an infinite value is `null`.
+
+Start-up matters for scripts: this module imports numpy and the FK core only. yourdfpy is needed
+only the first time a URDF file is seen (see `chain_cache`), scipy only for `ik`.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
+import re
 import sys
-from collections.abc import Callable, Sequence
-from typing import Any
+import time
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any, TextIO
 
 import numpy as np
 
-from .core import (
-    KinematicsError,
-    SerialChain,
-    condition_number,
-    manipulability,
-)
-from .core.rotations import quaternion_from_matrix, rpy_from_matrix
+from .core import KinematicsError, SerialChain
 
-_VECTOR_OPTIONS = ("--q", "--seed", "--target", "--qdot")
+_MAX_SHOWN = 40  # characters of user input echoed in an error message
+_MAX_STEPS = 1_000_000  # demo: joint states simulated at most
 
 
 class CliError(Exception):
     """A user error reported as one line on stderr (exit status 1)."""
 
 
+def _shown(text: str) -> str:
+    """User input for an error message: repr'd, at most _MAX_SHOWN characters."""
+    text = str(text)
+    return repr(text if len(text) <= _MAX_SHOWN else text[: _MAX_SHOWN - 1] + "…")
+
+
 def parse_floats(text: str, name: str, allow_inf: bool = False) -> np.ndarray:
-    """'0.1, -2, 3e-3' → array; a clear error names the option and the bad item. NaN is always
-    refused, ±inf unless `allow_inf`."""
-    items = [s for s in text.replace(";", ",").replace(" ", ",").split(",") if s]
-    try:
-        values = np.array([float(s) for s in items])
-    except ValueError as exc:
-        raise CliError(f"{name}: {exc} (expected comma-separated numbers)") from None
-    if values.size == 0:
-        raise CliError(f"{name}: no values given")
-    if np.any(np.isnan(values)) or (not allow_inf and np.any(np.isinf(values))):
-        raise CliError(
-            f"{name}: values must be {'numbers' if allow_inf else 'finite'}, got {text!r}"
-        )
+    """'0.1, -2, 3e-3' → array; a clear error names the option and the bad item (by position,
+    never echoing a long input). NaN is always refused, ±inf unless `allow_inf`."""
+    items = [s for s in re.split(r"[,;\s]+", text) if s]
+    if not items:
+        raise CliError(f"{name}: no values given (expected comma-separated numbers)")
+    values = np.empty(len(items))
+    for i, item in enumerate(items):
+        try:
+            v = float(item)
+        except ValueError:
+            raise CliError(
+                f"{name}: value {i + 1} is {_shown(item)}, not a number (expected "
+                "comma-separated numbers)"
+            ) from None
+        if math.isnan(v) or (not allow_inf and math.isinf(v)):
+            raise CliError(
+                f"{name}: value {i + 1} is {_shown(item)}; values must be "
+                f"{'numbers (inf allowed)' if allow_inf else 'finite numbers'}"
+            )
+        values[i] = v
     return values
 
 
-def load_chain(args: argparse.Namespace) -> SerialChain:
-    sources = [s for s in (args.urdf, args.dh, getattr(args, "robot", None)) if s]
-    if len(sources) != 1:
-        raise CliError("give exactly one robot: --urdf FILE, --dh FILE or --robot NAME")
-    if args.urdf:
-        return SerialChain.from_urdf(args.urdf, args.base, args.tip)
-    if args.dh:
-        try:
-            with open(args.dh, encoding="utf-8") as fh:
-                table = json.load(fh)
-        except (OSError, json.JSONDecodeError) as exc:
-            raise CliError(f"cannot read DH table {args.dh!r}: {exc}") from None
-        return SerialChain.from_dh(table)
-    from .robots import load_robot
+def _number_type(
+    what: str, *, positive: bool = True, finite: bool = True
+) -> Callable[[str], float]:
+    """An argparse `type` for a float option: finite, and > 0 if `positive`."""
 
-    return load_robot(args.robot, base_link=args.base, tip_link=args.tip)
+    def convert(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{_shown(text)} is not a number") from None
+        if math.isnan(v) or (finite and math.isinf(v)) or (positive and not v > 0):
+            raise argparse.ArgumentTypeError(f"must be {what}, got {_shown(text)}")
+        return v
+
+    convert.__name__ = what  # argparse names the type in some messages
+    return convert
+
+
+# ---------------------------------------------------------------------- robots
+def load_chain(args: argparse.Namespace) -> SerialChain:
+    if args.urdf:
+        from .chain_cache import chain_from_urdf_file
+
+        return chain_from_urdf_file(args.urdf, args.base, args.tip)
+    if args.dh:
+        from .core.urdf import _short
+
+        try:
+            with open(args.dh, "rb") as fh:
+                table = json.loads(fh.read())  # bytes: UTF-8/16/32 detected as RFC 8259 says
+        except OSError as exc:
+            raise CliError(f"cannot read DH table {_shown(args.dh)}: {exc.strerror}") from None
+        except (ValueError, RecursionError) as exc:  # JSONDecodeError, UnicodeDecodeError
+            raise CliError(f"DH table {_shown(args.dh)} is not JSON: {_short(str(exc))}") from None
+        return SerialChain.from_dh(table)
+    from .chain_cache import chain_from_urdf_file
+    from .robots import default_chain_links, robot_path
+
+    path = robot_path(args.robot)
+    default_base, default_tip = default_chain_links(args.robot)
+    return chain_from_urdf_file(
+        path,
+        default_base if args.base is None else args.base,
+        default_tip if args.tip is None else args.tip,
+    )
+
+
+# ---------------------------------------------------------------------- output helpers
+def strict_json(value: Any) -> Any:
+    """`value` with every non-finite float replaced by None (JSON null), recursively."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: strict_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [strict_json(v) for v in value]
+    return value
+
+
+def dump_json(value: Any, indent: int | None = 2) -> str:
+    return json.dumps(strict_json(value), indent=indent, allow_nan=False, ensure_ascii=False)
 
 
 def _fmt_matrix(A: np.ndarray, indent: str = "  ") -> str:
@@ -75,6 +137,8 @@ def _fmt_matrix(A: np.ndarray, indent: str = "  ") -> str:
 
 
 def _pose_dict(T: np.ndarray) -> dict[str, Any]:
+    from .core.rotations import quaternion_from_matrix, rpy_from_matrix
+
     return {
         "T": T.tolist(),
         "position": T[:3, 3].tolist(),
@@ -94,10 +158,13 @@ def _pose_text(T: np.ndarray) -> str:
     )
 
 
-def get_q(chain: SerialChain, text: str | None, name: str = "--q") -> np.ndarray:
-    if text is None:
-        raise CliError(f"{name} is required: {chain.dof} values for {', '.join(chain.joint_names)}")
-    q = parse_floats(text, name)
+def _require_finite(values: np.ndarray, what: str) -> None:
+    if not np.all(np.isfinite(values)):
+        raise CliError(f"the {what} is not finite (joint values too large for this chain?)")
+
+
+# ---------------------------------------------------------------------- joint values
+def _check_q(chain: SerialChain, q: np.ndarray, name: str) -> np.ndarray:
     if q.size != chain.dof:
         raise CliError(
             f"{name}: expected {chain.dof} values ({', '.join(chain.joint_names)}), got {q.size}"
@@ -105,8 +172,50 @@ def get_q(chain: SerialChain, text: str | None, name: str = "--q") -> np.ndarray
     return q
 
 
+def get_q(chain: SerialChain, text: str | None, name: str = "--q") -> np.ndarray:
+    if text is None:
+        raise CliError(f"{name} is required: {chain.dof} values for {', '.join(chain.joint_names)}")
+    return _check_q(chain, parse_floats(text, name), name)
+
+
+def read_configurations(chain: SerialChain, source: str, stdin: TextIO) -> np.ndarray:
+    """(N, n) joint values from a file (or stdin for '-'): one configuration per line, numbers
+    separated by commas or spaces; blank lines and lines starting with '#' are skipped."""
+    name = "--q-file"
+    try:
+        if source == "-":
+            lines = stdin.read().splitlines()
+        else:
+            with open(source, encoding="utf-8") as fh:
+                lines = fh.read().splitlines()
+    except OSError as exc:
+        raise CliError(f"{name}: cannot read {_shown(source)}: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:
+        raise CliError(f"{name}: {_shown(source)} is not UTF-8 text (byte {exc.start})") from None
+    rows = []
+    for number, line in enumerate(lines, start=1):
+        stripped = line.strip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        where = f"{name} line {number}"
+        rows.append(_check_q(chain, parse_floats(stripped, where), where))
+    if not rows:
+        raise CliError(f"{name}: {_shown(source)} holds no configuration")
+    return np.array(rows)
+
+
+def _configurations(args: argparse.Namespace, chain: SerialChain) -> tuple[np.ndarray, bool]:
+    """(Q (N, n), many): from --q (N = 1) or --q-file."""
+    if getattr(args, "q_file", None) is not None:
+        return read_configurations(chain, args.q_file, sys.stdin), True
+    return get_q(chain, args.q)[None, :], False
+
+
 # ---------------------------------------------------------------------- commands
-def cmd_info(args: argparse.Namespace, chain: SerialChain) -> dict[str, Any] | str:
+Output = Iterable[dict[str, Any] | str]
+
+
+def cmd_info(args: argparse.Namespace, chain: SerialChain) -> Output:
     data = {
         "base_link": chain.base_link,
         "tip_link": chain.tip_link,
@@ -128,7 +237,7 @@ def cmd_info(args: argparse.Namespace, chain: SerialChain) -> dict[str, Any] | s
         "M": chain.M.tolist(),
     }
     if args.json:
-        return data
+        return [data]
     rows = [f"chain {chain.base_link} → {chain.tip_link}, {chain.dof} joints"]
     rows.append(f"  {'#':>2} {'joint':<28}{'type':<12}{'lower':>10}{'upper':>10}{'velocity':>10}")
     for i, j in enumerate(data["joints"], 1):
@@ -142,182 +251,402 @@ def cmd_info(args: argparse.Namespace, chain: SerialChain) -> dict[str, Any] | s
     rows.append(_fmt_matrix(chain.B))
     rows.append("home pose of the tip, M:")
     rows.append(_fmt_matrix(chain.M))
-    return "\n".join(rows)
+    return ["\n".join(rows)]
 
 
-def cmd_fk(args: argparse.Namespace, chain: SerialChain) -> dict[str, Any] | str:
-    q = get_q(chain, args.q)
-    T = chain.fk(q)
-    if args.json:
-        return {"joint_names": list(chain.joint_names), "q": q.tolist(), **_pose_dict(T)}
-    return f"pose of {chain.tip_link} in {chain.base_link}:\n{_pose_text(T)}"
+def cmd_fk(args: argparse.Namespace, chain: SerialChain) -> Output:
+    Q, many = _configurations(args, chain)
+    T_all = chain.fk(Q)
+    _require_finite(T_all, "pose")
+    for q, T in zip(Q, T_all, strict=True):
+        if args.json:
+            yield {"joint_names": list(chain.joint_names), "q": q.tolist(), **_pose_dict(T)}
+        else:
+            head = f"q = {' '.join(f'{x:.6g}' for x in q)}\n" if many else ""
+            yield f"{head}pose of {chain.tip_link} in {chain.base_link}:\n{_pose_text(T)}"
 
 
-def cmd_jacobian(args: argparse.Namespace, chain: SerialChain) -> dict[str, Any] | str:
-    q = get_q(chain, args.q)
-    J = chain.jacobian(q, args.frame)
-    Jw = J if args.frame == "world" else chain.jacobian(q, "world")
-    figures = {
-        "manipulability_linear": float(manipulability(Jw, "linear")),
-        "condition_number": float(condition_number(Jw, "full")),
-    }
+def manipulability_unit(chain: SerialChain) -> str:
+    """Unit of Yoshikawa's linear manipulability: the product of min(3, n) singular values of
+    the linear rows, each [m/rad] for revolute and [m/m] for prismatic joints."""
+    k = min(3, chain.dof)
+    power = {1: "", 2: "²", 3: "³"}[k]
+    if all(t == "prismatic" for t in chain.joint_types):
+        return "(dimensionless: m/m per joint)"
+    if any(t == "prismatic" for t in chain.joint_types):
+        return "(mixed units: m/rad for revolute, m/m for prismatic joints)"
+    return f"m{power}/rad{power}"
+
+
+def cmd_jacobian(args: argparse.Namespace, chain: SerialChain) -> Output:
+    from .core import condition_number, manipulability
+
+    Q, many = _configurations(args, chain)
+    T_all, Jw_all = chain.fk_jacobian(Q, "world")
+    J_all = Jw_all if args.frame == "world" else chain.jacobian(Q, args.frame)
+    _require_finite(J_all, "Jacobian")
+    w_all = manipulability(Jw_all, "linear")
+    c_all = condition_number(Jw_all, "full")
+    unit = manipulability_unit(chain)
     rows_labels = ["wx", "wy", "wz", "vx", "vy", "vz"]
-    if args.json:
-        return {
-            "frame": args.frame,
-            "rows": rows_labels,
-            "columns": list(chain.joint_names),
-            "J": J.tolist(),
-            **figures,
-        }
-    head = f"{args.frame} Jacobian (rows ω then v; columns {', '.join(chain.joint_names)}):"
-    body = "\n".join(
-        f"  {label:<3}" + " ".join(f"{x:10.6g}" for x in row)
-        for label, row in zip(rows_labels, J, strict=True)
-    )
-    return (
-        f"{head}\n{body}\nmanipulability (linear) {figures['manipulability_linear']:.6g} m, "
-        f"condition number {figures['condition_number']:.6g}"
-    )
+    for q, J, w, c in zip(Q, J_all, w_all, c_all, strict=True):
+        if args.json:
+            yield {
+                "frame": args.frame,
+                "q": q.tolist(),
+                "rows": rows_labels,
+                "columns": list(chain.joint_names),
+                "J": J.tolist(),
+                "manipulability_linear": float(w),
+                "manipulability_linear_unit": unit,
+                "condition_number": float(c),  # null when infinite (exact singularity)
+            }
+            continue
+        head = f"q = {' '.join(f'{x:.6g}' for x in q)}\n" if many else ""
+        head += f"{args.frame} Jacobian (rows ω then v; columns {', '.join(chain.joint_names)}):"
+        body = "\n".join(
+            f"  {label:<3}" + " ".join(f"{x:10.6g}" for x in row)
+            for label, row in zip(rows_labels, J, strict=True)
+        )
+        cond = f"{c:.6g}" if math.isfinite(c) else "inf (singular)"
+        yield (
+            f"{head}\n{body}\nmanipulability (linear) {w:.6g} {unit}\n"
+            f"condition number {cond} (of the full 6×n world Jacobian; it mixes rad and m, so it "
+            "depends on the length unit)"
+        )
 
 
-def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> dict[str, Any] | str:
+_IK_OPTION_NAMES = {  # IKOptions field → the option that sets it (library names stay inside)
+    "IKOptions.position_tolerance": "--position-tolerance",
+    "IKOptions.orientation_tolerance": "--orientation-tolerance",
+    "IKOptions.timeout": "--timeout",
+    "IKOptions.axis_tolerances": "--axis-tolerances",
+    "IKOptions.mode": "--mode",
+    "IKOptions.position_only": "--position-only",
+    "IKOptions": "IK options",
+}
+
+
+def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
     from .core import IKOptions
     from .core.rotations import matrix_from_quaternion
 
-    if args.target is None:
-        raise CliError("--target x,y,z,qx,qy,qz,qw is required (position [m], quaternion x,y,z,w)")
     v = parse_floats(args.target, "--target")
     if v.size != 7:
         raise CliError(f"--target: expected 7 values x,y,z,qx,qy,qz,qw, got {v.size}")
     T = np.eye(4)
-    T[:3, :3] = matrix_from_quaternion(v[3:])  # refuses a zero quaternion with a clear message
+    try:
+        T[:3, :3] = matrix_from_quaternion(v[3:])  # any non-zero quaternion is normalised
+    except KinematicsError:
+        raise CliError(
+            "--target: the quaternion qx,qy,qz,qw is zero; give any non-zero quaternion "
+            "(it is normalised)"
+        ) from None
     T[:3, 3] = v[:3]
     seed = None if args.seed is None else get_q(chain, args.seed, "--seed")
     axis_tolerances = None
     if args.axis_tolerances is not None:
-        axis_tolerances = tuple(parse_floats(args.axis_tolerances, "--axis-tolerances", True))
-    options = IKOptions(
-        position_tolerance=args.position_tolerance,
-        orientation_tolerance=args.orientation_tolerance,
-        timeout=args.timeout,
-        position_only=args.position_only,
-        axis_tolerances=axis_tolerances,
-        mode=args.mode,
-        rng_seed=0,
-    )
+        bounds = parse_floats(args.axis_tolerances, "--axis-tolerances", allow_inf=True)
+        if bounds.size != 6 or not np.all(bounds > 0) or np.all(np.isinf(bounds)):
+            raise CliError(
+                "--axis-tolerances: expected 6 values > 0 (wx,wy,wz,x,y,z; inf frees an axis, "
+                f"not all inf), got {bounds.size} values"
+                + ("" if bounds.size != 6 else f" {bounds.tolist()}")
+            )
+        axis_tolerances = tuple(bounds)
+    try:
+        options = IKOptions(
+            position_tolerance=args.position_tolerance,
+            orientation_tolerance=args.orientation_tolerance,
+            timeout=args.timeout,
+            position_only=args.position_only,
+            axis_tolerances=axis_tolerances,
+            mode=args.mode,
+            rng_seed=0,
+        )
+    except KinematicsError as exc:
+        text = str(exc)
+        for field, option in _IK_OPTION_NAMES.items():
+            text = text.replace(field, option)
+        raise CliError(text) from None
+    t0 = time.perf_counter()
     res = chain.ik(T, q_seed=seed, options=options)
+    ms = (time.perf_counter() - t0) * 1e3
+    q = np.asarray(res.q, dtype=float)
+    _require_finite(q, "IK solution")
+    free = bool(args.position_only)
     data = {
         "success": bool(res.success),
         "joint_names": list(chain.joint_names),
-        "q": np.asarray(res.q).tolist(),
+        "q": q.tolist(),
         "position_error": float(res.position_error),
-        "orientation_error": float(res.orientation_error),
+        "orientation_error": None if free else float(res.orientation_error),
         "iterations": int(res.iterations),
-        "message": res.message,
+        "restarts": int(getattr(res, "restarts", 0)),
+        "time_ms": ms,
     }
+    if axis_tolerances is not None:
+        wanted = f"per-axis bounds {','.join(f'{b:g}' for b in axis_tolerances)}"
+    elif free:
+        wanted = f"{options.position_tolerance:g} m (orientation free)"
+    else:
+        wanted = f"{options.position_tolerance:g} m / {options.orientation_tolerance:g} rad"
+    if res.success:
+        data["message"] = f"solved within {wanted} in {ms:.2f} ms"
+    else:
+        errors = f"best position error {res.position_error:.3g} m" + (
+            "" if free else f", orientation error {res.orientation_error:.3g} rad"
+        )
+        data["message"] = f"no solution within {wanted} in {options.timeout:g} s: {errors}"
     if not res.success:
         # Still report the best configuration found, but exit non-zero.
-        print(json.dumps(data, indent=2) if args.json else _ik_text(data), file=sys.stdout)
-        raise CliError(f"no solution: {res.message}")
-    return data if args.json else _ik_text(data)
+        print(dump_json(data) if args.json else _ik_text(data), file=sys.stdout)
+        raise CliError(str(data["message"]))
+    return [data if args.json else _ik_text(data)]
 
 
 def _ik_text(d: dict[str, Any]) -> str:
-    rows = [f"{'solved' if d['success'] else 'not solved'}: {d['message']}"]
+    rows = [str(d["message"])]
     rows += [f"  {n:<28}{x: .6f}" for n, x in zip(d["joint_names"], d["q"], strict=True)]
+    orientation = (
+        "orientation free"
+        if d["orientation_error"] is None
+        else f"orientation error {d['orientation_error']:.2e} rad"
+    )
     rows.append(
-        f"position error {d['position_error']:.2e} m, orientation error "
-        f"{d['orientation_error']:.2e} rad, {d['iterations']} iterations"
+        f"position error {d['position_error']:.2e} m, {orientation}, {d['iterations']} iterations"
     )
     return "\n".join(rows)
 
 
-COMMANDS: dict[str, tuple[str, Callable[[argparse.Namespace, SerialChain], Any]]] = {
+COMMANDS: dict[str, tuple[str, Callable[[argparse.Namespace, SerialChain], Output]]] = {
     "info": ("print the chain, joint table and S, B, M", cmd_info),
     "fk": ("forward kinematics: pose of the tip in the base", cmd_fk),
     "jacobian": ("Jacobian in the space, body or world frame", cmd_jacobian),
     "ik": ("inverse kinematics: joint values reaching a tip pose", cmd_ik),
 }
 
+EXAMPLES = {
+    "info": """examples:
+  kinematics info --robot panda
+  kinematics info --urdf arm.urdf --base base_link --tip tool0 --json""",
+    "fk": """examples:
+  kinematics fk --robot ur5e --q 0,-1.2,1.4,0,0.5,0
+  kinematics fk --robot ur5e --q-file poses.txt --json    # JSON Lines, one pose per line
+  printf '0 0 0 0 0 0\\n0.1 0 0 0 0 0\\n' | kinematics fk --robot ur5e --q-file -""",
+    "jacobian": """examples:
+  kinematics jacobian --robot ur5e --q 0,-1.2,1.4,0,0.5,0 --frame body
+  kinematics jacobian --dh config/robots/scara_dh.json --q 0.1,0.2,0.05,0 --json
+
+frames (rows ω then v, as in Modern Robotics):
+  world  angular velocity and velocity of the tip origin, both in base axes (geometric Jacobian)
+  space  J_s: twist in the base frame; v = velocity of the point at the base origin
+  body   J_b: twist in the tip frame""",
+    "ik": """examples:
+  kinematics ik --robot ur5e --target -0.5756,-0.3902,0.3512,0,0,0,1 --position-only
+  kinematics ik --robot panda --target 0.4,0.1,0.5,1,0,0,0 --axis-tolerances 1e-4,1e-4,inf,1e-5,1e-5,1e-5
+
+modes:
+  speed     return the first solution found (default)
+  distance  search until the timeout and return the solution closest to the seed
+
+The quaternion is (x, y, z, w); any non-zero quaternion is normalised. Exit status 1 when no
+solution is found (the best configuration is still printed).""",
+    "demo": """examples:
+  kinematics demo
+  kinematics demo --robot panda --duration 5 --out panda.svg""",
+}
+
+
+class _Formatter(argparse.RawDescriptionHelpFormatter):
+    """Keeps the examples' layout and shows each option's default (when it has a real one)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        if (
+            action.default not in (None, False, argparse.SUPPRESS)
+            and "%(default)" not in text
+            and action.option_strings
+        ):
+            text += " (default: %(default)s)"
+        return text
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors, and `--q -0.5,1` taken as a value, not an option."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", _Formatter)
+        super().__init__(*args, **kwargs)
+        # argparse takes '-0.5,1' for an option unless it matches this (private, but stable since
+        # Python 3.2; 3.13 widened its own pattern the same way). Our options never look like it.
+        self._negative_number_matcher = re.compile(r"^-(\d|\.\d|inf|nan)", re.IGNORECASE)
+
+    def error(self, message: str) -> Any:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+class _Version(argparse.Action):
+    """--version, looked up only when asked (importlib.metadata costs start-up time)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, **kw: Any):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kw)
+
+    def __call__(self, parser: argparse.ArgumentParser, *_: Any) -> None:
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            v = version("kinematics_service")
+        except PackageNotFoundError:
+            v = "unknown (not installed)"
+        print(f"kinematics {v}")
+        parser.exit(0)
+
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="kinematics",
-        description="Product-of-exponentials kinematics of a URDF, xacro or DH robot, without ROS.",
+        description="Product-of-exponentials kinematics of a URDF, xacro or DH robot, without ROS.\n"
+        "Joint values are in rad (m for prismatic joints), lengths in m, quaternions (x, y, z, w).",
+        epilog="Run 'kinematics COMMAND --help' for a command's options and examples. Errors are\n"
+        "one line on stderr; exit status 1 for bad input, 2 for command-line usage.",
     )
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser.add_argument("--version", action=_Version, help="print the version and exit")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    positive = _number_type("a finite number > 0")
     for name, (helptext, _) in COMMANDS.items():
-        p = sub.add_parser(name, help=helptext, description=helptext)
-        src = p.add_argument_group("robot (exactly one)")
-        src.add_argument("--urdf", metavar="FILE", help="URDF or xacro file")
-        src.add_argument(
+        p = sub.add_parser(name, help=helptext, description=helptext, epilog=EXAMPLES[name])
+        src = p.add_argument_group("robot (exactly one is required)")
+        one = src.add_mutually_exclusive_group(required=True)
+        one.add_argument("--urdf", metavar="FILE", help="URDF or xacro file")
+        one.add_argument(
             "--dh",
             metavar="FILE",
-            help="JSON DH table: {'joints': [{a, alpha, d, theta, type}, ...]}",
+            help="JSON DH table: {'joints': [{a, alpha, d, theta, type}, ...]} (standard DH)",
         )
-        src.add_argument("--robot", metavar="NAME", help="a bundled robot, e.g. ur5e, panda")
-        p.add_argument("--base", help="base link (default: root link)")
-        p.add_argument("--tip", help="tip link (default: the single leaf)")
-        p.add_argument("--json", action="store_true", help="machine-readable output")
+        one.add_argument(
+            "--robot",
+            metavar="NAME",
+            help="a bundled robot: ur5e, panda, iiwa14, scara, planar3r",
+        )
+        p.add_argument("--base", metavar="LINK", help="base link (default: the root link)")
+        p.add_argument("--tip", metavar="LINK", help="tip link (default: the single leaf)")
+        p.add_argument("--json", action="store_true", help="strict JSON output (inf → null)")
         if name in ("fk", "jacobian"):
-            p.add_argument("--q", metavar="Q1,Q2,...", help="joint values [rad or m]")
+            qs = p.add_argument_group("joint values (exactly one is required)")
+            qgroup = qs.add_mutually_exclusive_group(required=True)
+            qgroup.add_argument("--q", metavar="Q1,Q2,...", help="one configuration [rad or m]")
+            qgroup.add_argument(
+                "--q-file",
+                metavar="FILE",
+                help="many configurations, one per line ('-' = stdin); with --json, "
+                "the output is JSON Lines",
+            )
         if name == "jacobian":
-            p.add_argument("--frame", choices=("space", "body", "world"), default="world")
-        if name == "ik":
-            p.add_argument("--target", metavar="X,Y,Z,QX,QY,QZ,QW", help="tip pose in the base")
-            p.add_argument("--seed", metavar="Q1,Q2,...", help="start configuration")
-            p.add_argument("--position-only", action="store_true", help="ignore orientation")
-            p.add_argument("--mode", choices=("speed", "distance"), default="speed")
-            p.add_argument("--timeout", type=float, default=0.05, help="[s] (default 0.05)")
-            p.add_argument("--position-tolerance", type=float, default=1e-5, help="[m]")
-            p.add_argument("--orientation-tolerance", type=float, default=1e-4, help="[rad]")
             p.add_argument(
+                "--frame",
+                choices=("world", "space", "body"),
+                default="world",
+                help="reference frame of the twist (see the frames below)",
+            )
+        if name == "ik":
+            p.add_argument(
+                "--target",
+                metavar="X,Y,Z,QX,QY,QZ,QW",
+                required=True,
+                help="tip pose in the base: position [m], quaternion (normalised if not unit)",
+            )
+            p.add_argument(
+                "--seed", metavar="Q1,Q2,...", help="start configuration (default: mid-limits)"
+            )
+            p.add_argument(
+                "--mode",
+                choices=("speed", "distance"),
+                default="speed",
+                help="speed: first solution; distance: closest to the seed within the timeout",
+            )
+            p.add_argument("--timeout", type=positive, default=0.05, help="time budget [s]")
+            p.add_argument(
+                "--position-tolerance", type=positive, default=1e-5, help="position error [m]"
+            )
+            p.add_argument(
+                "--orientation-tolerance",
+                type=positive,
+                default=1e-4,
+                help="orientation error (rotation angle) [rad]",
+            )
+            how = p.add_mutually_exclusive_group()
+            how.add_argument(
+                "--position-only", action="store_true", help="ignore the target orientation"
+            )
+            how.add_argument(
                 "--axis-tolerances",
                 metavar="WX,WY,WZ,X,Y,Z",
                 help="per-axis bounds in the tip frame [rad, m]; inf frees an axis "
                 "(replaces the two tolerances above)",
             )
-    demo = sub.add_parser("demo", help="simulate a bundled arm, track it, solve IK, draw a picture")
-    demo.add_argument("--robot", default="ur5e", help="bundled robot (default ur5e)")
-    demo.add_argument("--out", default="kinematics_demo.png", help="picture file")
-    demo.add_argument("--duration", type=float, default=10.0, help="simulated time [s]")
-    demo.add_argument("--rate", type=float, default=100.0, help="joint_states rate [Hz]")
+    demo = sub.add_parser(
+        "demo",
+        help="simulate a bundled arm, track it, solve IK, draw a picture",
+        description="Simulate a bundled arm, track it as the ROS node does, solve IK for poses\n"
+        "along the path, print a summary and draw a picture (needs matplotlib).",
+        epilog=EXAMPLES["demo"],
+    )
+    demo.add_argument("--robot", default="ur5e", help="bundled robot")
+    demo.add_argument(
+        "--out", default="kinematics_demo.png", help="picture file (.png, .svg, .pdf, ...)"
+    )
+    demo.add_argument("--duration", type=positive, default=10.0, help="simulated time [s]")
+    demo.add_argument("--rate", type=positive, default=100.0, help="joint_states rate [Hz]")
     return parser
 
 
-def _join_vector_options(argv: Sequence[str]) -> list[str]:
-    """Let `--q -0.5,1` work: argparse would take '-0.5,1' for an option."""
-    out: list[str] = []
-    it = iter(argv)
-    for a in it:
-        if a in _VECTOR_OPTIONS:
-            nxt = next(it, None)
-            out.append(a if nxt is None else f"{a}={nxt}")
+def _demo(args: argparse.Namespace) -> int:
+    steps = round(args.duration * args.rate)
+    if not 2 <= steps <= _MAX_STEPS:
+        raise CliError(f"--duration × --rate gives {steps} joint states; need 2 to {_MAX_STEPS:,}")
+    from . import demo
+
+    return demo.main(args.robot, args.out, args.duration, args.rate)
+
+
+def _emit(results: Output, as_json: bool, many: bool) -> None:
+    """Print results as they come: text blocks (blank line between), one indented JSON document,
+    or JSON Lines when there are many."""
+    first = True
+    for result in results:
+        if isinstance(result, str):
+            print(result if first else f"\n{result}")
         else:
-            out.append(a)
-    return out
+            print(dump_json(result, indent=None if many else 2))
+        first = False
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(_join_vector_options(sys.argv[1:] if argv is None else argv))
+    try:
+        args = parser.parse_args(sys.argv[1:] if argv is None else list(argv))
+    except SystemExit as exc:  # --help, --version, usage errors: argparse printed them
+        return exc.code if isinstance(exc.code, int) else 2
     try:
         if args.command == "demo":
-            from . import demo
-
-            if not (args.duration > 0 and args.rate > 0):
-                raise CliError("--duration and --rate must be positive")
-            return demo.main(args.robot, args.out, args.duration, args.rate)
+            return _demo(args)
         chain = load_chain(args)
-        result = COMMANDS[args.command][1](args, chain)
+        results = COMMANDS[args.command][1](args, chain)
+        _emit(results, args.json, getattr(args, "q_file", None) is not None)
+        sys.stdout.flush()
     except (CliError, KinematicsError) as exc:
-        print(f"kinematics: error: {exc}", file=sys.stderr)
+        sys.stdout.flush()
+        print(f"kinematics: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 1
-    if isinstance(result, str):
-        print(result)
-    else:
-        print(json.dumps(result, indent=2))
+    except BrokenPipeError:
+        # The reader went away (`kinematics ... | head`): stop quietly, as command-line tools do.
+        # Point stdout at /dev/null so that the interpreter's final flush does not fail again.
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return 141  # 128 + SIGPIPE, what a shell reports for a tool killed by the closed pipe
     return 0
 
 

@@ -25,3 +25,9 @@ def batch_path(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) 
         ik_module, "SCALAR_BATCH_BELOW", 0 if request.param == "vectorised" else 10**9
     )
     return str(request.param)
+
+
+@pytest.fixture(autouse=True)
+def _private_chain_cache(tmp_path_factory, monkeypatch):
+    """The CLI caches parsed URDFs in the user's cache directory; tests use their own."""
+    monkeypatch.setenv("KINEMATICS_CACHE_DIR", str(tmp_path_factory.mktemp("chain_cache")))

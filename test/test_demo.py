@@ -44,3 +44,24 @@ def test_demo_unknown_robot_is_one_clear_error(capsys):
     assert main(["demo", "--robot", "r2d2"]) == 1
     err = capsys.readouterr().err
     assert "unknown robot 'r2d2'" in err and "ur5e" in err
+
+
+def test_progress_bar_only_on_a_terminal():
+    from kinematics_node.demo import Progress
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    for stream, drawn in ((io.StringIO(), False), (Terminal(), True)):
+        bar = Progress(10, stream, "simulating")
+        bar.start -= 10.0  # long enough to be drawn
+        bar.update(10)
+        bar.close()
+        assert ("\r" in stream.getvalue()) is drawn
+
+
+def test_planar_arm_manipulability_is_not_a_flat_zero():
+    run = run_demo("planar3r", duration=1.0, rate=50.0, n_ik=2, stream=io.StringIO())
+    assert run.manipulability_rank == 2 and run.manipulability.max() > 1e-2  # starts stretched
+    assert run.ik_targets.shape == (2, 3)

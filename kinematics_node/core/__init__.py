@@ -2,7 +2,14 @@
 
 Conventions: twists and Jacobian rows (ω, v) as in Modern Robotics; quaternions (x, y, z, w);
 lengths in m, angles in rad. See docs/conventions.md.
+
+The IK names (`IKOptions`, `IKResult`, `IKBatchResult`) are imported on first use (PEP 562): the
+solver needs scipy.linalg, whose import costs more than numpy's, and FK/Jacobians do not need it.
 """
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
 
 from . import rotations, se3, so3
 from .analysis import (
@@ -18,7 +25,20 @@ from .exceptions import (
     RobotDescriptionError,
     UnknownNameError,
 )
-from .ik import IKBatchResult, IKOptions, IKResult
+
+if TYPE_CHECKING:
+    from .ik import IKBatchResult, IKOptions, IKResult
+
+_LAZY_IK = ("IKBatchResult", "IKOptions", "IKResult")
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY_IK:
+        from . import ik
+
+        return getattr(ik, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "ChainSpec",

@@ -26,7 +26,9 @@ def check_finite(arr: NDArray[np.float64], name: str) -> None:
     if not np.all(np.isfinite(arr)):
         bad = np.argwhere(~np.isfinite(arr))[0]
         idx = tuple(int(i) for i in bad)
-        raise InvalidInputError(f"{name} contains a non-finite value {arr[idx]!r} at index {idx}")
+        raise InvalidInputError(
+            f"{name} contains a non-finite value {float(arr[idx])} at index {idx}"
+        )
 
 
 def check_trailing_shape(arr: NDArray[np.float64], shape: tuple[int, ...], name: str) -> None:

@@ -34,6 +34,52 @@ Frame = Literal["space", "body", "world"]
 _FRAMES = ("space", "body", "world")
 
 
+MAX_REACH = 1e6
+"""[m] Longest chain accepted: the sum of the joint-to-joint distances at home. Anything longer is
+a typo or overflow bait (1e300 m links make FK return inf), not a robot."""
+
+
+def _check_spec_numbers(spec: ChainSpec) -> None:
+    """Refuse what would make FK/Jacobians non-finite: non-finite frames, an absurd reach, limits
+    that are NaN or leave no finite value (lower = +inf, upper = −inf), NaN/negative velocities.
+
+    Raises:
+        RobotDescriptionError: naming the joint.
+    """
+    frames = [j.H for j in spec.joints] + [spec.M]
+    if not all(np.all(np.isfinite(T)) for T in frames):
+        raise RobotDescriptionError(
+            f"chain {spec.base_link!r} → {spec.tip_link!r} has non-finite joint frames"
+        )
+    points = np.array([T[:3, 3] for T in frames])
+    with np.errstate(over="ignore"):  # inf is the answer for 1e300 m links
+        reach = float(
+            np.linalg.norm(points[0]) + np.linalg.norm(np.diff(points, axis=0), axis=1).sum()
+        )
+    if not reach <= MAX_REACH:
+        raise RobotDescriptionError(
+            f"chain {spec.base_link!r} → {spec.tip_link!r} is {reach:.3g} m long; chains longer "
+            f"than {MAX_REACH:.0e} m are refused as unphysical"
+        )
+    for name, lo, up, vel in zip(
+        spec.actuated_names, spec.lower, spec.upper, spec.velocity_limit, strict=True
+    ):
+        if not (lo <= up and lo < np.inf and up > -np.inf):
+            raise RobotDescriptionError(
+                f"joint {name!r} has limits [{lo}, {up}]; need lower ≤ upper with a finite value "
+                "in between"
+            )
+        if any(math.isfinite(x) and abs(x) > MAX_REACH for x in (lo, up)):
+            raise RobotDescriptionError(
+                f"joint {name!r} has limits [{lo:g}, {up:g}]; finite limits beyond ±{MAX_REACH:.0e} "
+                "(m or rad) are refused as unphysical (leave a limit out for an unbounded joint)"
+            )
+        if not vel >= 0:
+            raise RobotDescriptionError(f"joint {name!r} has velocity limit {vel}; need ≥ 0")
+    if not (np.all(np.isfinite(spec.G)) and np.all(np.isfinite(spec.offset))):
+        raise RobotDescriptionError("a mimic joint has a non-finite multiplier or offset")
+
+
 def _readonly(a: ArrayLike) -> FloatArray:
     arr = np.array(a, dtype=np.float64)
     arr.setflags(write=False)
@@ -136,6 +182,7 @@ class SerialChain:
             raise RobotDescriptionError(
                 f"chain {spec.base_link!r} → {spec.tip_link!r} has no moving joint"
             )
+        _check_spec_numbers(spec)
         A[0] = H[0]
         for k in range(1, n_int):
             A[k] = se3.inverse(H[k - 1]) @ H[k]
@@ -189,14 +236,15 @@ class SerialChain:
     @classmethod
     def from_urdf(
         cls,
-        path_or_xml: str | PathLike[str],
+        path_or_xml: str | bytes | PathLike[str],
         base_link: str | None = None,
         tip_link: str | None = None,
     ) -> SerialChain:
         """Model of the chain `base_link` → `tip_link` of a URDF or xacro description.
 
         Args:
-            path_or_xml: a file path (.urdf, .xacro, …) or the XML text itself.
+            path_or_xml: a file path (.urdf, .xacro, …), the XML text itself, or XML bytes (decoded
+                as XML says: byte-order mark, else the declared encoding, else UTF-8).
             base_link: defaults to the root link.
             tip_link: defaults to the single leaf below `base_link` (an error lists them if several).
 

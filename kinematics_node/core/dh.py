@@ -37,6 +37,11 @@ def _dh_fixed(d: float, a: float, alpha: float) -> np.ndarray:
     return np.array(((1.0, 0, 0, a), (0, c, -s, 0), (0, s, c, d), (0, 0, 0, 1.0)))
 
 
+def _keys(table: Mapping[Any, Any]) -> str:
+    keys = [repr(k)[:30] for k in list(table)[:8]]
+    return "{" + ", ".join(keys) + (", …}" if len(table) > 8 else "}")
+
+
 def _number(row: Mapping[str, Any], key: str, i: int, default: float | None = None) -> float:
     if key not in row or row[key] is None:
         if default is None:
@@ -44,9 +49,9 @@ def _number(row: Mapping[str, Any], key: str, i: int, default: float | None = No
         return default
     try:
         value = float(row[key])
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise RobotDescriptionError(
-            f"DH row {i}: {key!r} must be a number, got {row[key]!r}"
+            f"DH row {i}: {key!r} must be a number, got {repr(row[key])[:40]}"
         ) from None
     if np.isnan(value) or (np.isinf(value) and key not in ("lower", "upper", "velocity")):
         raise RobotDescriptionError(f"DH row {i}: {key!r} must be finite, got {value}")
@@ -62,12 +67,20 @@ def spec_from_dh(
     """Build a chain spec from a standard DH table (see the module docstring for the format)."""
     if isinstance(table, Mapping):
         if "joints" not in table:
-            raise RobotDescriptionError("a DH mapping needs a 'joints' list of rows")
+            raise RobotDescriptionError(
+                f"a DH mapping needs a 'joints' list of rows; got keys {_keys(table)}"
+            )
         base = table.get("base", base)
         tool = table.get("tool", tool)
         rows: Sequence[Mapping[str, Any]] = table["joints"]
+        what = "the DH table's 'joints'"
     else:
         rows = table
+        what = "a DH table"
+    if isinstance(rows, (str, bytes)) or not isinstance(rows, Sequence):
+        raise RobotDescriptionError(
+            f"{what} must be a list of rows {{a, alpha, d, theta, type}}, got {type(rows).__name__}"
+        )
     if not rows:
         raise RobotDescriptionError("the DH table has no rows")
     T = np.eye(4) if base is None else check_transform(base, "DH base transform")
@@ -81,7 +94,7 @@ def spec_from_dh(
             raise RobotDescriptionError(
                 f"DH row {i} must be a mapping with a, alpha, d, theta, type"
             )
-        kind = str(row.get("type", "revolute")).lower()
+        kind = str(row.get("type", "revolute"))[:40].lower()
         if kind in ("r", "revolute"):
             prismatic = False
         elif kind in ("p", "prismatic"):
@@ -92,7 +105,11 @@ def spec_from_dh(
             )
         a, alpha = _number(row, "a", i), _number(row, "alpha", i)
         d, theta = _number(row, "d", i), _number(row, "theta", i, 0.0)
-        name = str(row.get("name", f"joint{i}"))
+        name = row.get("name", f"joint{i}")
+        if not isinstance(name, str) or not name:
+            raise RobotDescriptionError(
+                f"DH row {i}: 'name' must be a non-empty string, got {repr(name)[:40]}"
+            )
         if name in names:
             raise RobotDescriptionError(f"DH row {i}: duplicate joint name {name!r}")
         lo, up = _number(row, "lower", i, -np.inf), _number(row, "upper", i, np.inf)

@@ -35,7 +35,10 @@ quaternion_from_matrix = so3.quaternion_from_matrix
 
 
 def matrix_from_quaternion(quaternion: ArrayLike, *, normalize: bool = True) -> FloatArray:
-    """Rotation matrix of a quaternion (x, y, z, w); normalised first (zero norm is refused).
+    """Rotation matrix of a quaternion (x, y, z, w).
+
+    The rule, as in the ComputeIK service and tf2: any finite non-zero quaternion is normalised
+    first (so (0, 0, 0, 2) is the identity); a zero quaternion, which has no direction, is refused.
 
     Raises:
         InvalidInputError: wrong shape, non-finite entries or a norm below 1e-9.
@@ -45,7 +48,9 @@ def matrix_from_quaternion(quaternion: ArrayLike, *, normalize: bool = True) -> 
     check_finite(q, "quaternion")
     n = np.linalg.norm(q, axis=-1, keepdims=True)
     if np.any(n < 1e-9):
-        raise InvalidInputError("quaternion has zero norm; expected (x, y, z, w) with norm 1")
+        raise InvalidInputError(
+            "quaternion (x, y, z, w) has zero norm; give any non-zero quaternion (it is normalised)"
+        )
     if normalize:
         q = q / n
     x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]

@@ -10,9 +10,13 @@ names the joint or link.
 
 from __future__ import annotations
 
+import codecs
+import contextlib
 import io
 import logging
+import math
 import os
+import re
 import xml.etree.ElementTree as ET
 from os import PathLike
 from typing import Any
@@ -26,33 +30,146 @@ _MOVING = ("revolute", "continuous", "prismatic")
 _AXIS_TOLERANCE = 1e-4  # URDFs often print axes with 4–6 digits, e.g. "0 0.7071 0.7071"
 
 
-def read_description(path_or_xml: str | PathLike[str]) -> str:
-    """Return URDF XML text from a path or XML string, expanding xacro when needed.
+_XACRO_NAMESPACE_MARK = "xacro"  # every xacro namespace URI in use ends in /xacro
+_ENCODING_DECLARATION = re.compile(
+    rb"""^\s*<\?xml[^>]*?\sencoding\s*=\s*["']([A-Za-z0-9._:-]+)["']"""
+)
+_BOMS = (
+    (codecs.BOM_UTF32_LE, "utf-32"),  # before UTF-16: its BOM starts with UTF-16 LE's
+    (codecs.BOM_UTF32_BE, "utf-32"),
+    (codecs.BOM_UTF8, "utf-8-sig"),
+    (codecs.BOM_UTF16_LE, "utf-16"),
+    (codecs.BOM_UTF16_BE, "utf-16"),
+)
+
+
+def _short(text: str, limit: int = 60) -> str:
+    """`text` for an error message: one line, at most `limit` characters."""
+    text = " ".join(str(text).split())
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def decode_xml(data: bytes, where: str = "robot description") -> str:
+    """Decode XML bytes as the XML spec says: a byte-order mark, else the `encoding` of the XML
+    declaration, else UTF-8. The declaration's encoding is removed from the returned text, which
+    is a str (already decoded) from then on.
 
     Raises:
-        RobotDescriptionError: unreadable file, malformed XML, or xacro not installed/failing.
+        RobotDescriptionError: unknown encoding, or bytes that are not text in that encoding.
+    """
+    encoding = "utf-8"
+    for bom, name in _BOMS:
+        if data.startswith(bom):
+            encoding = name
+            break
+    else:
+        declared = _ENCODING_DECLARATION.match(data[:400])
+        if declared:
+            encoding = declared.group(1).decode("ascii")
+            try:
+                codecs.lookup(encoding)
+            except LookupError:
+                raise RobotDescriptionError(
+                    f"{where} declares an unknown encoding {_short(encoding)!r}"
+                ) from None
+    try:
+        text = data.decode(encoding)
+    except UnicodeDecodeError as exc:
+        byte = f"byte 0x{data[exc.start]:02x} at position {exc.start}"
+        if b"\0" in data[:4096]:
+            raise RobotDescriptionError(
+                f"{where} is a binary file, not XML text ({byte})"
+            ) from None
+        raise RobotDescriptionError(
+            f"{where} is not {encoding} text ({byte}); if it is in another encoding, declare it: "
+            "<?xml version='1.0' encoding='...'?>"
+        ) from None
+    return _drop_encoding_declaration(text)
+
+
+def _drop_encoding_declaration(text: str) -> str:
+    """The text without the `encoding` of its XML declaration (it is decoded already; parsers
+    handed the text as UTF-8 bytes must not decode it again with the declared encoding)."""
+    text = text.lstrip("\ufeff")
+    if text.lstrip().startswith("<?xml"):
+        end = text.find("?>")
+        if end > 0:
+            head = re.sub(r"""\sencoding\s*=\s*["'][^"']*["']""", "", text[:end])
+            text = head + text[end:]
+    return text
+
+
+def read_description(path_or_xml: str | bytes | PathLike[str]) -> str:
+    """Return URDF XML text from a path, XML text or XML bytes, expanding xacro when needed.
+
+    Bytes and files are decoded as XML says (byte-order mark, else the declared encoding, else
+    UTF-8). Xacro is run for `.xacro` files and for descriptions with xacro content (elements or
+    attributes in the xacro namespace, or ``${…}``/``$(…)`` substitutions); merely declaring
+    ``xmlns:xacro``, as most generated URDFs do, does not need xacro.
+
+    Raises:
+        RobotDescriptionError: unreadable file, not text, malformed XML, a root other than
+            <robot>, or xacro needed but not installed or failing.
     """
     text: str
     filename: str | None = None
-    if isinstance(path_or_xml, PathLike) or not str(path_or_xml).lstrip().startswith("<"):
+    if isinstance(path_or_xml, (bytes, bytearray)):
+        text = decode_xml(bytes(path_or_xml))
+    elif isinstance(path_or_xml, PathLike) or not str(path_or_xml).lstrip(
+        " \t\r\n\ufeff"
+    ).startswith("<"):
         filename = os.fspath(path_or_xml)
         try:
-            with open(filename, encoding="utf-8") as fh:
-                text = fh.read()
-        except OSError as exc:
+            with open(filename, "rb") as fh:
+                data = fh.read()
+        except (OSError, ValueError) as exc:  # ValueError: a NUL character in the path
             raise RobotDescriptionError(
-                f"cannot read robot description {filename!r}: {exc}"
+                f"cannot read robot description {_short(filename)!r}: "
+                f"{_one_line(getattr(exc, 'strerror', None) or exc)}"
             ) from None
+        text = decode_xml(data, f"robot description {_short(filename)!r}")
     else:
-        text = str(path_or_xml)
-    if (filename is not None and filename.endswith(".xacro")) or "xmlns:xacro" in text:
+        text = _drop_encoding_declaration(str(path_or_xml))
+    root = _parse(text, filename)
+    if (filename is not None and filename.endswith(".xacro")) or _uses_xacro(root):
         text = _expand_xacro(text, filename)
-    try:
-        ET.fromstring(text)
-    except ET.ParseError as exc:
-        where = f" in {filename!r}" if filename else ""
-        raise RobotDescriptionError(f"malformed XML{where}: {exc}") from None
+        root = _parse(text, filename)
+    if root.tag != "robot":
+        raise RobotDescriptionError(
+            f"expected a <robot> root element, got <{_short(str(root.tag), 40)}>"
+        )
     return text
+
+
+def _parse(text: str, filename: str | None) -> ET.Element:
+    try:
+        return ET.fromstring(text)
+    except ET.ParseError as exc:
+        where = f" in {_short(filename)!r}" if filename else ""
+        raise RobotDescriptionError(f"malformed XML{where}: {_one_line(exc)}") from None
+    except (ValueError, RecursionError) as exc:  # e.g. nesting deeper than the parser allows
+        raise RobotDescriptionError(f"unusable XML: {_one_line(exc)}") from None
+
+
+def _uses_xacro(root: ET.Element) -> bool:
+    """True if the document has xacro content: an element or attribute in a xacro namespace, or a
+    ``${…}``/``$(…)`` substitution in an attribute or text."""
+    for el in root.iter():
+        tag = el.tag if isinstance(el.tag, str) else ""
+        if tag.startswith("{") and _XACRO_NAMESPACE_MARK in tag.split("}")[0]:
+            return True
+        for key, value in el.attrib.items():
+            if key.startswith("{") and _XACRO_NAMESPACE_MARK in key.split("}")[0]:
+                return True
+            if "${" in value or "$(" in value:
+                return True
+        if el.text and ("${" in el.text or "$(" in el.text):
+            return True
+    return False
 
 
 def _expand_xacro(text: str, filename: str | None) -> str:
@@ -64,13 +181,102 @@ def _expand_xacro(text: str, filename: str | None) -> str:
             "(pip install xacro, or pip install 'kinematics_service[xacro]')"
         ) from None
     try:
-        if filename is not None:
-            return str(xacro.process_file(filename).toxml())
-        doc = xacro.parse(text)
-        xacro.process_doc(doc)
-        return str(doc.toxml())
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            if filename is not None:
+                return str(xacro.process_file(filename).toxml())
+            doc = xacro.parse(text)
+            xacro.process_doc(doc)
+            return str(doc.toxml())
     except Exception as exc:  # xacro raises its own XacroException and plain Python errors
-        raise RobotDescriptionError(f"xacro processing failed: {exc}") from None
+        raise RobotDescriptionError(f"xacro processing failed: {_one_line(exc)}") from None
+
+
+_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+
+
+def _numbers(el: ET.Element, attr: str, what: str, count: int | None = 3) -> list[float] | None:
+    """The numbers of attribute `attr` of `el` (None if absent), all finite, `count` of them."""
+    raw = el.get(attr)
+    if raw is None:
+        return None
+    shown = f'<{el.tag} {attr}="{_short(raw, 40)}">'
+    try:
+        values = [float(v) for v in raw.split()]
+    except ValueError:
+        raise RobotDescriptionError(f"{what}: {shown} must hold numbers") from None
+    if count is not None and len(values) != count:
+        raise RobotDescriptionError(f"{what}: {shown} must hold {count} numbers, got {len(values)}")
+    if not all(math.isfinite(v) for v in values):
+        raise RobotDescriptionError(f"{what}: {shown} must be finite")
+    return values
+
+
+def check_kinematic_elements(root: ET.Element) -> None:
+    """Validate what kinematics reads, before any parser does: unique link and joint names, joint
+    types, parent/child links, and the numbers of <origin>, <axis>, <limit> and <mimic>.
+
+    Raises:
+        RobotDescriptionError: naming the joint or link and showing the attribute received.
+    """
+    link_names: set[str] = set()
+    for k, link in enumerate(root.findall("link"), start=1):
+        name = link.get("name")
+        if not name:
+            raise RobotDescriptionError(f"<link> number {k} has no name attribute")
+        if name in link_names:
+            raise RobotDescriptionError(f"link {_short(name)!r} is defined twice")
+        link_names.add(name)
+    joint_names: set[str] = set()
+    for k, j in enumerate(root.findall("joint"), start=1):
+        name = j.get("name")
+        if not name:
+            raise RobotDescriptionError(f"<joint> number {k} has no name attribute")
+        what = f"joint {_short(name)!r}"
+        if name in joint_names:
+            raise RobotDescriptionError(f"{what} is defined twice")
+        joint_names.add(name)
+        jtype = j.get("type")
+        if jtype not in _JOINT_TYPES:
+            raise RobotDescriptionError(
+                f"{what} has type {_short(str(jtype), 40)!r}; expected one of {', '.join(_JOINT_TYPES)}"
+            )
+        for role in ("parent", "child"):
+            el = j.find(role)
+            if el is None or not el.get("link"):
+                raise RobotDescriptionError(f'{what} needs a <{role} link="..."/> element')
+        for tag in ("origin", "axis", "limit", "mimic", "parent", "child"):
+            if len(j.findall(tag)) > 1:
+                raise RobotDescriptionError(f"{what} has more than one <{tag}>")
+        origin = j.find("origin")
+        if origin is not None:
+            _numbers(origin, "xyz", what)
+            _numbers(origin, "rpy", what)
+        axis = j.find("axis")
+        if axis is not None:
+            _numbers(axis, "xyz", what)
+        limit = j.find("limit")
+        if limit is not None:
+            for attr in ("lower", "upper", "velocity", "effort"):
+                raw = limit.get(attr)
+                if raw is None:
+                    continue
+                try:
+                    value = float(raw)
+                except ValueError:
+                    raise RobotDescriptionError(
+                        f'{what}: <limit {attr}="{_short(raw, 40)}"> must be a number'
+                    ) from None
+                if math.isnan(value) or (attr in ("velocity", "effort") and value < 0):
+                    raise RobotDescriptionError(
+                        f'{what}: <limit {attr}="{_short(raw, 40)}"> must be '
+                        + ("a number" if math.isnan(value) else "≥ 0")
+                    )
+        mimic = j.find("mimic")
+        if mimic is not None:
+            if not mimic.get("joint"):
+                raise RobotDescriptionError(f'{what}: <mimic> needs a joint="..." attribute')
+            for attr in ("multiplier", "offset"):
+                _numbers(mimic, attr, what, count=1)
 
 
 def _load_robot(text: str) -> Any:
@@ -87,17 +293,21 @@ def _load_robot(text: str) -> Any:
             load_collision_meshes=False,
         )
     except Exception as exc:
-        raise RobotDescriptionError(f"URDF could not be parsed: {exc}") from None
+        raise RobotDescriptionError(f"URDF could not be parsed: {_one_line(exc)}") from None
     finally:
         log.setLevel(level)
     return urdf.robot
 
 
 def spec_from_urdf(
-    path_or_xml: str | PathLike[str], base_link: str | None = None, tip_link: str | None = None
+    path_or_xml: str | bytes | PathLike[str],
+    base_link: str | None = None,
+    tip_link: str | None = None,
 ) -> ChainSpec:
     """Parse a description and extract the chain `base_link` → `tip_link` (see module docstring)."""
-    robot = _load_robot(read_description(path_or_xml))
+    text = read_description(path_or_xml)
+    check_kinematic_elements(ET.fromstring(text))
+    robot = _load_robot(text)
     links = [link.name for link in robot.links]
     if not links:
         raise RobotDescriptionError("the robot description has no <link>")
@@ -132,6 +342,15 @@ def spec_from_urdf(
         raise UnknownNameError("link", base, links)
     if tip_link is None:
         leaves = _leaves_below(base, children)
+        if not leaves:
+            raise RobotDescriptionError(
+                f"no link below {base!r}: "
+                + (
+                    "the robot has a single link and no joint"
+                    if len(links) == 1
+                    else "it has no child links; choose another base_link"
+                )
+            )
         if len(leaves) != 1:
             raise RobotDescriptionError(
                 f"several leaf links below {base!r}: {leaves}; choose one with tip_link"
