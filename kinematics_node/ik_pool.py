@@ -50,7 +50,7 @@ class IKJob:
     """One IK problem for a worker.
 
     Attributes:
-        chain_key: names `chain_blob` (equal keys must mean equal chains).
+        chain_key: names `chain_blob`: equal keys must mean equal chains (a digest of the blob).
         chain_blob: the pickled `SerialChain`.
         T_base_target: (4, 4) target pose of the tip in the chain's base.
         q_seed: (n,) seed, or None for the middle of the limits.

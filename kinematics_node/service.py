@@ -19,6 +19,7 @@ gives `success = False` and a `message` naming the problem.
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import math
 import pickle
@@ -144,10 +145,9 @@ class KinematicsService:
         self._clock = clock
         self._params: dict[str, Any] = defaults()
         self._model: RobotModel | None = None
-        self._generation = 0  # counts installed models: names chains for the IK workers
         self._tracker: JointStateTracker | None = None
         self._chain_index: list[int] = []
-        self._chain_blobs: dict[tuple[int, str, str], bytes] = {}
+        self._chain_blobs: dict[tuple[str, str], tuple[bytes, bytes]] = {}  # pickled chains
         self._rates = _Rates()
         self._last_state: EndEffectorState | None = None
         self._last_problem: str | None = None
@@ -203,7 +203,6 @@ class KinematicsService:
     def _install(self, model: RobotModel | None) -> None:
         """Swap in `model` (all at once: every later message and request sees only the new one)."""
         self._model = model
-        self._generation += 1
         self._chain_blobs.clear()
         self._last_state = None
         self._last_problem = None
@@ -407,10 +406,12 @@ class KinematicsService:
             math.isfinite(current.get(j, math.nan)) for j in chain.joint_names
         ):
             q_seed = self._q(model, chain, seed, current, "seed")
-        key = (self._generation, chain.base_link, chain.tip_link)
-        blob = self._chain_blobs.get(key)
-        if blob is None:
-            blob = self._chain_blobs[key] = pickle.dumps(chain, pickle.HIGHEST_PROTOCOL)
+        cached = self._chain_blobs.get((chain.base_link, chain.tip_link))
+        if cached is None:
+            blob = pickle.dumps(chain, pickle.HIGHEST_PROTOCOL)
+            cached = (hashlib.blake2b(blob, digest_size=16).digest(), blob)  # key: the content
+            self._chain_blobs[(chain.base_link, chain.tip_link)] = cached
+        key, blob = cached
         job = IKJob(key, blob, T_base_target, q_seed, options, arrival + options.timeout)
         return PendingIK(job, chain.joint_names, request.target.header.stamp, options)
 

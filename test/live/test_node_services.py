@@ -10,9 +10,9 @@ import time
 
 import numpy as np
 import pytest
-from conftest import ROBOTS, UR5E_JOINTS, ur5e_description, wait_until
 from geometry_msgs.msg import PoseStamped
 from kinematics_service.srv import ComputeFK, ComputeIK, ComputeJacobian
+from live_node import ROBOTS, UR5E_JOINTS, ur5e_description, wait_until
 from test_node_topics import Stream, joint_state
 
 from kinematics_node.core import SerialChain
@@ -59,7 +59,7 @@ def node(client, tmp_path_factory):
     """One UR5e node for the module (the tests here do not change its parameters)."""
     import signal
 
-    from conftest import NodeProcess
+    from live_node import NodeProcess
 
     directory = tmp_path_factory.mktemp("services")
     process = NodeProcess({"robot_description": ur5e_description()}, directory)

@@ -10,8 +10,8 @@ import time
 
 import numpy as np
 import pytest
-from conftest import ROBOTS, UR5E_JOINTS, ur5e_description, wait_until
 from geometry_msgs.msg import PoseStamped, TwistStamped
+from live_node import ROBOTS, UR5E_JOINTS, ur5e_description, wait_until
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
