@@ -1,0 +1,505 @@
+"""Throughput of the live node, side by side with a bare rclpy echo node, in one run.
+
+    make ros && . build/ros/env.sh
+    python -W ignore benchmarks/node_benchmark.py [--seconds 10] [--soak 600] [--json out.json]
+
+Every process is real rclpy over Fast DDS on loopback, in a ROS_DOMAIN_ID of the run's own:
+* the system under test: a bare echo node (subscribes JointState, publishes PoseStamped with the
+  same stamp; SingleThreadedExecutor: the floor any rclpy node pays), or the built
+  `kinematics_node` with a 6-joint (UR5e) or 7-joint (iiwa14) arm;
+* a publisher process sending joint_states at a fixed rate, each stamped with its send time
+  (CLOCK_REALTIME, shared by all processes), so every answer is matched to its sample;
+* a receiver process recording the arrival time of every ee_pose / ee_twist;
+* for the IK phase, a client process with 4 clients calling compute_ik back to back (50 ms
+  timeouts, every third target unreachable), timing each answer.
+Reported per phase: the fraction of samples answered on ee_pose and ee_twist, latency (arrival −
+stamp) median and p99, CPU of the node process [% of one core] and its resident memory, and for
+IK the answers per second, late answers (> timeout + 20 ms, queueing included), reachable targets
+not solved and unreachable ones reported solved. Ratios are ours / echo's (lower is better).
+Run it on a quiet machine: every figure here is shared-CPU sensitive.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from kinematics_node.ros_env import (  # noqa: E402
+    executable,
+    keep_discovery_local,
+    local_ros_env,
+    unavailable_reason,
+)
+
+ROBOTS = ROOT / "config" / "robots"
+ARMS = {
+    "ur5e": (ROBOTS / "ur5e.urdf", ""),
+    "iiwa14": (ROBOTS / "iiwa14.urdf", ""),
+}
+CLK_TCK = os.sysconf("SC_CLK_TCK")
+
+
+# ============================================================================ child roles
+def _init_rclpy() -> Any:
+    keep_discovery_local(int(os.environ["ROS_DOMAIN_ID"]))
+    import rclpy
+
+    rclpy.init()
+    return rclpy
+
+
+def role_echo() -> None:
+    """The bare echo node: JointState in, PoseStamped (same stamp) out."""
+    rclpy = _init_rclpy()
+    from geometry_msgs.msg import PoseStamped
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import JointState
+
+    node = rclpy.create_node("echo_node")
+    pub = node.create_publisher(PoseStamped, "ee_pose", 10)
+
+    def echo(msg: JointState) -> None:
+        out = PoseStamped()
+        out.header.stamp = msg.header.stamp
+        out.header.frame_id = "base_link"
+        out.pose.orientation.w = 1.0
+        pub.publish(out)
+
+    node.create_subscription(JointState, "joint_states", echo, qos_profile_sensor_data)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+
+
+def role_publisher(names: list[str], rate: float, seconds: float, out: str) -> None:
+    """joint_states at `rate` for `seconds`, stamped with their send time; writes the count."""
+    rclpy = _init_rclpy()
+    from sensor_msgs.msg import JointState
+
+    node = rclpy.create_node("bench_joint_states")
+    pub = node.create_publisher(JointState, "joint_states", 100)
+    while pub.get_subscription_count() == 0:
+        time.sleep(0.01)
+    time.sleep(0.5)
+    n = len(names)
+    period = 1.0 / rate
+    msg = JointState()
+    msg.name = names
+    sent = 0
+    stamps: list[int] = []
+    start = time.monotonic()
+    next_at = start
+    while True:
+        now = time.monotonic()
+        if now - start >= seconds:
+            break
+        if now < next_at:
+            time.sleep(next_at - now)
+        t = sent * period
+        msg.position = [0.3 * math.sin(0.5 * t + k) for k in range(n)]
+        msg.velocity = [0.15 * math.cos(0.5 * t + k) for k in range(n)]
+        ns = time.time_ns()
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(ns, 1_000_000_000)
+        pub.publish(msg)
+        stamps.append(ns)
+        sent += 1
+        next_at += period
+    Path(out).write_text(json.dumps({"sent": sent, "stamps": stamps}))
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+def role_receiver(out: str) -> None:
+    """Records (stamp, arrival) of every ee_pose and ee_twist until SIGINT; writes them."""
+    rclpy = _init_rclpy()
+    from geometry_msgs.msg import PoseStamped, TwistStamped
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+    from rclpy.qos import QoSProfile
+
+    node = rclpy.create_node("bench_receiver")
+    got: dict[str, list[tuple[int, int]]] = {"pose": [], "twist": []}
+
+    def recorder(key: str):  # noqa: ANN202
+        bucket = got[key]
+
+        def record(msg: Any) -> None:
+            s = msg.header.stamp
+            bucket.append((s.sec * 1_000_000_000 + s.nanosec, time.time_ns()))
+
+        return record
+
+    node.create_subscription(PoseStamped, "ee_pose", recorder("pose"), QoSProfile(depth=1000))
+    node.create_subscription(TwistStamped, "ee_twist", recorder("twist"), QoSProfile(depth=1000))
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    Path(out).write_text(json.dumps(got))
+
+
+def role_ik_client(arm: str, seconds: float, index: int, timeout: float, out: str) -> None:
+    """One client calling compute_ik back to back for `seconds` (a process of its own, so that
+    clients do not share a GIL); every third target is unreachable (5 m away). Writes one record
+    per call."""
+    rclpy = _init_rclpy()
+    import numpy as np
+    from kinematics_service.srv import ComputeIK
+
+    from kinematics_node.core import SerialChain
+    from kinematics_node.core.so3 import quaternion_from_rows
+
+    path, tip = ARMS[arm]
+    chain = SerialChain.from_urdf(path, tip_link=tip or None)
+    node = rclpy.create_node(f"bench_ik_{index}")
+    cli = node.create_client(ComputeIK, "compute_ik")
+    cli.wait_for_service(timeout_sec=10.0)
+    rng = np.random.default_rng(index)
+    records: list[dict[str, Any]] = []
+    time.sleep(1.0)
+    end = time.monotonic() + seconds
+    i = 0
+    while time.monotonic() < end:
+        unreachable = (i + index) % 3 == 0
+        T = chain.fk(rng.uniform(chain.lower, chain.upper))
+        if unreachable:
+            T[:3, 3] = [5.0, 0.0, 0.5]
+        req = ComputeIK.Request()
+        req.target.header.frame_id = chain.base_link
+        p = req.target.pose.position
+        p.x, p.y, p.z = (float(v) for v in T[:3, 3])
+        o = req.target.pose.orientation
+        o.x, o.y, o.z, o.w = quaternion_from_rows(T[:3, :3].ravel().tolist())
+        req.timeout = timeout
+        t0 = time.monotonic()
+        future = cli.call_async(req)
+        rclpy.spin_until_future_complete(node, future, timeout_sec=10.0)
+        elapsed = time.monotonic() - t0
+        resp = future.result() if future.done() else None
+        records.append(
+            {
+                "unreachable": unreachable,
+                "elapsed": elapsed,
+                "answered": resp is not None,
+                "success": bool(resp.success) if resp is not None else False,
+            }
+        )
+        i += 1
+    Path(out).write_text(json.dumps(records))
+
+
+def role_slow_ik(seconds: float, start_at_ns: int, out: str) -> None:
+    """At wall time `start_at_ns`, one compute_ik call on an unreachable target with a `seconds`
+    timeout; writes when it started and ended."""
+    rclpy = _init_rclpy()
+    from kinematics_service.srv import ComputeIK
+
+    node = rclpy.create_node("bench_slow_ik")
+    cli = node.create_client(ComputeIK, "compute_ik")
+    cli.wait_for_service(timeout_sec=10.0)
+    req = ComputeIK.Request()
+    req.target.pose.position.x = 5.0
+    req.target.pose.orientation.w = 1.0
+    req.timeout = seconds
+    time.sleep(max(0.0, (start_at_ns - time.time_ns()) * 1e-9))
+    start_ns = time.time_ns()
+    future = cli.call_async(req)
+    rclpy.spin_until_future_complete(node, future, timeout_sec=seconds + 10)
+    end_ns = time.time_ns()
+    Path(out).write_text(json.dumps({"start": start_ns, "end": end_ns, "done": future.done()}))
+
+
+# ============================================================================ orchestration
+def _child(args: list[str], env: dict[str, str]) -> subprocess.Popen:
+    python = os.environ.get("KINEMATICS_ROS_PYTHON") or sys.executable
+    return subprocess.Popen([python, "-W", "ignore", __file__, *args], env=env)
+
+
+def _cpu_seconds(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / CLK_TCK  # utime + stime
+
+
+def _rss_mb(pid: int) -> float:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024
+    return math.nan
+
+
+def _percentile(values: list[float], q: float) -> float:
+    if not values:
+        return math.nan
+    s = sorted(values)
+    return s[min(len(s) - 1, int(round(q * (len(s) - 1))))]
+
+
+class System:
+    """The node under test, in its own process."""
+
+    def __init__(self, kind: str, arm: str, env: dict[str, str], directory: Path) -> None:
+        self.kind, self.arm = kind, arm
+        if kind == "echo":
+            self.process = _child(["--role", "echo"], env)
+        else:
+            argv = executable("kinematics_node")
+            assert argv is not None
+            path, tip = ARMS[arm]
+            params = directory / f"{arm}.yaml"
+            import yaml
+
+            params.write_text(
+                yaml.safe_dump(
+                    {
+                        "kinematics_node": {
+                            "ros__parameters": {
+                                "robot_description": path.read_text(encoding="utf-8"),
+                                "tip_link": tip,
+                            }
+                        }
+                    }
+                )
+            )
+            self.process = subprocess.Popen(
+                [*argv, "--ros-args", "--params-file", str(params)],
+                env=env,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+            )
+        time.sleep(4.0)  # start-up (URDF parse, IK workers) is not what this measures
+        if self.process.poll() is not None:
+            raise RuntimeError(f"{kind} node exited at start-up")
+
+    def stop(self) -> None:
+        self.process.send_signal(signal.SIGINT)
+        try:
+            self.process.wait(10)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+
+
+def run_phase(
+    system: System,
+    rate: float,
+    seconds: float,
+    env: dict[str, str],
+    directory: Path,
+    ik_clients: int = 0,
+    slow_ik: float = 0.0,
+) -> dict[str, Any]:
+    names_of = {"ur5e": 6, "iiwa14": 7}
+    from kinematics_node.core import SerialChain
+
+    path, tip = ARMS[system.arm]
+    names = list(SerialChain.from_urdf(path, tip_link=tip or None).joint_names)
+    assert len(names) == names_of[system.arm]
+    recv_out, pub_out = directory / "recv.json", directory / "pub.json"
+    receiver = _child(["--role", "receiver", "--out", str(recv_out)], env)
+    extra: list[subprocess.Popen] = []
+    ik_outs = [directory / f"ik{k}.json" for k in range(ik_clients)]
+    for k, out in enumerate(ik_outs):  # they wait 1 s after discovery, then call for `seconds`
+        extra.append(
+            _child(["--role", "ik_client", "--arm", system.arm, "--seconds", str(seconds - 2),
+                    "--index", str(k), "--timeout", "0.05", "--out", str(out)], env)
+        )
+    slow_out = directory / "slow.json"
+    if slow_ik:  # mid-phase: the publisher starts in ~2 s (discovery), then runs `seconds`
+        start_at = time.time_ns() + int((2.0 + 0.3 * seconds) * 1e9)
+        extra.append(
+            _child(["--role", "slow_ik", "--seconds", str(slow_ik), "--start-at", str(start_at),
+                    "--out", str(slow_out)], env)
+        )
+    time.sleep(1.5)
+    publisher = _child(
+        ["--role", "publisher", "--names", ",".join(names), "--rate", str(rate),
+         "--seconds", str(seconds), "--out", str(pub_out)],
+        env,
+    )
+    time.sleep(0.5)  # the publisher waits 0.5 s for discovery before sending
+    cpu0, wall0 = _cpu_seconds(system.process.pid), time.monotonic()
+    publisher.wait()
+    cpu1, wall1 = _cpu_seconds(system.process.pid), time.monotonic()
+    rss = _rss_mb(system.process.pid)
+    for p in extra:
+        p.wait(60)
+    time.sleep(0.5)
+    receiver.send_signal(signal.SIGINT)
+    receiver.wait(20)
+    published = json.loads(pub_out.read_text())
+    sent = published["sent"]
+    got = json.loads(recv_out.read_text())
+    result: dict[str, Any] = {
+        "rate_hz": rate,
+        "sent": sent,
+        "cpu_percent": 100.0 * (cpu1 - cpu0) / (wall1 - wall0),
+        "rss_mb": rss,
+    }
+    window = None
+    if slow_ik:
+        s = json.loads(slow_out.read_text())
+        window = (s["start"], s["end"])
+        result["slow_ik_seconds"] = (s["end"] - s["start"]) * 1e-9
+    for key in ("pose", "twist"):
+        pairs = got[key]
+        stamps = {st for st, _ in pairs}
+        lat = [(arr - st) * 1e-6 for st, arr in pairs]
+        result[f"{key}_answered"] = len(stamps) / sent if sent else math.nan
+        result[f"{key}_latency_median_ms"] = statistics.median(lat) if lat else math.nan
+        result[f"{key}_latency_p99_ms"] = _percentile(lat, 0.99)
+        if window is not None and key == "pose":
+            # answered during the slow IK call, of the samples sent during it
+            sent_inside = [st for st in published["stamps"] if window[0] <= st <= window[1]]
+            inside = [st for st in sent_inside if st in stamps]
+            result["slow_ik_samples_sent"] = len(sent_inside)
+            result["pose_rate_during_slow_ik"] = (
+                len(inside) / len(sent_inside) if sent_inside else math.nan
+            )
+    if ik_clients:
+        records = [r for out in ik_outs for r in json.loads(out.read_text())]
+        answered = [r for r in records if r["answered"]]
+        result.update(
+            ik_calls=len(records),
+            ik_answers_per_s=len(answered) / (seconds - 2),
+            ik_late=sum(1 for r in records if r["elapsed"] > 0.05 + 0.02 or not r["answered"]),
+            ik_latency_max_ms=max((r["elapsed"] for r in records), default=math.nan) * 1e3,
+            ik_reachable_unsolved=sum(1 for r in records if not r["unreachable"]
+                                      and not r["success"]),
+            ik_unreachable_solved=sum(1 for r in records if r["unreachable"] and r["success"]),
+        )
+    return result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--role", default="main", help=argparse.SUPPRESS)
+    parser.add_argument("--names", help=argparse.SUPPRESS)
+    parser.add_argument("--rate", type=float, default=1000.0, help=argparse.SUPPRESS)
+    parser.add_argument("--arm", default="ur5e", help=argparse.SUPPRESS)
+    parser.add_argument("--index", type=int, default=0, help=argparse.SUPPRESS)
+    parser.add_argument("--start-at", type=int, default=0, help=argparse.SUPPRESS)
+    parser.add_argument("--timeout", type=float, default=0.05, help=argparse.SUPPRESS)
+    parser.add_argument("--out", help=argparse.SUPPRESS)
+    parser.add_argument("--seconds", type=float, default=10.0, help="length of each phase [s]")
+    parser.add_argument("--soak", type=float, default=0.0,
+                        help="also run our node at 1 kHz this long [s] and compare its resident "
+                        "memory after 1 minute with the end (the issue asks for 600)")
+    parser.add_argument("--json", help="write every figure to this file")
+    args = parser.parse_args()
+
+    if args.role == "echo":
+        return role_echo()
+    if args.role == "publisher":
+        return role_publisher(args.names.split(","), args.rate, args.seconds, args.out)
+    if args.role == "receiver":
+        return role_receiver(args.out)
+    if args.role == "ik_client":
+        return role_ik_client(args.arm, args.seconds, args.index, args.timeout, args.out)
+    if args.role == "slow_ik":
+        return role_slow_ik(args.seconds, args.start_at, args.out)
+
+    reason = unavailable_reason()
+    if reason:
+        sys.exit(f"node_benchmark: cannot run the node here: {reason}")
+    env = local_ros_env()
+    env["PYTHONWARNINGS"] = "ignore"
+    results: dict[str, dict[str, Any]] = {}
+    phases = [
+        ("echo, 1 kHz", "echo", "ur5e", 1000.0, {}),
+        ("ours ur5e (6 joints), 1 kHz", "ours", "ur5e", 1000.0, {}),
+        ("ours iiwa14 (7 joints), 1 kHz", "ours", "iiwa14", 1000.0, {}),
+        ("echo, 500 Hz", "echo", "ur5e", 500.0, {}),
+        ("ours ur5e, 500 Hz + 4 IK clients", "ours", "ur5e", 500.0, {"ik_clients": 4}),
+        ("ours ur5e, 1 kHz + one 2 s IK call", "ours", "ur5e", 1000.0, {"slow_ik": 2.0}),
+    ]
+    with tempfile.TemporaryDirectory(prefix="node_bench_") as tmp:
+        directory = Path(tmp)
+        for label, kind, arm, rate, extra in phases:
+            system = System(kind, arm, env, directory)
+            try:
+                results[label] = run_phase(system, rate, args.seconds, env, directory, **extra)
+            finally:
+                system.stop()
+            print(f"  measured: {label}", file=sys.stderr)
+        if args.soak:
+            results["soak"] = soak(env, directory, args.soak)
+    report(results)
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=2))
+
+
+def soak(env: dict[str, str], directory: Path, seconds: float) -> dict[str, Any]:
+    """Our node at 1 kHz for `seconds`: resident memory after 60 s and at the end."""
+    system = System("ours", "ur5e", env, directory)
+    try:
+        from kinematics_node.core import SerialChain
+
+        names = list(SerialChain.from_urdf(ARMS["ur5e"][0]).joint_names)
+        publisher = _child(
+            ["--role", "publisher", "--names", ",".join(names), "--rate", "1000",
+             "--seconds", str(seconds), "--out", str(directory / "soak.json")],
+            env,
+        )
+        time.sleep(61.0)
+        rss_1min = _rss_mb(system.process.pid)
+        publisher.wait()
+        rss_end = _rss_mb(system.process.pid)
+    finally:
+        system.stop()
+    return {"seconds": seconds, "rss_1min_mb": rss_1min, "rss_end_mb": rss_end,
+            "growth_percent": 100.0 * (rss_end - rss_1min) / rss_1min}
+
+
+def report(results: dict[str, dict[str, Any]]) -> None:
+    print("| phase | ee_pose answered | ee_twist answered | latency median / p99 [ms] | "
+          "CPU [% core] | RSS [MB] |")
+    print("|---|---|---|---|---|---|")
+    for label, r in results.items():
+        if label == "soak":
+            continue
+        twist = "—" if label.startswith("echo") else f"{100 * r['twist_answered']:.1f} %"
+        print(f"| {label} | {100 * r['pose_answered']:.1f} % | {twist} | "
+              f"{r['pose_latency_median_ms']:.2f} / {r['pose_latency_p99_ms']:.2f} | "
+              f"{r['cpu_percent']:.0f} | {r['rss_mb']:.0f} |")
+    echo = {1000.0: results.get("echo, 1 kHz"), 500.0: results.get("echo, 500 Hz")}
+    print()
+    for label, r in results.items():
+        e = echo.get(r.get("rate_hz")) if label != "soak" else None
+        if label.startswith("echo") or e is None:
+            continue
+        print(f"{label}: latency median {r['pose_latency_median_ms'] / e['pose_latency_median_ms']:.2f}x "
+              f"the echo's, CPU {r['cpu_percent'] / e['cpu_percent']:.2f}x")
+    for label, r in results.items():
+        if "ik_calls" in r:
+            print(f"{label}: {r['ik_calls']} IK calls, {r['ik_answers_per_s']:.0f} answers/s, "
+                  f"{r['ik_late']} later than timeout + 20 ms (max {r['ik_latency_max_ms']:.1f} ms), "
+                  f"{r['ik_reachable_unsolved']} reachable not solved, "
+                  f"{r['ik_unreachable_solved']} unreachable reported solved")
+        if "pose_rate_during_slow_ik" in r:
+            print(f"{label}: the IK call took {r['slow_ik_seconds']:.2f} s; "
+                  f"{100 * r['pose_rate_during_slow_ik']:.1f} % of the "
+                  f"{r['slow_ik_samples_sent']} joint_states sent meanwhile were answered")
+    if "soak" in results:
+        s = results["soak"]
+        print(f"soak {s['seconds']:.0f} s at 1 kHz: RSS {s['rss_1min_mb']:.1f} MB after 1 min, "
+              f"{s['rss_end_mb']:.1f} MB at the end ({s['growth_percent']:+.1f} %)")
+
+
+if __name__ == "__main__":
+    main()
