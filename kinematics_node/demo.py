@@ -215,6 +215,17 @@ def plot(run: DemoRun, out: Path, robot: str) -> None:
     plt.close(fig)
 
 
+def check_matplotlib() -> None:
+    """Raises ValueError, saying how to install it, when matplotlib is missing."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        raise ValueError(
+            "the picture needs matplotlib: pip install 'kinematics_service[demo]' (or run "
+            "`make demo`, which installs it)"
+        ) from None
+
+
 def check_picture_path(out: str) -> Path:
     """The picture's path, checked before the run: its directory exists and matplotlib can write
     its format (from the extension).
@@ -240,16 +251,8 @@ def check_picture_path(out: str) -> Path:
 
 def main(robot: str, out: str, duration: float, rate: float, stream: TextIO | None = None) -> int:
     stream = sys.stdout if stream is None else stream
-    try:
-        import matplotlib  # noqa: F401
-    except ImportError:
-        print(
-            "kinematics: error: the picture needs matplotlib: pip install "
-            "'kinematics_service[demo]' (or run `make demo`, which installs it)",
-            file=sys.stderr,
-        )
-        return 1
     try:  # everything the user can get wrong is checked before the (long) run
+        check_matplotlib()
         path = check_picture_path(out)
     except ValueError as exc:
         print(f"kinematics: error: {exc}", file=sys.stderr)

@@ -12,7 +12,7 @@ from kinematics_node.demo import run_demo
 def test_demo_writes_the_picture_and_exits_0(tmp_path, capsys, monkeypatch):
     pytest.importorskip("matplotlib", reason="the demo picture needs the [demo] extra")
     monkeypatch.chdir(tmp_path)
-    code = main(["demo", "--duration", "2"])
+    code = main(["demo", "--duration", "2", "--no-ros"])
     out = capsys.readouterr().out
     assert code == 0
     png = tmp_path / "kinematics_demo.png"
@@ -24,7 +24,7 @@ def test_demo_writes_the_picture_and_exits_0(tmp_path, capsys, monkeypatch):
 def test_demo_out_option_and_other_robot(tmp_path, capsys):
     pytest.importorskip("matplotlib", reason="the demo picture needs the [demo] extra")
     target = tmp_path / "sub.png"
-    assert main(["demo", "--robot", "panda", "--duration", "1", "--out", str(target)]) == 0
+    assert main(["demo", "--robot", "panda", "--duration", "1", "--out", str(target), "--no-ros"]) == 0
     assert target.exists()
     assert "robot panda: 7 joints" in capsys.readouterr().out
 
@@ -65,3 +65,23 @@ def test_planar_arm_manipulability_is_not_a_flat_zero():
     run = run_demo("planar3r", duration=1.0, rate=50.0, n_ik=2, stream=io.StringIO())
     assert run.manipulability_rank == 2 and run.manipulability.max() > 1e-2  # starts stretched
     assert run.ik_targets.shape == (2, 3)
+
+
+def test_demo_without_ros_says_so_and_runs_in_process(tmp_path):
+    """Where the node is not built (no kinematics_service interfaces on the path), the demo falls
+    back to the in-process run and says why, in one line."""
+    import os
+    import subprocess
+    import sys
+
+    pytest.importorskip("matplotlib", reason="the demo picture needs the [demo] extra")
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith("KINEMATICS_") and k not in ("PYTHONPATH", "AMENT_PREFIX_PATH")}
+    out = tmp_path / "demo.png"
+    proc = subprocess.run(
+        [sys.executable, "-m", "kinematics_node.cli", "demo", "--duration", "1", "--out", str(out)],
+        env=env, capture_output=True, text=True, timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "ROS 2 is not available" in proc.stderr and "in this process instead" in proc.stderr
+    assert "robot ur5e" in proc.stdout and out.exists()
