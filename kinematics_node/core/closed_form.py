@@ -43,10 +43,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import _closed_form_scalar as scalar
 from . import subproblems as sp
 from ._checks import as_float_array, check_finite
 from .exceptions import InvalidInputError, NoClosedFormError
-from .ik import IKResult
+from .ik import IKResult, default_seed
 
 if TYPE_CHECKING:
     from .chain import SerialChain
@@ -504,9 +505,39 @@ class _Solver:
         self.w_all, self.r_all = w, r
         M = np.asarray(chain.M)
         self.M_inv = np.linalg.inv(M)
+        self.M_list, self.M_inv_list = M.tolist(), self.M_inv.tolist()
         self.scale = float(max(1e-3, np.abs(r).max(), np.abs(M[:3, 3]).max()))
         self.keep = [i for i in range(chain.dof) if i != held]
         self.geometry = _geometry(structure, w[None], r[None], self.scale) if held is None else None
+        self.scalar_geometry = None
+        if self.geometry is not None:
+            g0 = self.geometry
+
+            def t(a: FloatArray) -> scalar.Vec:
+                return (float(a[0]), float(a[1]), float(a[2]))
+
+            self.scalar_geometry = scalar.Geometry(
+                [t(v) for v in g0.w[0]], [t(v) for v in g0.r[0]], t(g0.c[0]), t(g0.b[0]),
+                t(g0.h[0]), t(g0.x[0]), t(g0.s[0]), self.scale,
+            )  # fmt: skip
+        self.lower = [float(x) for x in chain.lower]
+        self.upper = [float(x) for x in chain.upper]
+        self.info = self.family()
+        self.lower_arr, self.upper_arr = np.asarray(chain.lower), np.asarray(chain.upper)
+        self.continuous = ~(np.isfinite(self.lower_arr) | np.isfinite(self.upper_arr))
+        self.default_seed = default_seed(chain)
+
+    def lo_eff(self, seed: FloatArray) -> FloatArray:
+        """Lower bounds for the equivalents: the limit, or seed − π for an unbounded side."""
+        return np.where(np.isfinite(self.lower_arr), self.lower_arr, seed - math.pi)
+
+    def hi_eff(self, seed: FloatArray) -> FloatArray:
+        """Upper bounds for the equivalents: the limit, or seed + π for an unbounded side."""
+        lo = self.lo_eff(seed)
+        return np.where(
+            self.continuous, lo + _TWO_PI - 1e-9,
+            np.where(np.isfinite(self.upper_arr), self.upper_arr, seed + math.pi),
+        )  # fmt: skip
 
     # -- per-call geometry for a 7R arm with the held joint at values θ (K,)
     def held_geometry(self, theta: FloatArray) -> tuple[_Geometry, FloatArray]:
@@ -828,6 +859,159 @@ def _solve_arrays(
     )
 
 
+_STAGE_ORDER = {
+    "three_parallel": ("shoulder", "wrist", "elbow"),
+    "int12": ("elbow", "shoulder", "wrist"),
+    "par23": ("shoulder", "elbow", "wrist"),
+    "int23": ("shoulder", "elbow", "wrist"),
+    "par12": ("shoulder", "elbow", "wrist"),
+}
+
+
+def _solve_single(
+    solver: _Solver, T: list[list[float]], seed: list[float], tol: float
+) -> tuple[list[list[float]], tuple[float, float], str, str]:
+    """One target of a 6R arm with the scalar twin of the solvers (`_closed_form_scalar`).
+
+    Same steps as `_solve_arrays`: candidates, FK check (refining near misses), duplicates out,
+    whole-turn equivalents within the limits, sorted by distance to the seed.
+
+    Returns:
+        solutions, the (position, rotation) error of the first, the singular reasons ("" if
+        regular), why the set is empty ("" if not).
+    """
+    st, g, chain = solver.structure, solver.scalar_geometry, solver.chain
+    assert g is not None
+    Mi = solver.M_inv_list
+    if st.reversed:  # G⁻¹ = M T⁻¹
+        Ti = _inverse_list(T)
+        G = [
+            [sum(solver.M_list[i][k] * Ti[k][j] for k in range(4)) for j in range(4)]
+            for i in range(3)
+        ]
+    else:  # G = T M⁻¹
+        G = [[sum(T[i][k] * Mi[k][j] for k in range(4)) for j in range(4)] for i in range(3)]
+    R: scalar.Mat = (
+        (G[0][0], G[0][1], G[0][2]), (G[1][0], G[1][1], G[1][2]), (G[2][0], G[2][1], G[2][2])
+    )  # fmt: skip
+    p: scalar.Vec = (G[0][3], G[1][3], G[2][3])
+    d = [-x for x in reversed(seed)] if st.reversed else seed
+    case = st.kind if st.kind == "three_parallel" else st.case
+    stages = scalar.Stages(_STAGE_ORDER[case])
+    if st.kind == "three_parallel":
+        cands = scalar.three_parallel(g, R, p, d, stages)
+    else:
+        cands = scalar.spherical(st.case, g, R, p, d, stages)
+    accepted: list[list[float]] = []
+    errors: list[tuple[float, float]] = []
+    whys: set[str] = set()
+    for q6, why in cands:
+        q = [-x for x in reversed(q6)] if st.reversed else q6
+        q = [_wrap1(x) for x in q]
+        ep, er = _pose_errors_list(chain.fk(q).tolist(), T)
+        if (
+            (ep > 0.1 * tol or er > 0.1 * tol)
+            and ep < _REFINE_BELOW * solver.scale
+            and er < _REFINE_BELOW
+        ):
+            Ta = np.array(T)[None]
+            q = _wrap(_refine(chain, np.array([q]), Ta, None))[0].tolist()
+            ep, er = _pose_errors_list(chain.fk(q).tolist(), T)
+        if ep > tol or er > tol:
+            continue
+        if any(_same(q, o) for o in accepted):
+            continue
+        accepted.append(q)
+        errors.append((ep, er))
+        whys.update(why)
+    if not accepted:
+        return [], (math.inf, math.inf), "", _empty_reason(stages.first_dead(), 0)
+    sols, first = _expand_sorted(solver, accepted, seed)
+    if not sols:
+        return [], (math.inf, math.inf), "", _empty_reason(None, len(accepted))
+    return sols, errors[first], "; ".join(sorted(whys)), ""
+
+
+def _same(a: list[float], b: list[float]) -> bool:
+    """Two solutions with angles in (−π, π] are equal modulo 2π to `_SAME_SOLUTION`."""
+    for x, y in zip(a, b, strict=True):
+        d = abs(x - y)
+        if d > _SAME_SOLUTION and abs(d - _TWO_PI) > _SAME_SOLUTION:
+            return False
+    return True
+
+
+def _empty_reason(dead_stage: str | None, n_before_limits: int) -> str:
+    if dead_stage is not None:
+        return f"unreachable: {_STAGE_TEXT[dead_stage]}"
+    if n_before_limits:
+        k = n_before_limits
+        return (
+            f"{k} solution{'s' if k > 1 else ''} reach the target but none lies within the "
+            "joint limits"
+        )
+    return "unreachable: no candidate reproduced the target by forward kinematics"
+
+
+def _pose_errors_list(A: list[list[float]], B: list[list[float]]) -> tuple[float, float]:
+    """`_pose_errors` of one pose pair given as nested lists: ‖Δp‖ [m], rotation angle [rad]."""
+    dp = math.sqrt(sum((A[i][3] - B[i][3]) ** 2 for i in range(3)))
+    f = math.sqrt(sum((A[i][j] - B[i][j]) ** 2 for i in range(3) for j in range(3)))
+    return dp, 2.0 * math.asin(min(f / (2.0 * math.sqrt(2.0)), 1.0))
+
+
+def _inverse_list(T: list[list[float]]) -> list[list[float]]:
+    """T⁻¹ = (Rᵀ, −Rᵀp) of a rigid transform given as nested lists."""
+    Rt = [[T[j][i] for j in range(3)] for i in range(3)]
+    p = [-sum(Rt[i][k] * T[k][3] for k in range(3)) for i in range(3)]
+    return [Rt[0] + [p[0]], Rt[1] + [p[1]], Rt[2] + [p[2]], [0.0, 0.0, 0.0, 1.0]]
+
+
+def _expand_sorted(
+    solver: _Solver, accepted: list[list[float]], seed: list[float]
+) -> tuple[list[list[float]], int]:
+    """Whole-turn equivalents within the limits (`_equivalents`), nearest the seed first, and the
+    index into `accepted` of the first."""
+    seeds = np.array([seed])
+    Qk, tag = _equivalents(solver, np.array(accepted), seeds)
+    if not Qk.shape[0]:
+        return [], 0
+    order = np.argsort(((Qk - seeds) ** 2).sum(axis=1), kind="stable")
+    return Qk[order].tolist(), int(tag[order[0]])
+
+
+_COMBOS: dict[tuple[int, int], IntArray] = {}
+
+
+def _equivalents(solver: _Solver, Q: FloatArray, seeds: FloatArray) -> tuple[FloatArray, IntArray]:
+    """Every whole-turn equivalent within the limits of a few solutions Q (C, n) in (−π, π] for one
+    seed (1, n): rows, and the index of the solution each comes from. Same rule as
+    `_within_limits`, as one product over joints (at most m equivalents per joint: m^n offsets)."""
+    chain = solver.chain
+    lo, hi = solver.lo_eff(seeds[0]), solver.hi_eff(seeds[0])
+    k_lo = np.ceil((lo - 1e-10 - Q) / _TWO_PI)
+    cnt = (np.floor((hi + 1e-10 - Q) / _TWO_PI) - k_lo + 1).astype(np.int64)
+    m = int(cnt.max()) if Q.shape[0] else 0
+    if m <= 1:
+        keep = np.flatnonzero((cnt == 1).all(axis=1))
+        out = Q[keep] + _TWO_PI * k_lo[keep]
+    else:
+        n = chain.dof
+        combos = _COMBOS.get((m, n))
+        if combos is None:
+            combos = np.indices((m,) * n).reshape(n, -1).T.copy()
+            _COMBOS[(m, n)] = combos
+        ok = (combos[None, :, :] < cnt[:, None, :]).all(axis=2)
+        keep, which = np.nonzero(ok)
+        out = Q[keep] + _TWO_PI * (k_lo[keep] + combos[which])
+    return np.clip(out, solver.lower_arr, solver.upper_arr), keep
+
+
+def _wrap1(a: float) -> float:
+    """One angle into (−π, π]."""
+    return a - _TWO_PI * math.ceil((a - math.pi) / _TWO_PI)
+
+
 _STAGE_TEXT = {
     "shoulder": "the wrist centre is out of reach of the shoulder (too close to joint 1's axis "
     "for the arm's offsets, or too far)",
@@ -946,7 +1130,7 @@ def _held_values(solver: _Solver, held: ArrayLike | None) -> FloatArray | None:
         if held is not None:
             raise InvalidInputError(
                 f"held is only for 7R arms; this {chain.dof}R arm's family "
-                f"{solver.family().name!r} holds no joint"
+                f"{solver.info.name!r} holds no joint"
             )
         return None
     j = solver.held
@@ -981,6 +1165,29 @@ def _orthonormal(T: FloatArray) -> FloatArray:
     out = T.copy()
     out[:, :3, :3] = U @ Vt
     return out
+
+
+def _exact_transform(T: object) -> list[list[float]] | None:
+    """T as nested lists if it is a float (4, 4) array with a last row (0, 0, 0, 1), finite, and a
+    rotation orthonormal to round-off (‖RᵀR − I‖ ≤ 1e-13, det R > 0); else None, and the caller
+    runs the full `check_transform` (which explains what is wrong) and projects R onto SO(3)."""
+    if not isinstance(T, np.ndarray) or T.shape != (4, 4) or T.dtype != np.float64:
+        return None
+    Tl: list[list[float]] = T.tolist()
+    if Tl[3] != [0.0, 0.0, 0.0, 1.0] or not all(math.isfinite(x) for row in Tl for x in row):
+        return None
+    c = [[Tl[0][i], Tl[1][i], Tl[2][i]] for i in range(3)]  # columns of R
+    for i in range(3):
+        for j in range(i, 3):
+            d = c[i][0] * c[j][0] + c[i][1] * c[j][1] + c[i][2] * c[j][2] - (i == j)
+            if abs(d) > 1e-13:
+                return None
+    x = c[0][1] * c[1][2] - c[0][2] * c[1][1]
+    y = c[0][2] * c[1][0] - c[0][0] * c[1][2]
+    z = c[0][0] * c[1][1] - c[0][1] * c[1][0]
+    if x * c[2][0] + y * c[2][1] + z * c[2][2] <= 0:
+        return None
+    return Tl
 
 
 def _check_tolerance(tolerance: float) -> float:
@@ -1022,43 +1229,60 @@ def solve_all(
 
     solver = _require(chain)
     tol = _check_tolerance(tolerance)
-    T = chain.check_target(T_target)
-    if T.shape != (4, 4):
-        raise InvalidInputError(
-            f"T_target must have shape (4, 4) (use ik_all_batch for many), got {T.shape}"
-        )
-    seed = _seed(chain, q_seed, "q_seed", None)
+    Tl = _exact_transform(T_target)  # fast path for a clean 4×4 array
+    if Tl is None:
+        T = chain.check_target(T_target)
+        if T.shape != (4, 4):
+            raise InvalidInputError(
+                f"T_target must have shape (4, 4) (use ik_all_batch for many), got {T.shape}"
+            )
+        Tl = _orthonormal(T[None])[0].tolist()
+    if q_seed is None:
+        seed = solver.default_seed
+    else:
+        seed = _seed(chain, q_seed, "q_seed", None)
     held_arr = _held_values(solver, held)
-    T1 = _orthonormal(T[None])
-    out = _solve_arrays(solver, T1, seed[None], held_arr, tol)
-    sols = out.solutions
-    family = solver.family()
-    q = sols[0] if sols.shape[0] else seed
-    ep, er = _pose_errors(chain.fk(q[None]), T1)
-    if sols.shape[0]:
-        k = sols.shape[0]
+    family = solver.info
+    if solver.held is None:
+        sols, (ep, er), singular_why, reason = _solve_single(solver, Tl, seed.tolist(), tol)
+        held_used = np.empty(0)
+        sol_arr = np.array(sols, dtype=np.float64).reshape(len(sols), chain.dof)
+    else:
+        out = _solve_arrays(solver, np.array([Tl]), seed[None], held_arr, tol)
+        sol_arr, held_used = out.solutions, out.held_values
+        singular_why = out.singular_reasons[0] if out.singular[0] else ""
+        reason = out.reasons[0]
+        ep = er = math.inf
+        if sol_arr.shape[0]:
+            ep, er = _pose_errors_list(chain.fk(sol_arr[0]).tolist(), Tl)
+    k = sol_arr.shape[0]
+    if k:
+        q = sol_arr[0]
         msg = f"{k} solution{'s' if k > 1 else ''} ({family.name}), nearest the seed first"
         if held_arr is not None:
             msg += f"; {held_arr.size} value{'s' if held_arr.size > 1 else ''} of {family.held_joint} swept"
-        if out.singular[0]:
+        if singular_why:
             msg += (
-                f"; singular target: {out.singular_reasons[0]} — the undetermined joint values "
+                f"; singular target: {singular_why} — the undetermined joint values "
                 "were taken from the seed"
             )
     else:
-        msg = out.reasons[0]
+        q = seed
+        ep, er = _pose_errors_list(chain.fk(seed).tolist(), Tl)
+        msg = reason
+    sol_arr.setflags(write=False)
     return ClosedFormResult(
         q=_readonly(q),
-        success=bool(sols.shape[0]),
-        position_error=float(ep[0]),
-        orientation_error=float(er[0]),
+        success=bool(k),
+        position_error=float(ep),
+        orientation_error=float(er),
         iterations=0,
         restarts=0,
-        solutions=tuple(_readonly(s) for s in sols),
+        solutions=tuple(sol_arr),  # rows of a read-only array are read-only views
         message=msg,
-        singular=bool(out.singular[0]),
+        singular=bool(singular_why),
         family=family.name,
-        held_values=_readonly(out.held_values),
+        held_values=_readonly(held_used),
     )
 
 
@@ -1094,7 +1318,7 @@ def solve_all_batch(
     q[success] = out.solutions[out.offsets[:-1][success]]
     n_ok = int(success.sum())
     msg = (
-        f"{n_ok}/{N} targets solved ({solver.family().name}), {out.solutions.shape[0]} solutions, "
+        f"{n_ok}/{N} targets solved ({solver.info.name}), {out.solutions.shape[0]} solutions, "
         f"{int(out.singular.sum())} singular"
     )
     return ClosedFormBatchResult(
