@@ -12,9 +12,11 @@ from .analysis import (
     manipulability_ellipsoid,
 )
 from .chain import ChainSpec, JointModel, SerialChain
+from .closed_form import ClosedFormBatchResult, ClosedFormFamily, ClosedFormResult
 from .exceptions import (
     InvalidInputError,
     KinematicsError,
+    NoClosedFormError,
     RobotDescriptionError,
     UnknownNameError,
 )
@@ -22,12 +24,16 @@ from .ik import IKBatchResult, IKOptions, IKResult
 
 __all__ = [
     "ChainSpec",
+    "ClosedFormBatchResult",
+    "ClosedFormFamily",
+    "ClosedFormResult",
     "IKBatchResult",
     "IKOptions",
     "IKResult",
     "InvalidInputError",
     "JointModel",
     "KinematicsError",
+    "NoClosedFormError",
     "RobotDescriptionError",
     "SerialChain",
     "UnknownNameError",

@@ -62,8 +62,12 @@ ANGLE_TOLERANCE = 1e-5
 DISTANCE_TOLERANCE = 1e-5
 #: Default number of held-joint values swept by a 7R arm, spread evenly over its limits.
 DEFAULT_HELD_SAMPLES = 36
-#: Candidates closer than this to the target (position [m] or rotation [rad]) are refined.
+#: Candidates closer than this to the target (position [m] or rotation [rad]) are refined ...
 _REFINE_BELOW = 1e-2
+#: ... unless already within this (× the arm's scale for positions). Exact arithmetic gives
+#: ~1e-15; near a singularity the subproblems lose digits in a square root (SP2's γ when the
+#: middle point nearly lies in the plane of the two axes), which one Newton step restores.
+_REFINE_ABOVE = 1e-12
 #: A solution counts once: two that agree to this [rad] in every joint (modulo 2π) are one.
 _SAME_SOLUTION = 1e-9
 _TWO_PI = 2.0 * math.pi
@@ -586,7 +590,9 @@ def _confirm(solver: _Solver) -> bool:
     T = solver.chain.fk(q)
     held = None if solver.held is None else q[:, solver.held]
     seeds = rng.uniform(-math.pi, math.pi, size=q.shape)  # not q: a free angle must not be guessed
-    sol = _solve_arrays(solver, T, seeds, held, 1e-9, per_target_held=True, use_limits=False)
+    sol = _solve_arrays(
+        solver, T, seeds, None if held is None else held[:, None], 1e-9, use_limits=False
+    )
     if not np.all(sol.count > 0):
         return False
     for i in range(q.shape[0]):
@@ -733,13 +739,12 @@ def _solve_arrays(
     seeds: FloatArray,
     held: FloatArray | None,
     tol: float,
-    per_target_held: bool = False,
     use_limits: bool = True,
 ) -> _Outcome:
     """Every solution for N targets T (N, 4, 4), sorted per target by distance to its seed (N, n).
 
-    `held` (K,) values of the held joint for every target (7R), or with `per_target_held` one value
-    per target (N,). Without `use_limits` solutions are returned in (−π, π] whatever the limits.
+    `held` (7R arms): (K,) values of the held joint swept for every target, or (N, K) per target.
+    Without `use_limits` solutions are returned in (−π, π] whatever the limits.
     """
     chain = solver.chain
     st = solver.structure
@@ -753,17 +758,16 @@ def _solve_arrays(
         held_lane = None
     else:
         assert held is not None
-        if per_target_held:
-            g, E = solver.held_geometry(held)
-            owner_lane = np.arange(N)
-            held_lane = held
-        else:
-            K = held.shape[0]
+        K = held.shape[-1]
+        owner_lane = np.repeat(np.arange(N), K)  # lane i·K + k: target i, held value k
+        if held.ndim == 1:  # shared values: the geometry of K lanes, tiled over the targets
             gK, EK = solver.held_geometry(held)
             g = _tile_lanes(gK, N)
             E = np.tile(EK, (N, 1, 1))
-            owner_lane = np.repeat(np.arange(N), K)
             held_lane = np.tile(held, N)
+        else:
+            held_lane = held.reshape(-1)
+            g, E = solver.held_geometry(held_lane)
         # G = T M⁻¹ e^{−[S_j]θ}: the 6R arm left has home pose e^{[S_j]θ} M.
         G = T[owner_lane] @ solver.M_inv @ _inverse(E)
     dflt = seeds[owner_lane][:, solver.keep]
@@ -796,14 +800,18 @@ def _solve_arrays(
         Tt = T[flat_owner[idx]]
         ep, er = _pose_errors(chain.fk(Qc), Tt)
         redo = (
-            ((ep > 0.1 * tol) | (er > 0.1 * tol))
+            ((ep > _REFINE_ABOVE * solver.scale) | (er > _REFINE_ABOVE))
             & (ep < _REFINE_BELOW * solver.scale)
             & (er < _REFINE_BELOW)
         )
         if redo.any():
-            Qr = _refine(chain, Qc[redo], Tt[redo], solver.held)
-            Qc[redo] = _wrap(Qr)
-            ep[redo], er[redo] = _pose_errors(chain.fk(Qc[redo]), Tt[redo])
+            Qr = _wrap(_refine(chain, Qc[redo], Tt[redo], solver.held))
+            ep_r, er_r = _pose_errors(chain.fk(Qr), Tt[redo])
+            better = np.maximum(ep_r / solver.scale, er_r) < np.maximum(
+                ep[redo] / solver.scale, er[redo]
+            )
+            sel = np.flatnonzero(redo)[better]
+            Qc[sel], ep[sel], er[sel] = Qr[better], ep_r[better], er_r[better]
         flat_Q[idx] = Qc
         acc[idx] = (ep <= tol) & (er <= tol)
     acc2 = acc.reshape(L, 8)
@@ -910,13 +918,14 @@ def _solve_single(
         q = [_wrap1(x) for x in q]
         ep, er = _pose_errors_list(chain.fk(q).tolist(), T)
         if (
-            (ep > 0.1 * tol or er > 0.1 * tol)
+            (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
             and ep < _REFINE_BELOW * solver.scale
             and er < _REFINE_BELOW
         ):
-            Ta = np.array(T)[None]
-            q = _wrap(_refine(chain, np.array([q]), Ta, None))[0].tolist()
-            ep, er = _pose_errors_list(chain.fk(q).tolist(), T)
+            qr = _wrap(_refine(chain, np.array([q]), np.array(T)[None], None))[0].tolist()
+            ep_r, er_r = _pose_errors_list(chain.fk(qr).tolist(), T)
+            if max(ep_r / solver.scale, er_r) < max(ep / solver.scale, er):
+                q, ep, er = qr, ep_r, er_r
         if ep > tol or er > tol:
             continue
         if any(_same(q, o) for o in accepted):
@@ -1124,7 +1133,11 @@ def _require(chain: SerialChain) -> _Solver:
     return solver
 
 
-def _held_values(solver: _Solver, held: ArrayLike | None) -> FloatArray | None:
+def _held_values(
+    solver: _Solver, held: ArrayLike | None, n_targets: int | None
+) -> FloatArray | None:
+    """Validated held-joint values [rad]: (K,) shared, or (N, K) per target when `n_targets` is N
+    and `held` has two dimensions. None for 6R arms."""
     chain = solver.chain
     if solver.held is None:
         if held is not None:
@@ -1141,10 +1154,11 @@ def _held_values(solver: _Solver, held: ArrayLike | None) -> FloatArray | None:
             return np.linspace(lo, hi, DEFAULT_HELD_SAMPLES)
         return np.linspace(-math.pi, math.pi, DEFAULT_HELD_SAMPLES, endpoint=False)
     arr = np.atleast_1d(as_float_array(held, "held"))
-    if arr.ndim != 1 or arr.size == 0:
-        raise InvalidInputError(
-            f"held must be one value or a 1-D array of values of {name} [rad], got shape {arr.shape}"
-        )
+    shapes = "one value or (K,) values" + ("" if n_targets is None else f" or ({n_targets}, K)")
+    if arr.size == 0 or not (
+        arr.ndim == 1 or (n_targets is not None and arr.ndim == 2 and arr.shape[0] == n_targets)
+    ):
+        raise InvalidInputError(f"held must be {shapes} of {name} [rad], got shape {arr.shape}")
     check_finite(arr, "held")
     if np.any(arr < lo - 1e-12) or np.any(arr > hi + 1e-12):
         raise InvalidInputError(
@@ -1241,7 +1255,7 @@ def solve_all(
         seed = solver.default_seed
     else:
         seed = _seed(chain, q_seed, "q_seed", None)
-    held_arr = _held_values(solver, held)
+    held_arr = _held_values(solver, held, None)
     family = solver.info
     if solver.held is None:
         sols, (ep, er), singular_why, reason = _solve_single(solver, Tl, seed.tolist(), tol)
@@ -1297,7 +1311,8 @@ def solve_all_batch(
 
     Args:
         T_targets: (N, 4, 4) tip poses in the base frame. q_seeds: (N, n) or None (middle of the
-            limits). held, tolerance: as in `solve_all` (the same held values for every target).
+            limits). held (7R arms): one value, (K,) values swept for every target, or (N, K)
+            values per target [rad]. tolerance: as in `solve_all`.
 
     Raises:
         NoClosedFormError, InvalidInputError: as `solve_all`.
@@ -1311,7 +1326,7 @@ def solve_all_batch(
         raise InvalidInputError(f"T_targets must have shape (N, 4, 4), got {T.shape}")
     N = T.shape[0]
     seeds = _seed(chain, q_seeds, "q_seeds", N)
-    held_arr = _held_values(solver, held)
+    held_arr = _held_values(solver, held, N)
     out = _solve_arrays(solver, _orthonormal(T), seeds, held_arr, tol)
     success = out.count > 0
     q = seeds.copy()
