@@ -3,6 +3,7 @@
     kinematics info --urdf arm.urdf [--base B] [--tip T] [--json]
     kinematics fk --urdf arm.urdf --q 0,0.5,-1,0,0,0 [--json]
     kinematics jacobian --dh scara.json --q 0.1,0.2,0.05,0 --frame body [--json]
+    kinematics ik --robot ur5e --target 0.4,0.1,0.5,0,1,0,0 --all [--seed ...] [--json]
 
 Joint values are comma-separated, in rad (m for prismatic joints), in the order `info` lists.
 Errors print one line on stderr and exit with status 1 (2 for command-line usage errors).
@@ -194,6 +195,8 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> dict[str, Any] | str
     T[:3, :3] = matrix_from_quaternion(v[3:])  # refuses a zero quaternion with a clear message
     T[:3, 3] = v[:3]
     seed = None if args.seed is None else get_q(chain, args.seed, "--seed")
+    if args.all:
+        return _ik_all(args, chain, T, seed)
     axis_tolerances = None
     if args.axis_tolerances is not None:
         axis_tolerances = tuple(parse_floats(args.axis_tolerances, "--axis-tolerances", True))
@@ -221,6 +224,32 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> dict[str, Any] | str
         print(json.dumps(data, indent=2) if args.json else _ik_text(data), file=sys.stdout)
         raise CliError(f"no solution: {res.message}")
     return data if args.json else _ik_text(data)
+
+
+def _ik_all(
+    args: argparse.Namespace, chain: SerialChain, T: np.ndarray, seed: np.ndarray | None
+) -> dict[str, Any] | str:
+    """`ik --all`: every closed-form solution, nearest the seed first (7R arms: held joint swept)."""
+    res = chain.ik_all(T, q_seed=seed)
+    data = {
+        "success": bool(res.success),
+        "family": res.family,
+        "singular": bool(res.singular),
+        "joint_names": list(chain.joint_names),
+        "solutions": [np.asarray(s).tolist() for s in res.solutions],
+        "message": res.message,
+    }
+    if not res.success:
+        print(json.dumps(data, indent=2) if args.json else f"not solved: {res.message}")
+        raise CliError(f"no solution: {res.message}")
+    if args.json:
+        return data
+    rows = [res.message, f"columns [rad]: {', '.join(chain.joint_names)}"]
+    rows += [
+        f"{i:>4}  " + " ".join(f"{x:10.6f}" for x in sol)
+        for i, sol in enumerate(data["solutions"], 1)
+    ]
+    return "\n".join(rows)
 
 
 def _ik_text(d: dict[str, Any]) -> str:
@@ -268,6 +297,11 @@ def build_parser() -> argparse.ArgumentParser:
             p.add_argument("--target", metavar="X,Y,Z,QX,QY,QZ,QW", help="tip pose in the base")
             p.add_argument("--seed", metavar="Q1,Q2,...", help="start configuration")
             p.add_argument("--position-only", action="store_true", help="ignore orientation")
+            p.add_argument(
+                "--all",
+                action="store_true",
+                help="every solution, in closed form (arms with a closed-form family only)",
+            )
             p.add_argument("--mode", choices=("speed", "distance"), default="speed")
             p.add_argument("--timeout", type=float, default=0.05, help="[s] (default 0.05)")
             p.add_argument("--position-tolerance", type=float, default=1e-5, help="[m]")
