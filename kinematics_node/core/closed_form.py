@@ -297,9 +297,12 @@ def _v(a: FloatArray) -> FloatArray:
 
 def _apply(R: FloatArray, x: FloatArray) -> FloatArray:
     """R x for per-lane R (L, 3, 3) and x (L, B, 3) or (L, 3)."""
-    if x.ndim == 2:
-        return np.einsum("lij,lj->li", R, x)
-    return np.einsum("lij,lbj->lbi", R, x)
+    if x.ndim == 3:
+        R = R[:, None]
+    x0, x1, x2 = x[..., 0], x[..., 1], x[..., 2]
+    return np.stack(
+        [R[..., i, 0] * x0 + R[..., i, 1] * x1 + R[..., i, 2] * x2 for i in range(3)], axis=-1
+    )  # written out: faster than einsum or stacked matmul for 3-vectors
 
 
 def _solve_three_parallel(
@@ -317,7 +320,7 @@ def _solve_three_parallel(
     trace.fails.append(("shoulder", _flag(ok1, L, 8)))
     trace.frees.append(("the wrist point lies on joint 1's axis", _flag(fr1, L, 8)))
     # (q₅, q₆): R₅ R₆ (R_Gᵀ R₁ h) = h  (SP2).
-    u = np.einsum("lji,lbj->lbi", R, sp.rotate(_v(W[0]), q1, _v(h)))
+    u = _apply(R.swapaxes(1, 2), sp.rotate(_v(W[0]), q1, _v(h)))  # R_Gᵀ R₁ h
     d5 = np.broadcast_to(dflt[:, 4:5], q1.shape)
     d6 = np.broadcast_to(dflt[:, 5:6], q1.shape)
     t5, t6, ok2, fr2 = sp.sp2(_v(W[4]), _v(W[5]), u, np.broadcast_to(_v(h), u.shape), d5, d6, e1)
@@ -816,11 +819,7 @@ def _solve_arrays(
         acc[idx] = (ep <= tol) & (er <= tol)
     acc2 = acc.reshape(L, 8)
     # One solution once: drop a branch equal (mod 2π) to an earlier accepted one of the same lane.
-    Qd = flat_Q.reshape(L, 8, n)
-    same = np.abs(_wrap(Qd[:, :, None, :] - Qd[:, None, :, :])).max(axis=-1) <= _SAME_SOLUTION
-    earlier = np.tril(np.ones((8, 8), dtype=bool), -1)
-    dup = (same & earlier & acc2[:, None, :]).any(axis=2)
-    acc2 &= ~dup
+    acc2 &= ~_duplicates(flat_Q.reshape(L, 8, n), acc2)
     lane_count = acc2.sum(axis=1)
     keep = np.flatnonzero(acc2.reshape(-1))
     Qk, owner = flat_Q[keep], flat_owner[keep]
@@ -829,7 +828,7 @@ def _solve_arrays(
     if use_limits:
         Qk, owner, sing_code = _within_limits(chain, Qk, owner, sing_code, seeds)
     # Sort by target, then by distance to that target's seed.
-    dist = sp.norm(Qk - seeds[owner]) if Qk.size else np.zeros(0)
+    dist = np.linalg.norm(Qk - seeds[owner], axis=1) if Qk.size else np.zeros(0)
     order = np.lexsort((dist, owner))
     Qk, owner, sing_code = Qk[order], owner[order], sing_code[order]
     count = np.bincount(owner, minlength=N).astype(np.int64)
@@ -1040,6 +1039,31 @@ def _reason(stage_dead: list[tuple[str, BoolArray]], i: int, n_before: int, swep
             "within the joint limits"
         )
     return "unreachable: no candidate reproduced the target by forward kinematics"
+
+
+_KEY_WEIGHTS = np.random.default_rng(0).uniform(0.5, 1.0, size=(1, 8))
+
+
+def _duplicates(Q: FloatArray, acc: BoolArray) -> BoolArray:
+    """(L, B) True where a branch equals (mod 2π, to `_SAME_SOLUTION`) an earlier accepted one.
+
+    Branches are wrapped into (−π, π], so equal branches have equal keys Σⱼ aⱼ qⱼ unless an angle
+    sits at ±π; only pairs whose keys agree (or that touch ±π) are compared joint by joint.
+    """
+    n = Q.shape[-1]
+    key = Q @ _KEY_WEIGHTS[0, :n]  # (L, B)
+    key = np.where((np.abs(Q) > math.pi - 1e-6).any(axis=-1), np.nan, key)  # NaN: always compare
+    B = Q.shape[1]
+    gap = np.abs(key[:, :, None] - key[:, None, :])
+    close = (gap <= 8 * _SAME_SOLUTION) | np.isnan(gap)
+    close &= np.tril(np.ones((B, B), dtype=bool), -1) & acc[:, None, :] & acc[:, :, None]
+    dup = np.zeros(acc.shape, dtype=bool)
+    lane, j, i = np.nonzero(close)  # branch j may repeat earlier branch i
+    if lane.size:
+        d = np.abs(Q[lane, j] - Q[lane, i])
+        same = ((d <= _SAME_SOLUTION) | (np.abs(d - _TWO_PI) <= _SAME_SOLUTION)).all(axis=1)
+        dup[lane[same], j[same]] = True
+    return dup
 
 
 def _tile_lanes(g: _Geometry, N: int) -> _Geometry:
