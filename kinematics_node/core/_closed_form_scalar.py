@@ -145,6 +145,11 @@ class Geometry:
                  s: Vec, scale: float) -> None:  # fmt: skip
         self.w, self.r, self.c, self.b, self.h, self.x, self.s = list(w), list(r), c, b, h, x, s
         self.eL, self.eL2 = 1e-9 * scale, 1e-12 * scale * scale
+        # Constants of the three-parallel elbow SP3 (k = ω₃, p = r₄ − r₃, q = r₂ − r₃).
+        k, p, q = self.w[2], sub(self.r[3], self.r[2]), sub(self.r[1], self.r[2])
+        pp, qp = _project(k, p), _project(k, q)
+        self.a3, self.b3 = dot(pp, qp), dot(k, cross(pp, qp))
+        self.pq3, self.dk3 = dot(pp, pp) + dot(qp, qp), dot(k, sub(p, q))
 
 
 #: A candidate: six angles and the reasons of the angles the target left free.
@@ -192,9 +197,10 @@ def three_parallel(
             t234 = atan2(dot(h, cross(g.x, y)), dot(g.x, y))
             k = rotate_about(W[4], P[4], -q5, P[3])
             k = rotate_about(W[0], P[0], -q1, add(matvec(R, rotate_about(W[5], P[5], -q6, k)), p))
-            th3, ok3, fr3 = sp3(
-                W[2], sub(P[3], P[2]), sub(P[1], P[2]), norm(sub(k, P[1])), d[2], g.eL2
-            )
+            # SP3 with constant p = r₄ − r₃, q = r₂ − r₃ (a, b and ‖p′‖² + ‖q′‖² precomputed).
+            kr = sub(k, P[1])
+            delta2 = dot(kr, kr) - g.dk3 * g.dk3
+            th3, ok3, fr3 = solve_trig(g.a3, g.b3, 0.5 * (g.pq3 - delta2), d[2], g.eL2)
             if not ok3:
                 continue
             stages.passed["elbow"] += 2

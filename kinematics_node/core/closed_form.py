@@ -71,6 +71,7 @@ _REFINE_ABOVE = 1e-12
 #: A solution counts once: two that agree to this [rad] in every joint (modulo 2π) are one.
 _SAME_SOLUTION = 1e-9
 _TWO_PI = 2.0 * math.pi
+_INV_TWO_PI = 1.0 / _TWO_PI
 
 
 # ---------------------------------------------------------------------- public types
@@ -512,7 +513,7 @@ class _Solver:
         self.w_all, self.r_all = w, r
         M = np.asarray(chain.M)
         self.M_inv = np.linalg.inv(M)
-        self.M_list, self.M_inv_list = M.tolist(), self.M_inv.tolist()
+        self.M_arr = M
         self.scale = float(max(1e-3, np.abs(r).max(), np.abs(M[:3, 3]).max()))
         self.keep = [i for i in range(chain.dof) if i != held]
         self.geometry = _geometry(structure, w[None], r[None], self.scale) if held is None else None
@@ -533,6 +534,8 @@ class _Solver:
         self.lower_arr, self.upper_arr = np.asarray(chain.lower), np.asarray(chain.upper)
         self.continuous = ~(np.isfinite(self.lower_arr) | np.isfinite(self.upper_arr))
         self.default_seed = default_seed(chain)
+        self.all_finite = bool(np.all(np.isfinite(self.lower_arr) & np.isfinite(self.upper_arr)))
+        self.lo_wide, self.hi_wide = self.lower_arr - 1e-10, self.upper_arr + 1e-10
 
     def lo_eff(self, seed: FloatArray) -> FloatArray:
         """Lower bounds for the equivalents: the limit, or seed − π for an unbounded side."""
@@ -889,15 +892,9 @@ def _solve_single(
     """
     st, g, chain = solver.structure, solver.scalar_geometry, solver.chain
     assert g is not None
-    Mi = solver.M_inv_list
-    if st.reversed:  # G⁻¹ = M T⁻¹
-        Ti = _inverse_list(T)
-        G = [
-            [sum(solver.M_list[i][k] * Ti[k][j] for k in range(4)) for j in range(4)]
-            for i in range(3)
-        ]
-    else:  # G = T M⁻¹
-        G = [[sum(T[i][k] * Mi[k][j] for k in range(4)) for j in range(4)] for i in range(3)]
+    Ta = np.array(T)
+    # G = T M⁻¹, or G⁻¹ = M T⁻¹ for a structure read from the tip.
+    G = (solver.M_arr @ _inverse(Ta[None])[0] if st.reversed else Ta @ solver.M_inv).tolist()
     R: scalar.Mat = (
         (G[0][0], G[0][1], G[0][2]), (G[1][0], G[1][1], G[1][2]), (G[2][0], G[2][1], G[2][2])
     )  # fmt: skip
@@ -914,7 +911,7 @@ def _solve_single(
     whys: set[str] = set()
     for q6, why in cands:
         q = [-x for x in reversed(q6)] if st.reversed else q6
-        q = [_wrap1(x) for x in q]
+        q = [x - _TWO_PI * math.ceil((x - math.pi) * _INV_TWO_PI) for x in q]  # into (−π, π]
         ep, er = _pose_errors_list(chain.fk(q).tolist(), T)
         if (
             (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
@@ -927,7 +924,12 @@ def _solve_single(
                 q, ep, er = qr, ep_r, er_r
         if ep > tol or er > tol:
             continue
-        if any(_same(q, o) for o in accepted):
+        q2 = q[2]  # a cheap first test on one joint (branches often share the first joint)
+        if any(
+            (abs(q2 - o[2]) <= _SAME_SOLUTION or abs(abs(q2 - o[2]) - _TWO_PI) <= _SAME_SOLUTION)
+            and _same(q, o)
+            for o in accepted
+        ):
             continue
         accepted.append(q)
         errors.append((ep, er))
@@ -963,16 +965,13 @@ def _empty_reason(dead_stage: str | None, n_before_limits: int) -> str:
 
 def _pose_errors_list(A: list[list[float]], B: list[list[float]]) -> tuple[float, float]:
     """`_pose_errors` of one pose pair given as nested lists: ‖Δp‖ [m], rotation angle [rad]."""
-    dp = math.sqrt(sum((A[i][3] - B[i][3]) ** 2 for i in range(3)))
-    f = math.sqrt(sum((A[i][j] - B[i][j]) ** 2 for i in range(3) for j in range(3)))
-    return dp, 2.0 * math.asin(min(f / (2.0 * math.sqrt(2.0)), 1.0))
-
-
-def _inverse_list(T: list[list[float]]) -> list[list[float]]:
-    """T⁻¹ = (Rᵀ, −Rᵀp) of a rigid transform given as nested lists."""
-    Rt = [[T[j][i] for j in range(3)] for i in range(3)]
-    p = [-sum(Rt[i][k] * T[k][3] for k in range(3)) for i in range(3)]
-    return [Rt[0] + [p[0]], Rt[1] + [p[1]], Rt[2] + [p[2]], [0.0, 0.0, 0.0, 1.0]]
+    a0, a1, a2 = A[0], A[1], A[2]
+    b0, b1, b2 = B[0], B[1], B[2]
+    dp = math.sqrt((a0[3] - b0[3]) ** 2 + (a1[3] - b1[3]) ** 2 + (a2[3] - b2[3]) ** 2)
+    f = 0.0
+    for a, b in ((a0, b0), (a1, b1), (a2, b2)):
+        f += (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 + (a[2] - b[2]) ** 2
+    return dp, 2.0 * math.asin(min(math.sqrt(f) / (2.0 * math.sqrt(2.0)), 1.0))
 
 
 def _expand_sorted(
@@ -996,9 +995,12 @@ def _equivalents(solver: _Solver, Q: FloatArray, seeds: FloatArray) -> tuple[Flo
     seed (1, n): rows, and the index of the solution each comes from. Same rule as
     `_within_limits`, as one product over joints (at most m equivalents per joint: m^n offsets)."""
     chain = solver.chain
-    lo, hi = solver.lo_eff(seeds[0]), solver.hi_eff(seeds[0])
-    k_lo = np.ceil((lo - 1e-10 - Q) / _TWO_PI)
-    cnt = (np.floor((hi + 1e-10 - Q) / _TWO_PI) - k_lo + 1).astype(np.int64)
+    if solver.all_finite:  # the common case: bounds fixed, widened by 1e-10 rad
+        lo, hi = solver.lo_wide, solver.hi_wide
+    else:
+        lo, hi = solver.lo_eff(seeds[0]) - 1e-10, solver.hi_eff(seeds[0]) + 1e-10
+    k_lo = np.ceil((lo - Q) * (1.0 / _TWO_PI))
+    cnt = (np.floor((hi - Q) * (1.0 / _TWO_PI)) - k_lo + 1).astype(np.int64)
     m = int(cnt.max()) if Q.shape[0] else 0
     if m <= 1:
         keep = np.flatnonzero((cnt == 1).all(axis=1))
