@@ -462,3 +462,21 @@ def test_results_are_read_only_and_a_slightly_off_rotation_is_accepted():
     T_off[:3, :3] *= 1 + 1e-8
     res_off = ur.ik_all(T_off)
     assert res_off.success and np.abs(np.array(res_off.solutions) - q).max(axis=1).min() < 1e-6
+
+
+def test_continuous_joints_come_back_within_pi_of_the_seed():
+    # Kinova Jaco 2 (example-robot-data): spherical wrist, joints 1, 4 and 6 continuous.
+    path = erd_path("kinova_description/robots/kinova.urdf")
+    chain = SerialChain.from_urdf(path, None, "j2s6s200_end_effector")
+    assert chain.ik_family == "spherical_wrist" and chain.continuous.sum() == 3
+    rng = np.random.default_rng(12)
+    q, seeds = random_q(chain, rng, 2000), random_q(chain, rng, 2000)
+    res = chain.ik_all_batch(chain.fk(q), seeds)
+    owner = np.repeat(np.arange(len(q)), res.count)
+    diff = np.abs(np.angle(np.exp(1j * (res.solutions - q[owner])))).max(axis=1)  # modulo 2π
+    best = np.full(len(q), np.inf)
+    np.minimum.at(best, owner, diff)
+    assert best.max() < 1e-6
+    cont = chain.continuous
+    assert np.abs(res.solutions[:, cont] - seeds[owner][:, cont]).max() <= PI + 1e-9
+    assert chain.within_limits(res.solutions).all()
