@@ -262,7 +262,7 @@ def test_no_solution_missed_7r_three_parallel():
     assert chain.ik_family == "7r_three_parallel"
     j = chain.joint_index(family_of(chain).held_joint)
     rng = np.random.default_rng(8)
-    q = random_q(chain, rng, 2_000)
+    q = near_singular(random_q(chain, rng, 10_000), rng, 4)
     missed, _ = seeded_batch_no_miss(chain, q, q[:, j : j + 1], j)
     assert not missed.any()
 
