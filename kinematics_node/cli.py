@@ -4,6 +4,7 @@
     kinematics fk --robot ur5e --q 0,0.5,-1,0,0,0 [--json]
     kinematics fk --robot ur5e --q-file poses.txt --json      # one configuration per line; - = stdin
     kinematics jacobian --dh scara.json --q 0.1,0.2,0.05,0 --frame body [--json]
+    kinematics ik --robot ur5e --target 0.4,0.1,0.5,0,1,0,0 --all [--seed ...] [--json]
 
 Joint values are comma-separated, in rad (m for prismatic joints), in the order `info` lists.
 Errors print one line on stderr and exit with status 1 (2 for command-line usage errors).
@@ -344,6 +345,8 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
         ) from None
     T[:3, 3] = v[:3]
     seed = None if args.seed is None else get_q(chain, args.seed, "--seed")
+    if args.all:
+        return _ik_all(args, chain, T, seed)
     axis_tolerances = None
     if args.axis_tolerances is not None:
         bounds = parse_floats(args.axis_tolerances, "--axis-tolerances", allow_inf=True)
@@ -405,6 +408,32 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
     return [data if args.json else _ik_text(data)]
 
 
+def _ik_all(
+    args: argparse.Namespace, chain: SerialChain, T: np.ndarray, seed: np.ndarray | None
+) -> dict[str, Any] | str:
+    """`ik --all`: every closed-form solution, nearest the seed first (7R arms: held joint swept)."""
+    res = chain.ik_all(T, q_seed=seed)
+    data = {
+        "success": bool(res.success),
+        "family": res.family,
+        "singular": bool(res.singular),
+        "joint_names": list(chain.joint_names),
+        "solutions": [np.asarray(s).tolist() for s in res.solutions],
+        "message": res.message,
+    }
+    if not res.success:
+        print(dump_json(data) if args.json else f"not solved: {res.message}")
+        raise CliError(f"no solution: {res.message}")
+    if args.json:
+        return data
+    rows = [res.message, f"columns [rad]: {', '.join(chain.joint_names)}"]
+    rows += [
+        f"{i:>4}  " + " ".join(f"{x:10.6f}" for x in sol)
+        for i, sol in enumerate(data["solutions"], 1)
+    ]
+    return "\n".join(rows)
+
+
 def _ik_text(d: dict[str, Any]) -> str:
     rows = [str(d["message"])]
     rows += [f"  {n:<28}{x: .6f}" for n, x in zip(d["joint_names"], d["q"], strict=True)]
@@ -445,6 +474,7 @@ frames (rows ω then v, as in Modern Robotics):
     "ik": """examples:
   kinematics ik --robot ur5e --target -0.5756,-0.3902,0.3512,0,0,0,1 --position-only
   kinematics ik --robot panda --target 0.4,0.1,0.5,1,0,0,0 --axis-tolerances 1e-4,1e-4,inf,1e-5,1e-5,1e-5
+  kinematics ik --robot ur5e --target 0.3,0.2,0.4,1,0,0,0 --all    # every closed-form solution
 
 modes:
   speed     return the first solution found (default)
@@ -558,6 +588,11 @@ def build_parser() -> argparse.ArgumentParser:
             )
             p.add_argument(
                 "--seed", metavar="Q1,Q2,...", help="start configuration (default: mid-limits)"
+            )
+            p.add_argument(
+                "--all",
+                action="store_true",
+                help="every solution, in closed form (arms with a closed-form family only)",
             )
             p.add_argument(
                 "--mode",

@@ -137,3 +137,29 @@ def test_ik_axis_tolerances_free_the_tilt_of_a_planar_arm(capsys):
     code, _, err = run(capsys, "ik", "--robot", "planar3r", "--target", target,
                        "--axis-tolerances", "nan,1,1,1,1,1")  # fmt: skip
     assert code == 1 and "--axis-tolerances" in err
+
+
+def test_ik_all_prints_every_closed_form_solution(capsys):
+    from scipy.spatial.transform import Rotation
+
+    from kinematics_node.robots import load_robot
+
+    chain = load_robot("ur5e")
+    q = np.array([0.1, -1.0, 1.2, 0.3, 0.5, 0.2])
+    T = chain.fk(q)
+    qx, qy, qz, qw = Rotation.from_matrix(T[:3, :3]).as_quat()
+    target = ",".join(f"{v:.17g}" for v in (*T[:3, 3], qx, qy, qz, qw))
+    code, out, _ = run(capsys, "ik", "--robot", "ur5e", "--target", target, "--all", "--json")
+    data = json.loads(out)
+    sols = np.array(data["solutions"])
+    assert code == 0 and data["family"] == "three_parallel" and not data["singular"]
+    assert len(sols) == len(chain.ik_all(T).solutions) > 8  # limits of ±2π: equivalents too
+    assert np.abs(sols - q).max(axis=1).min() < 1e-6
+    Tq = chain.fk(sols)
+    assert np.abs(Tq - T).max() < 1e-8  # the quaternion printed to 17 digits
+    code, out, _ = run(capsys, "ik", "--robot", "ur5e", "--target", target, "--all")
+    assert code == 0 and out.count("\n") == len(sols) + 2 and "nearest the seed first" in out
+    code, _, err = run(capsys, "ik", "--robot", "ur5e", "--target", "3,0,0,0,0,0,1", "--all")
+    assert code == 1 and "unreachable" in err
+    code, _, err = run(capsys, "ik", "--robot", "scara", "--target", "0.3,0,0.3,0,0,0,1", "--all")
+    assert code == 1 and "no closed-form IK" in err

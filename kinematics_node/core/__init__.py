@@ -19,9 +19,11 @@ from .analysis import (
     manipulability_ellipsoid,
 )
 from .chain import ChainSpec, JointModel, SerialChain
+from .closed_form import ClosedFormBatchResult, ClosedFormFamily, ClosedFormResult
 from .exceptions import (
     InvalidInputError,
     KinematicsError,
+    NoClosedFormError,
     RobotDescriptionError,
     UnknownNameError,
 )
@@ -42,12 +44,16 @@ def __getattr__(name: str) -> Any:
 
 __all__ = [
     "ChainSpec",
+    "ClosedFormBatchResult",
+    "ClosedFormFamily",
+    "ClosedFormResult",
     "IKBatchResult",
     "IKOptions",
     "IKResult",
     "InvalidInputError",
     "JointModel",
     "KinematicsError",
+    "NoClosedFormError",
     "RobotDescriptionError",
     "SerialChain",
     "UnknownNameError",

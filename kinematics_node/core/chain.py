@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from os import PathLike
 from typing import TYPE_CHECKING, Any, Literal
 
@@ -27,6 +28,7 @@ from ._kernel import Kernel
 from .exceptions import InvalidInputError, RobotDescriptionError, UnknownNameError
 
 if TYPE_CHECKING:
+    from .closed_form import ClosedFormBatchResult, ClosedFormResult
     from .ik import IKBatchResult, IKOptions, IKResult
 
 FloatArray = NDArray[np.float64]
@@ -515,6 +517,55 @@ class SerialChain:
         from .ik import solve_batch
 
         return solve_batch(self, T_targets, q_seeds, options)
+
+    @cached_property
+    def ik_family(self) -> str | None:
+        """Name of the closed-form IK family found in the screw axes, or None (see docs/closed_form.md).
+
+        "three_parallel" (UR), "spherical_wrist" (Puma, OPW arms), or "7r_three_parallel" /
+        "7r_spherical_wrist" (7R arms that become one when a joint is held: Panda, iiwa).
+        `kinematics_node.core.closed_form.family_of(chain)` gives the details.
+        """
+        from .closed_form import family_of
+
+        family = family_of(self)
+        return None if family is None else family.name
+
+    def ik_all(
+        self,
+        T_target: ArrayLike,
+        q_seed: ArrayLike | None = None,
+        held: ArrayLike | None = None,
+        tolerance: float = 1e-9,
+    ) -> ClosedFormResult:
+        """Every solution within the limits of T_base_tip(q) = T_target (4×4), in closed form.
+
+        `solutions` are sorted by distance to `q_seed` (default: middle of the limits); with limits
+        wider than 2π every whole-turn equivalent is included; each reproduces the target by FK to
+        `tolerance` [m, rad]. 7R arms sweep the held joint over `held` [rad] (default: 36 values
+        across its limits). Singular targets give a valid set with `singular` True; unreachable
+        ones an empty set and the reason in `message`.
+        See `kinematics_node.core.closed_form.solve_all`.
+
+        Raises:
+            NoClosedFormError: `ik_family` is None.
+            InvalidInputError: bad target, seed, held values or tolerance.
+        """
+        from .closed_form import solve_all
+
+        return solve_all(self, T_target, q_seed, held, tolerance)
+
+    def ik_all_batch(
+        self,
+        T_targets: ArrayLike,
+        q_seeds: ArrayLike | None = None,
+        held: ArrayLike | None = None,
+        tolerance: float = 1e-9,
+    ) -> ClosedFormBatchResult:
+        """`ik_all` for (N, 4, 4) targets at once, vectorised; see `closed_form.solve_all_batch`."""
+        from .closed_form import solve_all_batch
+
+        return solve_all_batch(self, T_targets, q_seeds, held, tolerance)
 
     def check_target(self, T: ArrayLike, name: str = "T_target") -> FloatArray:
         """Validate a homogeneous transform (or a batch of them)."""

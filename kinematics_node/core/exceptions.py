@@ -37,3 +37,8 @@ class UnknownNameError(KinematicsError, LookupError):
 
     def __str__(self) -> str:  # LookupError would otherwise print the repr of the args
         return str(self.args[0])
+
+
+class NoClosedFormError(KinematicsError):
+    """The chain's geometry admits no closed-form IK here (`SerialChain.ik_all`); the message says
+    what was looked for and missed. The numeric `SerialChain.ik` still applies."""

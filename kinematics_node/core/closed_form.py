@@ -1,0 +1,1186 @@
+"""Closed-form IK: every solution, from Paden–Kahan subproblems, where the geometry allows.
+
+Problem. The PoE model T(q) = e^{[S₁]q₁} ⋯ e^{[Sₙ]qₙ} M (MR eq. 4.14). For a target T_t (tip pose in
+the base frame) put G = T_t M⁻¹ = e^{[S₁]q₁} ⋯ e^{[Sₙ]qₙ}, a product of rotations about the home
+axes (ωᵢ, a point rᵢ on each). A point x on an axis is fixed by that joint's exponential; the
+component hᵀx along h is kept by rotations about axes parallel to h; the distance from a point on
+an axis is kept by that joint. These three invariants split the 6R problem into subproblems
+(`kinematics_node.core.subproblems`), each with at most two solutions, so at most 8 in all.
+
+Families, detected from the screw axes S alone (never from names or DH tables), with tolerances
+`ANGLE_TOLERANCE` [rad] and `DISTANCE_TOLERANCE` [m] that absorb the rounding of real URDFs:
+
+* ``"three_parallel"`` (UR family): axes 2, 3, 4 parallel (direction h), axes 5 and 6 meet at c.
+  hᵀ e₁⁻¹(G c) = hᵀc gives q₁ (SP4); hᵀR₁ᵀR_G = hᵀR₅R₆ gives (q₅, q₆) (SP2); then e₂e₃e₄ =
+  e₁⁻¹ G e₆⁻¹ e₅⁻¹ gives q₃ (SP3, distance from axis 2), q₂ (SP1) and q₄ from the sum angle.
+* ``"spherical_wrist"`` (Puma, ABB IRB, KUKA KR, Fanuc: OPW arms): axes 4, 5, 6 meet at the wrist
+  centre c, so e₁e₂e₃ c = G c. The position problem is solved when the first three axes have one of
+  four relations: 2 ∥ 3 (SP4, SP3, SP1), 1 ∩ 2 (SP3, SP2), 2 ∩ 3 (SP3, SP2) or 1 ∥ 2 (SP4, SP3,
+  SP1). Then R₄R₅R₆ = R₃ᵀR₂ᵀR₁ᵀR_G gives (q₄, q₅) by SP2 and q₆ by SP1.
+* Either of them read from the tip: the same structure in the reversed chain G⁻¹ = e^{−[S₆]q₆} ⋯
+  e^{−[S₁]q₁} (e.g. a spherical shoulder).
+* ``"7r_three_parallel"``, ``"7r_spherical_wrist"``: a 7R arm that becomes one of the above when one
+  joint j is held at θ (the later axes move to Ad_{e^{[S_j]θ}} Sₖ, M to e^{[S_j]θ} M). The held
+  joint's values are swept, vectorised (Panda: q₇; iiwa: q₃).
+
+A detected structure is confirmed before it is used: random configurations must come back from
+their own forward kinematics, which rejects degenerate cases (e.g. an iiwa with its elbow held).
+
+Every candidate is checked by forward kinematics against the target; candidates within 1e-2 are
+first refined by two Gauss–Newton steps (this restores full precision near singularities and on
+URDFs whose axes meet only to within the tolerances). Only those within `tolerance` are returned.
+
+Units: lengths [m], angles [rad]. Frames: targets are tip poses in the base frame.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from . import _closed_form_scalar as scalar
+from . import _closed_form_vector as vector
+from . import subproblems as sp
+from ._checks import as_float_array, check_finite
+from .exceptions import InvalidInputError, NoClosedFormError
+from .ik import IKResult, default_seed
+
+if TYPE_CHECKING:
+    from .chain import SerialChain
+
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+IntArray = NDArray[np.int64]
+
+#: Axes closer to parallel than this count as parallel [rad].
+ANGLE_TOLERANCE = 1e-5
+#: Axes that pass closer than this count as meeting [m].
+DISTANCE_TOLERANCE = 1e-5
+#: Default number of held-joint values swept by a 7R arm, spread evenly over its limits.
+DEFAULT_HELD_SAMPLES = 36
+#: Candidates closer than this to the target (position [m] or rotation [rad]) are refined ...
+_REFINE_BELOW = 1e-2
+#: ... unless already within this (× the arm's scale for positions). Exact arithmetic gives
+#: ~1e-15; near a singularity the subproblems lose digits in a square root (SP2's γ when the
+#: middle point nearly lies in the plane of the two axes), which one Newton step restores.
+_REFINE_ABOVE = 1e-12
+#: A solution counts once: two that agree to this [rad] in every joint (modulo 2π) are one.
+_SAME_SOLUTION = 1e-9
+_TWO_PI = 2.0 * math.pi
+_INV_TWO_PI = 1.0 / _TWO_PI
+
+
+# ---------------------------------------------------------------------- public types
+@dataclass(frozen=True)
+class ClosedFormFamily:
+    """The closed-form structure detected in a chain.
+
+    Attributes:
+        name: "three_parallel", "spherical_wrist", "7r_three_parallel" or "7r_spherical_wrist".
+        held_joint: for 7R arms the joint whose values are swept; None for 6R.
+        reversed: True when the structure is read from the tip (e.g. a spherical shoulder).
+        position_case: for spherical wrists, how the first three axes are related
+            ("2∥3", "1∩2", "2∩3", "1∥2"); "" otherwise.
+        description: one line for people, naming the axes (1-based) and the special points.
+    """
+
+    name: str
+    held_joint: str | None
+    reversed: bool
+    position_case: str
+    description: str
+
+
+@dataclass(frozen=True)
+class ClosedFormResult(IKResult):
+    """`IKResult` of `SerialChain.ik_all`: every solution, closest to the seed first.
+
+    Attributes (in addition to `IKResult`'s):
+        solutions: every solution within the limits, sorted by ‖q − q_seed‖; with limits wider than
+            2π every whole-turn equivalent within the limits is included. Empty if none.
+        q: solutions[0], or the (clamped) seed when there is none. Always finite.
+        position_error, orientation_error: residual of q [m], [rad].
+        singular: the target is at (or within round-off of) a singular configuration; a joint
+            left undetermined there took its value from the seed (the message says which).
+        family: the detected family name.
+        held_values: for 7R arms the held joint's values that were swept [rad]; else empty.
+    """
+
+    singular: bool = False
+    family: str = ""
+    held_values: FloatArray = field(default_factory=lambda: np.empty(0))
+
+
+@dataclass(frozen=True)
+class ClosedFormBatchResult:
+    """`SerialChain.ik_all_batch` for N targets; solutions of target i are
+    ``solutions[offsets[i]:offsets[i + 1]]``, closest to its seed first. Arrays are read-only.
+
+    Attributes:
+        q: (N, n) nearest solution per target, or the seed where there is none.
+        success: (N,) at least one solution.
+        count: (N,) number of solutions per target.
+        offsets: (N + 1,) start of each target's solutions in `solutions`.
+        solutions: (K, n) all solutions, grouped by target.
+        singular: (N,) the target is at a singular configuration.
+        message: one summary line.
+    """
+
+    q: FloatArray
+    success: BoolArray
+    count: IntArray
+    offsets: IntArray
+    solutions: FloatArray
+    singular: BoolArray
+    message: str = ""
+
+    def solutions_of(self, i: int) -> FloatArray:
+        """(k, n) solutions of target i, closest to its seed first."""
+        return self.solutions[self.offsets[i] : self.offsets[i + 1]]
+
+
+# ---------------------------------------------------------------------- structure and geometry
+@dataclass(frozen=True)
+class _Structure:
+    kind: str  # "three_parallel" | "spherical_wrist"
+    case: str  # spherical wrist: "par23" | "int12" | "int23" | "par12"; else ""
+    reversed: bool
+
+
+_CASE_LABEL = {"par23": "2∥3", "int12": "1∩2", "int23": "2∩3", "par12": "1∥2", "": ""}
+
+
+def _lines(S: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Directions ω (n, 3) and the points r = ω × v nearest the origin (n, 3) of revolute screws."""
+    w = S[:3].T.copy()
+    return w, sp.cross(w, S[3:].T)
+
+
+def _meet(w: FloatArray, r: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Least-squares point nearest the lines (…, m, 3) and its largest distance from them (…).
+
+    Σ (I − ωωᵀ) x = Σ (I − ωωᵀ) r (normal equations of Σ dist(x, line)²).
+    """
+    P = np.eye(3) - w[..., :, None] * w[..., None, :]  # (…, m, 3, 3)
+    A = P.sum(axis=-3)
+    y = (P @ r[..., None])[..., 0].sum(axis=-2)
+    x = np.linalg.solve(A, y[..., None])[..., 0]
+    d = x[..., None, :] - r
+    d = d - w * sp.dot(d, w)[..., None]
+    return x, sp.norm(d).max(axis=-1)
+
+
+def _parallel(w: FloatArray, i: int, j: int) -> bool:
+    return bool(sp.norm(sp.cross(w[i], w[j])) <= ANGLE_TOLERANCE)
+
+
+def _meets(w: FloatArray, r: FloatArray, idx: tuple[int, ...]) -> bool:
+    """The lines idx (consecutive joints) pass through one point, and no two neighbours are parallel.
+
+    Only neighbours are compared: their relation is the same in every configuration, while two
+    lines further apart may coincide at home (Panda's joints 1 and 3) and not elsewhere.
+    """
+    for a, b in zip(idx[:-1], idx[1:], strict=True):
+        if _parallel(w, a, b):
+            return False
+    _, miss = _meet(w[list(idx)], r[list(idx)])
+    return bool(miss <= DISTANCE_TOLERANCE)
+
+
+def _candidates(w6: FloatArray, r6: FloatArray) -> list[_Structure]:
+    """Structures whose axis relations hold for the 6R lines (w6, r6); not yet confirmed."""
+    out: list[_Structure] = []
+    for rev in (False, True):
+        w, r = (w6[::-1], r6[::-1]) if rev else (w6, r6)
+        if (
+            _parallel(w, 1, 2)
+            and _parallel(w, 2, 3)
+            and not _parallel(w, 0, 1)
+            and not _parallel(w, 3, 4)
+            and _meets(w, r, (4, 5))
+        ):
+            out.append(_Structure("three_parallel", "", rev))
+        if _meets(w, r, (3, 4, 5)):
+            if _parallel(w, 1, 2) and not _parallel(w, 0, 1):
+                out.append(_Structure("spherical_wrist", "par23", rev))
+            if _meets(w, r, (0, 1)):
+                out.append(_Structure("spherical_wrist", "int12", rev))
+            if _meets(w, r, (1, 2)):
+                out.append(_Structure("spherical_wrist", "int23", rev))
+            if _parallel(w, 0, 1) and not _parallel(w, 1, 2):
+                out.append(_Structure("spherical_wrist", "par12", rev))
+    return out
+
+
+def _perpendicular(a: FloatArray) -> FloatArray:
+    """A unit vector normal to each unit vector a (…, 3)."""
+    helper = np.where(
+        (np.abs(a[..., 0]) < 0.9)[..., None], np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    )
+    x = sp.cross(a, helper)
+    return x / sp.norm(x)[..., None]
+
+
+def _geometry(st: _Structure, w: FloatArray, r: FloatArray, scale: float) -> vector.Geometry:
+    """Derived points and directions for lanes of 6R lines w, r (L, 6, 3), forward order."""
+    if st.reversed:
+        w, r = w[:, ::-1], r[:, ::-1]
+    L = w.shape[0]
+    zeros, ones = np.zeros((L, 3)), np.ones((L, 3))
+    if st.kind == "three_parallel":
+        h = w[:, 1]
+        c, _ = _meet(w[:, 4:6], r[:, 4:6])
+        return vector.Geometry(
+            w, r, c, zeros, h, _perpendicular(h), sp.dot(w[:, 1:4], h[:, None]), scale
+        )
+    c, _ = _meet(w[:, 3:6], r[:, 3:6])
+    b, h = zeros, zeros
+    if st.case == "int12":
+        b, _ = _meet(w[:, 0:2], r[:, 0:2])
+    elif st.case == "int23":
+        b, _ = _meet(w[:, 1:3], r[:, 1:3])
+    elif st.case == "par23":
+        h = w[:, 1]
+    else:
+        h = w[:, 0]
+    return vector.Geometry(w, r, c, b, h, _perpendicular(w[:, 5]), ones, scale)
+
+
+# ---------------------------------------------------------------------- the 6R solve
+def _solve_6r(
+    st: _Structure,
+    g: vector.Geometry,
+    R: FloatArray,
+    p: FloatArray,
+    dflt: FloatArray,
+    trace: vector.Trace,
+) -> tuple[FloatArray, BoolArray]:
+    """All (≤ 8) solutions of e₁ ⋯ e₆ = G = (R, p) for L lanes: Q (L, 8, 6) and ok (L, 8).
+
+    `dflt` (L, 6) gives the value of an angle that the target leaves free (singular poses).
+    """
+    if st.kind == "three_parallel":
+        return vector.solve_three_parallel(g, R, p, dflt, trace)
+    return vector.solve_spherical(st.case, g, R, p, dflt, trace)
+
+
+# ---------------------------------------------------------------------- detection
+def _exp_rotation(w: FloatArray, r: FloatArray, theta: FloatArray) -> FloatArray:
+    """e^{[S]θ} (K, 4, 4) of a revolute axis through r with unit direction w (MR eq. 3.51, 3.88)."""
+    K = theta.shape[0]
+    E = np.zeros((K, 4, 4))
+    eye = np.eye(3)
+    E[:, :3, :3] = sp.rotate(w, theta[:, None], np.broadcast_to(eye, (K, 3, 3))).swapaxes(1, 2)
+    E[:, :3, 3] = r - np.einsum("kij,j->ki", E[:, :3, :3], r)
+    E[:, 3, 3] = 1.0
+    return E
+
+
+def _transform_points(T: FloatArray, x: FloatArray) -> FloatArray:
+    """T x for T (K, 4, 4) and points x (K, m, 3) or (m, 3)."""
+    return (
+        np.einsum(
+            "kij,k...j->k...i", T[:, :3, :3], np.broadcast_to(x, (T.shape[0],) + x.shape[-2:])
+        )
+        + T[:, None, :3, 3]
+    )
+
+
+class _Solver:
+    """The detected structure of one chain and everything precomputed for it (immutable)."""
+
+    def __init__(
+        self,
+        chain: SerialChain,
+        structure: _Structure,
+        held: int | None,
+    ) -> None:
+        self.chain = chain
+        self.structure = structure
+        self.held = held
+        w, r = _lines(np.asarray(chain.S))
+        self.w_all, self.r_all = w, r
+        M = np.asarray(chain.M)
+        self.M_inv = np.linalg.inv(M)
+        self.M_arr = M
+        self.scale = float(max(1e-3, np.abs(r).max(), np.abs(M[:3, 3]).max()))
+        self.keep = [i for i in range(chain.dof) if i != held]
+        self.geometry = _geometry(structure, w[None], r[None], self.scale) if held is None else None
+        self.scalar_geometry = None
+        if self.geometry is not None:
+            g0 = self.geometry
+
+            def t(a: FloatArray) -> scalar.Vec:
+                return (float(a[0]), float(a[1]), float(a[2]))
+
+            self.scalar_geometry = scalar.Geometry(
+                [t(v) for v in g0.w[0]], [t(v) for v in g0.r[0]], t(g0.c[0]), t(g0.b[0]),
+                t(g0.h[0]), t(g0.x[0]), t(g0.s[0]), self.scale,
+            )  # fmt: skip
+        self.lower = [float(x) for x in chain.lower]
+        self.upper = [float(x) for x in chain.upper]
+        self.info = self.family()
+        self.lower_arr, self.upper_arr = np.asarray(chain.lower), np.asarray(chain.upper)
+        self.continuous = ~(np.isfinite(self.lower_arr) | np.isfinite(self.upper_arr))
+        self.default_seed = default_seed(chain)
+        self.all_finite = bool(np.all(np.isfinite(self.lower_arr) & np.isfinite(self.upper_arr)))
+        self.lo_wide, self.hi_wide = self.lower_arr - 1e-10, self.upper_arr + 1e-10
+
+    def lo_eff(self, seed: FloatArray) -> FloatArray:
+        """Lower bounds for the equivalents: the limit, or seed − π for an unbounded side."""
+        return np.where(np.isfinite(self.lower_arr), self.lower_arr, seed - math.pi)
+
+    def hi_eff(self, seed: FloatArray) -> FloatArray:
+        """Upper bounds for the equivalents: the limit, or seed + π for an unbounded side."""
+        lo = self.lo_eff(seed)
+        return np.where(
+            self.continuous, lo + _TWO_PI - 1e-9,
+            np.where(np.isfinite(self.upper_arr), self.upper_arr, seed + math.pi),
+        )  # fmt: skip
+
+    # -- per-call geometry for a 7R arm with the held joint at values θ (K,)
+    def held_geometry(self, theta: FloatArray) -> tuple[vector.Geometry, FloatArray]:
+        """Lane geometry of the 6R arm left when joint `held` is at θ, and E = e^{[S_j]θ} (K, 4, 4)."""
+        j = self.held
+        assert j is not None
+        E = _exp_rotation(self.w_all[j], self.r_all[j], theta)
+        K = theta.shape[0]
+        w = np.broadcast_to(self.w_all, (K,) + self.w_all.shape).copy()
+        r = np.broadcast_to(self.r_all, (K,) + self.r_all.shape).copy()
+        w[:, j + 1 :] = np.einsum("kij,kmj->kmi", E[:, :3, :3], w[:, j + 1 :])
+        r[:, j + 1 :] = _transform_points(E, r[:, j + 1 :])
+        keep = self.keep
+        return _geometry(self.structure, w[:, keep], r[:, keep], self.scale), E
+
+    def family(self) -> ClosedFormFamily:
+        st = self.structure
+        kind = st.kind if self.held is None else f"7r_{st.kind}"
+        names = self.chain.joint_names
+        idx = [i + 1 for i in self.keep]
+        if st.reversed:
+            idx = idx[::-1]
+        if st.kind == "three_parallel":
+            desc = (
+                f"joints {idx[1]}, {idx[2]}, {idx[3]} parallel; joints {idx[4]} and {idx[5]} meet"
+            )
+        else:
+            rel = _CASE_LABEL[st.case]
+            a, b_ = (idx[1], idx[2]) if st.case in ("par23", "int23") else (idx[0], idx[1])
+            desc = (
+                f"joints {idx[3]}, {idx[4]}, {idx[5]} meet at a point (spherical wrist); joints "
+                f"{a} and {b_} {'are parallel' if '∥' in rel else 'meet'}"
+            )
+        if st.reversed:
+            desc += " (read from the tip)"
+        held = None if self.held is None else names[self.held]
+        if held is not None:
+            desc += f", with {held} held"
+        return ClosedFormFamily(kind, held, st.reversed, _CASE_LABEL[st.case], desc)
+
+
+def _confirm(solver: _Solver) -> bool:
+    """True if random configurations come back from their own FK (rejects degenerate structures)."""
+    rng = np.random.default_rng(12345)
+    q = rng.uniform(-math.pi, math.pi, size=(24, solver.chain.dof))
+    T = solver.chain.fk(q)
+    held = None if solver.held is None else q[:, solver.held]
+    seeds = rng.uniform(-math.pi, math.pi, size=q.shape)  # not q: a free angle must not be guessed
+    sol = _solve_arrays(
+        solver, T, seeds, None if held is None else held[:, None], 1e-9, use_limits=False
+    )
+    if not np.all(sol.count > 0):
+        return False
+    for i in range(q.shape[0]):
+        d = np.abs(_wrap(sol.solutions_of(i) - q[i])).max(axis=1)
+        if d.min() > 1e-6:
+            return False
+    return True
+
+
+def _why_not(chain: SerialChain) -> str:
+    """Why a chain has no closed form, in a sentence (for NoClosedFormError)."""
+    if any(t == "prismatic" for t in chain.joint_types):
+        return "it has prismatic joints (only all-revolute arms have a closed form here)"
+    if chain.dof not in (6, 7):
+        return f"it has {chain.dof} joints (closed forms here are for 6R and 7R arms)"
+    w, r = _lines(np.asarray(chain.S))
+    parts = []
+    for rev, label in ((False, "last"), (True, "first")):
+        ww, rr = (w[::-1], r[::-1]) if rev else (w, r)
+        _, miss = _meet(ww[3:6], rr[3:6])
+        parts.append(f"the {label} three axes miss a common point by {float(miss):.3g} m")
+    return (
+        "no structure was found: "
+        + "; ".join(parts)
+        + f" (tolerances {DISTANCE_TOLERANCE:g} m, {ANGLE_TOLERANCE:g} rad), and no three "
+        "consecutive parallel axes are followed by two that meet"
+    )
+
+
+def detect(chain: SerialChain) -> _Solver | None:
+    """The closed-form solver of `chain`, or None. Geometry only: the lines of the screw axes S."""
+    if any(t == "prismatic" for t in chain.joint_types) or chain.dof not in (6, 7):
+        return None
+    S = np.asarray(chain.S)
+    w, r = _lines(S)
+    if not np.allclose(sp.norm(w), 1.0, atol=1e-9) or np.abs(sp.dot(w, S[3:].T)).max() > 1e-9:
+        return None  # not pure revolute screws (e.g. mimic joints folded into a column)
+    if chain.dof == 6:
+        for st in _candidates(w, r):
+            solver = _Solver(chain, st, None)
+            if _confirm(solver):
+                return solver
+        return None
+    # 7R: hold joint j; the structure must hold whatever its value.
+    probe = np.array([0.0, 1.1, -2.3])
+    found_solvers: list[_Solver] = []
+    for j in range(7):
+        keep = [i for i in range(7) if i != j]
+        common: list[_Structure] | None = None
+        for theta in probe:
+            E = _exp_rotation(w[j], r[j], np.array([theta]))[0]
+            wj, rj = w.copy(), r.copy()
+            wj[j + 1 :] = wj[j + 1 :] @ E[:3, :3].T
+            rj[j + 1 :] = rj[j + 1 :] @ E[:3, :3].T + E[:3, 3]
+            found = _candidates(wj[keep], rj[keep])
+            common = found if common is None else [s for s in common if s in found]
+        for st in common or []:
+            solver = _Solver(chain, st, j)
+            if _confirm(solver):
+                found_solvers.append(solver)
+                break
+    if not found_solvers:
+        return None
+    # Prefer the held joint whose values least often make a target unreachable (Panda: joint 7,
+    # not the elbow), then the one nearest the middle of the chain (iiwa: joint 3).
+    scored = [(_held_coverage(s), s) for s in found_solvers]
+    best = max(c for c, _ in scored)
+    ties = [s for c, s in scored if c >= best - 0.1]
+    return min(ties, key=lambda s: (abs((s.held or 0) - 3), s.held))
+
+
+def _held_coverage(solver: _Solver) -> float:
+    """Fraction of (random target, random held value) pairs with a solution, limits ignored."""
+    rng = np.random.default_rng(54321)
+    N, K = 32, 8
+    q = rng.uniform(-math.pi, math.pi, size=(N, solver.chain.dof))
+    held = rng.uniform(-math.pi, math.pi, size=K)
+    out = _solve_arrays(solver, solver.chain.fk(q), q, held, 1e-9, use_limits=False)
+    # Lanes are target-major; count (target, held value) pairs with at least one solution.
+    return float(np.count_nonzero(out.lane_count) / (N * K))
+
+
+# ---------------------------------------------------------------------- solving
+def _wrap(a: FloatArray) -> FloatArray:
+    """Angles into (−π, π]."""
+    return a - _TWO_PI * np.ceil((a - math.pi) / _TWO_PI)
+
+
+def _pose_errors(T: FloatArray, T_t: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """‖p − p_t‖ [m] and the rotation angle between R and R_t [rad] (from ‖R − R_t‖_F = 2√2 sin(θ/2),
+    accurate at small angles, unlike arccos of the trace)."""
+    dp = sp.norm(T[:, :3, 3] - T_t[:, :3, 3])
+    f = np.sqrt(((T[:, :3, :3] - T_t[:, :3, :3]) ** 2).sum(axis=(1, 2)))
+    return dp, 2.0 * np.arcsin(np.minimum(f / (2.0 * math.sqrt(2.0)), 1.0))
+
+
+def _refine(
+    chain: SerialChain, Q: FloatArray, T_t: FloatArray, frozen: int | None, steps: int = 2
+) -> FloatArray:
+    """Gauss–Newton steps J_world Δq = (ω_err, p_t − p) toward T_t, with ω_err the rotation vector of
+    R_t Rᵀ to first order, vee((A − Aᵀ)/2) (damped by 1e-12 so a singular J stays solvable)."""
+    cols = [i for i in range(chain.dof) if i != frozen]
+    for _ in range(steps):
+        T, J = chain.fk_jacobian(Q, "world")
+        A = T_t[:, :3, :3] @ T[:, :3, :3].swapaxes(1, 2)
+        e = np.stack(
+            (
+                0.5 * (A[:, 2, 1] - A[:, 1, 2]),
+                0.5 * (A[:, 0, 2] - A[:, 2, 0]),
+                0.5 * (A[:, 1, 0] - A[:, 0, 1]),
+                *(T_t[:, :3, 3] - T[:, :3, 3]).T,
+            ),
+            axis=1,
+        )
+        Jc = J[:, :, cols]
+        JJt = Jc @ Jc.swapaxes(1, 2) + 1e-12 * np.eye(6)
+        dq = (Jc.swapaxes(1, 2) @ np.linalg.solve(JJt, e[..., None]))[..., 0]
+        Q = Q.copy()
+        Q[:, cols] += dq
+    return Q
+
+
+@dataclass
+class _Outcome:
+    """Internal result of `_solve_arrays` (CSR layout, like ClosedFormBatchResult)."""
+
+    solutions: FloatArray
+    offsets: IntArray
+    count: IntArray
+    singular: BoolArray
+    reasons: list[str]
+    singular_reasons: list[str]
+    n_before_limits: IntArray
+    held_values: FloatArray
+    lane_count: IntArray  # accepted solutions per lane (target × held value), before the limits
+
+    def solutions_of(self, i: int) -> FloatArray:
+        return self.solutions[self.offsets[i] : self.offsets[i + 1]]
+
+
+def _solve_arrays(
+    solver: _Solver,
+    T: FloatArray,
+    seeds: FloatArray,
+    held: FloatArray | None,
+    tol: float,
+    use_limits: bool = True,
+) -> _Outcome:
+    """Every solution for N targets T (N, 4, 4), sorted per target by distance to its seed (N, n).
+
+    `held` (7R arms): (K,) values of the held joint swept for every target, or (N, K) per target.
+    Without `use_limits` solutions are returned in (−π, π] whatever the limits.
+    """
+    chain = solver.chain
+    st = solver.structure
+    n = chain.dof
+    N = T.shape[0]
+    if solver.held is None:
+        g = solver.geometry
+        assert g is not None
+        G = T @ solver.M_inv
+        owner_lane = np.arange(N)
+        held_lane = None
+    else:
+        assert held is not None
+        K = held.shape[-1]
+        owner_lane = np.repeat(np.arange(N), K)  # lane i·K + k: target i, held value k
+        if held.ndim == 1:  # shared values: the geometry of K lanes, tiled over the targets
+            gK, EK = solver.held_geometry(held)
+            g = _tile_lanes(gK, N)
+            E = np.tile(EK, (N, 1, 1))
+            held_lane = np.tile(held, N)
+        else:
+            held_lane = held.reshape(-1)
+            g, E = solver.held_geometry(held_lane)
+        # G = T M⁻¹ e^{−[S_j]θ}: the 6R arm left has home pose e^{[S_j]θ} M.
+        G = T[owner_lane] @ solver.M_inv @ _inverse(E)
+    dflt = seeds[owner_lane][:, solver.keep]
+    if st.reversed:
+        G = _inverse(G)
+        dflt = -dflt[:, ::-1]
+    trace = vector.Trace()
+    Q6, ok = _solve_6r(st, g, G[:, :3, :3], G[:, :3, 3], dflt, trace)
+    if st.reversed:
+        Q6 = -Q6[..., ::-1]
+    L = Q6.shape[0]
+    if held_lane is not None:
+        assert solver.held is not None
+        Q = _insert(Q6, solver.held, held_lane)
+    else:
+        Q = Q6
+    Q = _wrap(Q)
+    free = np.zeros((L, 8), dtype=bool)
+    free_codes = np.full((L, 8), -1)
+    for code, (_, f) in enumerate(trace.frees):
+        free_codes = np.where(f & (free_codes < 0), code, free_codes)
+        free |= f
+    # Forward-kinematics check (refining near misses) on branches that passed every subproblem.
+    flat_Q = Q.reshape(L * 8, n)
+    flat_owner = np.repeat(owner_lane, 8)
+    idx = np.flatnonzero(ok.reshape(-1))
+    acc = np.zeros(L * 8, dtype=bool)
+    if idx.size:
+        Qc = flat_Q[idx]
+        Tt = T[flat_owner[idx]]
+        ep, er = _pose_errors(chain.fk(Qc), Tt)
+        redo = (
+            ((ep > _REFINE_ABOVE * solver.scale) | (er > _REFINE_ABOVE))
+            & (ep < _REFINE_BELOW * solver.scale)
+            & (er < _REFINE_BELOW)
+        )
+        if redo.any():
+            Qr = _wrap(_refine(chain, Qc[redo], Tt[redo], solver.held))
+            ep_r, er_r = _pose_errors(chain.fk(Qr), Tt[redo])
+            better = np.maximum(ep_r / solver.scale, er_r) < np.maximum(
+                ep[redo] / solver.scale, er[redo]
+            )
+            sel = np.flatnonzero(redo)[better]
+            Qc[sel], ep[sel], er[sel] = Qr[better], ep_r[better], er_r[better]
+        flat_Q[idx] = Qc
+        acc[idx] = (ep <= tol) & (er <= tol)
+    acc2 = acc.reshape(L, 8)
+    # One solution once: drop a branch equal (mod 2π) to an earlier accepted one of the same lane.
+    acc2 &= ~_duplicates(flat_Q.reshape(L, 8, n), acc2)
+    lane_count = acc2.sum(axis=1)
+    keep = np.flatnonzero(acc2.reshape(-1))
+    Qk, owner = flat_Q[keep], flat_owner[keep]
+    sing_code = free_codes.reshape(-1)[keep]
+    n_before = np.bincount(owner, minlength=N)
+    if use_limits:
+        Qk, owner, sing_code = _within_limits(chain, Qk, owner, sing_code, seeds)
+    # Sort by target, then by distance to that target's seed.
+    dist = np.linalg.norm(Qk - seeds[owner], axis=1) if Qk.size else np.zeros(0)
+    order = np.lexsort((dist, owner))
+    Qk, owner, sing_code = Qk[order], owner[order], sing_code[order]
+    count = np.bincount(owner, minlength=N).astype(np.int64)
+    offsets = np.zeros(N + 1, dtype=np.int64)
+    np.cumsum(count, out=offsets[1:])
+    singular = np.zeros(N, dtype=bool)
+    np.logical_or.at(singular, owner, sing_code >= 0)
+    # Reasons, for targets without a solution: the first stage at which every branch failed.
+    reasons = [""] * N
+    empty = np.flatnonzero(count == 0)
+    if empty.size:
+        ok_so_far = np.ones((L, 8), dtype=bool)
+        stage_dead: list[tuple[str, BoolArray]] = []
+        for name, f in trace.fails:
+            ok_so_far = ok_so_far & f
+            alive = np.zeros(N, dtype=bool)
+            np.logical_or.at(alive, owner_lane, ok_so_far.any(axis=1))
+            stage_dead.append((name, ~alive))
+        for i in empty:
+            reasons[i] = _reason(stage_dead, int(i), int(n_before[i]), held is not None)
+    singular_reasons = [""] * N
+    for i in np.flatnonzero(singular):
+        codes = np.unique(sing_code[offsets[i] : offsets[i + 1]])
+        singular_reasons[i] = "; ".join(trace.frees[c][0] for c in codes if c >= 0)
+    return _Outcome(
+        Qk,
+        offsets,
+        count,
+        singular,
+        reasons,
+        singular_reasons,
+        n_before,
+        np.empty(0) if held is None else np.asarray(held),
+        lane_count,
+    )
+
+
+_STAGE_ORDER = {
+    "three_parallel": ("shoulder", "wrist", "elbow"),
+    "int12": ("elbow", "shoulder", "wrist"),
+    "par23": ("shoulder", "elbow", "wrist"),
+    "int23": ("shoulder", "elbow", "wrist"),
+    "par12": ("shoulder", "elbow", "wrist"),
+}
+
+
+def _solve_single(
+    solver: _Solver, T: list[list[float]], seed: list[float], tol: float
+) -> tuple[FloatArray, tuple[float, float], str, str]:
+    """One target of a 6R arm with the scalar twin of the solvers (`_closed_form_scalar`).
+
+    Same steps as `_solve_arrays`: candidates, FK check (refining near misses), duplicates out,
+    whole-turn equivalents within the limits, sorted by distance to the seed.
+
+    Returns:
+        solutions (k, n), the (position, rotation) error of the first, the singular reasons ("" if
+        regular), why the set is empty ("" if not).
+    """
+    st, g, chain = solver.structure, solver.scalar_geometry, solver.chain
+    assert g is not None
+    Ta = np.array(T)
+    # G = T M⁻¹, or G⁻¹ = M T⁻¹ for a structure read from the tip.
+    G = (solver.M_arr @ _inverse(Ta[None])[0] if st.reversed else Ta @ solver.M_inv).tolist()
+    R: scalar.Mat = (
+        (G[0][0], G[0][1], G[0][2]), (G[1][0], G[1][1], G[1][2]), (G[2][0], G[2][1], G[2][2])
+    )  # fmt: skip
+    p: scalar.Vec = (G[0][3], G[1][3], G[2][3])
+    d = [-x for x in reversed(seed)] if st.reversed else seed
+    case = st.kind if st.kind == "three_parallel" else st.case
+    stages = scalar.Stages(_STAGE_ORDER[case])
+    if st.kind == "three_parallel":
+        cands = scalar.three_parallel(g, R, p, d, stages)
+    else:
+        cands = scalar.spherical(st.case, g, R, p, d, stages)
+    accepted: list[list[float]] = []
+    errors: list[tuple[float, float]] = []
+    whys: set[str] = set()
+    for q6, why in cands:
+        q = [-x for x in reversed(q6)] if st.reversed else q6
+        q = [x - _TWO_PI * math.ceil((x - math.pi) * _INV_TWO_PI) for x in q]  # into (−π, π]
+        ep, er = _pose_errors_list(chain.fk(q).tolist(), T)
+        if (
+            (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
+            and ep < _REFINE_BELOW * solver.scale
+            and er < _REFINE_BELOW
+        ):
+            qr = _wrap(_refine(chain, np.array([q]), np.array(T)[None], None))[0].tolist()
+            ep_r, er_r = _pose_errors_list(chain.fk(qr).tolist(), T)
+            if max(ep_r / solver.scale, er_r) < max(ep / solver.scale, er):
+                q, ep, er = qr, ep_r, er_r
+        if ep > tol or er > tol:
+            continue
+        q2 = q[2]  # a cheap first test on one joint (branches often share the first joint)
+        if any(
+            (abs(q2 - o[2]) <= _SAME_SOLUTION or abs(abs(q2 - o[2]) - _TWO_PI) <= _SAME_SOLUTION)
+            and _same(q, o)
+            for o in accepted
+        ):
+            continue
+        accepted.append(q)
+        errors.append((ep, er))
+        whys.update(why)
+    none = np.empty((0, chain.dof))
+    if not accepted:
+        return none, (math.inf, math.inf), "", _empty_reason(stages.first_dead(), 0)
+    sols, first = _expand_sorted(solver, accepted, seed)
+    if not sols.shape[0]:
+        return none, (math.inf, math.inf), "", _empty_reason(None, len(accepted))
+    return sols, errors[first], "; ".join(sorted(whys)), ""
+
+
+def _same(a: list[float], b: list[float]) -> bool:
+    """Two solutions with angles in (−π, π] are equal modulo 2π to `_SAME_SOLUTION`."""
+    for x, y in zip(a, b, strict=True):
+        d = abs(x - y)
+        if d > _SAME_SOLUTION and abs(d - _TWO_PI) > _SAME_SOLUTION:
+            return False
+    return True
+
+
+def _empty_reason(dead_stage: str | None, n_before_limits: int) -> str:
+    if dead_stage is not None:
+        return f"unreachable: {_STAGE_TEXT[dead_stage]}"
+    if n_before_limits:
+        k = n_before_limits
+        return (
+            f"{k} solution{'s' if k > 1 else ''} reach the target but none lies within the "
+            "joint limits"
+        )
+    return "unreachable: no candidate reproduced the target by forward kinematics"
+
+
+def _pose_errors_list(A: list[list[float]], B: list[list[float]]) -> tuple[float, float]:
+    """`_pose_errors` of one pose pair given as nested lists: ‖Δp‖ [m], rotation angle [rad]."""
+    a0, a1, a2 = A[0], A[1], A[2]
+    b0, b1, b2 = B[0], B[1], B[2]
+    dp = math.sqrt((a0[3] - b0[3]) ** 2 + (a1[3] - b1[3]) ** 2 + (a2[3] - b2[3]) ** 2)
+    f = 0.0
+    for a, b in ((a0, b0), (a1, b1), (a2, b2)):
+        f += (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 + (a[2] - b[2]) ** 2
+    return dp, 2.0 * math.asin(min(math.sqrt(f) / (2.0 * math.sqrt(2.0)), 1.0))
+
+
+def _expand_sorted(
+    solver: _Solver, accepted: list[list[float]], seed: list[float]
+) -> tuple[FloatArray, int]:
+    """Whole-turn equivalents within the limits (`_equivalents`), nearest the seed first, and the
+    index into `accepted` of the first."""
+    seeds = np.array([seed])
+    Qk, tag = _equivalents(solver, np.array(accepted), seeds)
+    if not Qk.shape[0]:
+        return Qk, 0
+    order = np.argsort(((Qk - seeds) ** 2).sum(axis=1), kind="stable")
+    return Qk[order], int(tag[order[0]])
+
+
+_COMBOS: dict[tuple[int, int], IntArray] = {}
+
+
+def _equivalents(solver: _Solver, Q: FloatArray, seeds: FloatArray) -> tuple[FloatArray, IntArray]:
+    """Every whole-turn equivalent within the limits of a few solutions Q (C, n) in (−π, π] for one
+    seed (1, n): rows, and the index of the solution each comes from. Same rule as
+    `_within_limits`, as one product over joints (at most m equivalents per joint: m^n offsets)."""
+    chain = solver.chain
+    if solver.all_finite:  # the common case: bounds fixed, widened by 1e-10 rad
+        lo, hi = solver.lo_wide, solver.hi_wide
+    else:
+        lo, hi = solver.lo_eff(seeds[0]) - 1e-10, solver.hi_eff(seeds[0]) + 1e-10
+    k_lo = np.ceil((lo - Q) * (1.0 / _TWO_PI))
+    cnt = (np.floor((hi - Q) * (1.0 / _TWO_PI)) - k_lo + 1).astype(np.int64)
+    m = int(cnt.max()) if Q.shape[0] else 0
+    if m <= 1:
+        keep = np.flatnonzero((cnt == 1).all(axis=1))
+        out = Q[keep] + _TWO_PI * k_lo[keep]
+    else:
+        n = chain.dof
+        combos = _COMBOS.get((m, n))
+        if combos is None:
+            combos = np.indices((m,) * n).reshape(n, -1).T.copy()
+            _COMBOS[(m, n)] = combos
+        ok = (combos[None, :, :] < cnt[:, None, :]).all(axis=2)
+        keep, which = np.nonzero(ok)
+        out = Q[keep] + _TWO_PI * (k_lo[keep] + combos[which])
+    return np.clip(out, solver.lower_arr, solver.upper_arr), keep
+
+
+def _wrap1(a: float) -> float:
+    """One angle into (−π, π]."""
+    return a - _TWO_PI * math.ceil((a - math.pi) / _TWO_PI)
+
+
+_STAGE_TEXT = {
+    "shoulder": "the wrist centre is out of reach of the shoulder (too close to joint 1's axis "
+    "for the arm's offsets, or too far)",
+    "elbow": "the wrist centre is out of the arm's reach (too far from or too close to the shoulder)",
+    "wrist": "the wrist cannot take the target orientation at any reachable wrist position",
+}
+
+
+def _reason(stage_dead: list[tuple[str, BoolArray]], i: int, n_before: int, swept: bool) -> str:
+    for name, dead in stage_dead:
+        if dead[i]:
+            text = f"unreachable: {_STAGE_TEXT[name]}"
+            return text + (" for every held-joint value swept" if swept else "")
+    if n_before:
+        return (
+            f"{n_before} solution{'s' if n_before > 1 else ''} reach the target but none lies "
+            "within the joint limits"
+        )
+    return "unreachable: no candidate reproduced the target by forward kinematics"
+
+
+_KEY_WEIGHTS = np.random.default_rng(0).uniform(0.5, 1.0, size=(1, 8))
+
+
+def _duplicates(Q: FloatArray, acc: BoolArray) -> BoolArray:
+    """(L, B) True where a branch equals (mod 2π, to `_SAME_SOLUTION`) an earlier accepted one.
+
+    Branches are wrapped into (−π, π], so equal branches have equal keys Σⱼ aⱼ qⱼ unless an angle
+    sits at ±π; only pairs whose keys agree (or that touch ±π) are compared joint by joint.
+    """
+    n = Q.shape[-1]
+    key = Q @ _KEY_WEIGHTS[0, :n]  # (L, B)
+    key = np.where((np.abs(Q) > math.pi - 1e-6).any(axis=-1), np.nan, key)  # NaN: always compare
+    B = Q.shape[1]
+    gap = np.abs(key[:, :, None] - key[:, None, :])
+    close = (gap <= 8 * _SAME_SOLUTION) | np.isnan(gap)
+    close &= np.tril(np.ones((B, B), dtype=bool), -1) & acc[:, None, :] & acc[:, :, None]
+    dup = np.zeros(acc.shape, dtype=bool)
+    lane, j, i = np.nonzero(close)  # branch j may repeat earlier branch i
+    if lane.size:
+        d = np.abs(Q[lane, j] - Q[lane, i])
+        same = ((d <= _SAME_SOLUTION) | (np.abs(d - _TWO_PI) <= _SAME_SOLUTION)).all(axis=1)
+        dup[lane[same], j[same]] = True
+    return dup
+
+
+def _tile_lanes(g: vector.Geometry, N: int) -> vector.Geometry:
+    """Lane geometry (K lanes) repeated for N targets: lane i·K + k is target i, held value k."""
+
+    def t(a: FloatArray) -> FloatArray:
+        return np.tile(a, (N,) + (1,) * (a.ndim - 1))
+
+    return vector.Geometry(t(g.w), t(g.r), t(g.c), t(g.b), t(g.h), t(g.x), t(g.s), g.scale)
+
+
+def _inverse(T: FloatArray) -> FloatArray:
+    """T⁻¹ = (Rᵀ, −Rᵀp) for (K, 4, 4) rigid transforms."""
+    out = np.zeros_like(T)
+    Rt = T[:, :3, :3].swapaxes(1, 2)
+    out[:, :3, :3] = Rt
+    out[:, :3, 3] = -(Rt @ T[:, :3, 3:4])[..., 0]
+    out[:, 3, 3] = 1.0
+    return out
+
+
+def _insert(Q6: FloatArray, j: int, values: FloatArray) -> FloatArray:
+    """Insert the held joint's value as column j: (L, 8, 6) → (L, 8, 7)."""
+    L = Q6.shape[0]
+    col = np.broadcast_to(values[:, None, None], (L, 8, 1))
+    return np.concatenate((Q6[..., :j], col, Q6[..., j:]), axis=2)
+
+
+def _within_limits(
+    chain: SerialChain, Q: FloatArray, owner: IntArray, tag: IntArray, seeds: FloatArray
+) -> tuple[FloatArray, IntArray, IntArray]:
+    """Every whole-turn equivalent of each solution (angles in (−π, π]) within the limits.
+
+    Joint j of a solution q gives q + 2πk for every integer k with lower ≤ q + 2πk ≤ upper (within
+    1e-10 rad, then clipped); a continuous joint gives the one value within π of the seed.
+    """
+    lo, hi = np.asarray(chain.lower), np.asarray(chain.upper)
+    eps = 1e-10
+    for j in range(chain.dof):
+        if not Q.shape[0]:
+            break
+        qj = Q[:, j]
+        if not (np.isfinite(lo[j]) or np.isfinite(hi[j])):
+            Q[:, j] = qj + _TWO_PI * np.round((seeds[owner, j] - qj) / _TWO_PI)
+            continue
+        lo_j = lo[j] if np.isfinite(lo[j]) else seeds[owner, j] - math.pi
+        hi_j = hi[j] if np.isfinite(hi[j]) else seeds[owner, j] + math.pi
+        k_lo = np.ceil((lo_j - eps - qj) / _TWO_PI)
+        k_hi = np.floor((hi_j + eps - qj) / _TWO_PI)
+        cnt = np.maximum(k_hi - k_lo + 1, 0).astype(np.int64)
+        if np.all(cnt == 1):
+            Q[:, j] = qj + _TWO_PI * k_lo
+            continue
+        rep = np.repeat(np.arange(Q.shape[0]), cnt)
+        start = np.cumsum(cnt) - cnt
+        k = k_lo[rep] + (np.arange(rep.size) - start[rep])
+        Q, owner, tag = Q[rep], owner[rep], tag[rep]
+        Q[:, j] = Q[:, j] + _TWO_PI * k
+    if Q.shape[0]:
+        Q = np.clip(Q, lo, hi)
+    return Q, owner, tag
+
+
+# ---------------------------------------------------------------------- public entry points
+_SOLVERS: weakref.WeakKeyDictionary[SerialChain, _Solver | None] = weakref.WeakKeyDictionary()
+
+
+def _solver(chain: SerialChain) -> _Solver | None:
+    """The chain's detected solver, detected once per chain (the chain is immutable)."""
+    try:
+        return _SOLVERS[chain]
+    except KeyError:
+        solver = detect(chain)
+        _SOLVERS[chain] = solver
+        return solver
+
+
+def family_of(chain: SerialChain) -> ClosedFormFamily | None:
+    """The closed-form family of `chain` with its details, or None where none applies."""
+    solver = _solver(chain)
+    return None if solver is None else solver.family()
+
+
+def _require(chain: SerialChain) -> _Solver:
+    solver = _solver(chain)
+    if solver is None:
+        raise NoClosedFormError(
+            f"no closed-form IK for chain {chain.base_link!r} → {chain.tip_link!r}: "
+            f"{_why_not(chain)}; use chain.ik (numeric) instead"
+        )
+    return solver
+
+
+def _held_values(
+    solver: _Solver, held: ArrayLike | None, n_targets: int | None
+) -> FloatArray | None:
+    """Validated held-joint values [rad]: (K,) shared, or (N, K) per target when `n_targets` is N
+    and `held` has two dimensions. None for 6R arms."""
+    chain = solver.chain
+    if solver.held is None:
+        if held is not None:
+            raise InvalidInputError(
+                f"held is only for 7R arms; this {chain.dof}R arm's family "
+                f"{solver.info.name!r} holds no joint"
+            )
+        return None
+    j = solver.held
+    name = chain.joint_names[j]
+    lo, hi = float(chain.lower[j]), float(chain.upper[j])
+    if held is None:
+        if math.isfinite(lo) and math.isfinite(hi):
+            return np.linspace(lo, hi, DEFAULT_HELD_SAMPLES)
+        return np.linspace(-math.pi, math.pi, DEFAULT_HELD_SAMPLES, endpoint=False)
+    arr = np.atleast_1d(as_float_array(held, "held"))
+    shapes = "one value or (K,) values" + ("" if n_targets is None else f" or ({n_targets}, K)")
+    if arr.size == 0 or not (
+        arr.ndim == 1 or (n_targets is not None and arr.ndim == 2 and arr.shape[0] == n_targets)
+    ):
+        raise InvalidInputError(f"held must be {shapes} of {name} [rad], got shape {arr.shape}")
+    check_finite(arr, "held")
+    if np.any(arr < lo - 1e-12) or np.any(arr > hi + 1e-12):
+        raise InvalidInputError(
+            f"held values of {name} must lie within its limits [{lo:g}, {hi:g}] rad, got "
+            f"{arr[(arr < lo) | (arr > hi)][:5].tolist()}"
+        )
+    return np.clip(arr, lo, hi)
+
+
+def _orthonormal(T: FloatArray) -> FloatArray:
+    """Targets with their rotation projected onto SO(3) (R = U Vᵀ of its SVD) when it is off by
+    more than round-off; check_transform accepts ‖RᵀR − I‖ up to 1e-6."""
+    R = T[:, :3, :3]
+    err = np.abs(R.swapaxes(1, 2) @ R - np.eye(3)).max()
+    if err <= 1e-13:
+        return T
+    U, _, Vt = np.linalg.svd(R)
+    out = T.copy()
+    out[:, :3, :3] = U @ Vt
+    return out
+
+
+def _exact_transform(T: object) -> list[list[float]] | None:
+    """T as nested lists if it is a float (4, 4) array with a last row (0, 0, 0, 1), finite, and a
+    rotation orthonormal to round-off (‖RᵀR − I‖ ≤ 1e-13, det R > 0); else None, and the caller
+    runs the full `check_transform` (which explains what is wrong) and projects R onto SO(3)."""
+    if not isinstance(T, np.ndarray) or T.shape != (4, 4) or T.dtype != np.float64:
+        return None
+    Tl: list[list[float]] = T.tolist()
+    if Tl[3] != [0.0, 0.0, 0.0, 1.0] or not all(math.isfinite(x) for row in Tl for x in row):
+        return None
+    c = [[Tl[0][i], Tl[1][i], Tl[2][i]] for i in range(3)]  # columns of R
+    for i in range(3):
+        for j in range(i, 3):
+            d = c[i][0] * c[j][0] + c[i][1] * c[j][1] + c[i][2] * c[j][2] - (i == j)
+            if abs(d) > 1e-13:
+                return None
+    x = c[0][1] * c[1][2] - c[0][2] * c[1][1]
+    y = c[0][2] * c[1][0] - c[0][0] * c[1][2]
+    z = c[0][0] * c[1][1] - c[0][1] * c[1][0]
+    if x * c[2][0] + y * c[2][1] + z * c[2][2] <= 0:
+        return None
+    return Tl
+
+
+def _check_tolerance(tolerance: float) -> float:
+    if not isinstance(tolerance, (int, float)) or not (0 < tolerance < 1e-2):
+        raise InvalidInputError(
+            f"tolerance must be a number in (0, 0.01) [m and rad], got {tolerance!r}"
+        )
+    return float(tolerance)
+
+
+def solve_all(
+    chain: SerialChain,
+    T_target: ArrayLike,
+    q_seed: ArrayLike | None = None,
+    held: ArrayLike | None = None,
+    tolerance: float = 1e-9,
+) -> ClosedFormResult:
+    """Every joint solution q within the limits with T_base_tip(q) = T_target, in closed form.
+
+    Args:
+        chain: a chain with a closed-form family (`family_of(chain)` is not None).
+        T_target: (4, 4) tip pose in the base frame.
+        q_seed: (n,) reference: solutions are sorted by ‖q − q_seed‖ and an angle that a singular
+            target leaves undetermined takes its value from it. Default: the middle of the limits.
+        held: 7R arms only: the held joint's value(s) [rad], scalar or (K,); default
+            `DEFAULT_HELD_SAMPLES` values spread evenly over its limits.
+        tolerance: a solution must reproduce the target to this, in position [m] and rotation
+            angle [rad].
+
+    Returns:
+        `ClosedFormResult`: `solutions` all solutions, nearest the seed first (empty if none, with
+        the reason in `message`); `singular` flags singular targets.
+
+    Raises:
+        NoClosedFormError: the chain has no closed-form family (the message says what is missing).
+        InvalidInputError: bad target, seed, held values or tolerance.
+    """
+    from .ik import _seed  # the seed rules of `ik`: validated, clamped into the limits
+
+    solver = _require(chain)
+    tol = _check_tolerance(tolerance)
+    Tl = _exact_transform(T_target)  # fast path for a clean 4×4 array
+    if Tl is None:
+        T = chain.check_target(T_target)
+        if T.shape != (4, 4):
+            raise InvalidInputError(
+                f"T_target must have shape (4, 4) (use ik_all_batch for many), got {T.shape}"
+            )
+        Tl = _orthonormal(T[None])[0].tolist()
+    if q_seed is None:
+        seed = solver.default_seed
+    else:
+        seed = _seed(chain, q_seed, "q_seed", None)
+    held_arr = _held_values(solver, held, None)
+    family = solver.info
+    if solver.held is None:
+        sol_arr, (ep, er), singular_why, reason = _solve_single(solver, Tl, seed.tolist(), tol)
+        held_used = np.empty(0)
+    else:
+        out = _solve_arrays(solver, np.array([Tl]), seed[None], held_arr, tol)
+        sol_arr, held_used = out.solutions, out.held_values
+        singular_why = out.singular_reasons[0] if out.singular[0] else ""
+        reason = out.reasons[0]
+        ep = er = math.inf
+        if sol_arr.shape[0]:
+            ep, er = _pose_errors_list(chain.fk(sol_arr[0]).tolist(), Tl)
+    k = sol_arr.shape[0]
+    if k:
+        q = sol_arr[0]
+        msg = f"{k} solution{'s' if k > 1 else ''} ({family.name}), nearest the seed first"
+        if held_arr is not None:
+            msg += f"; {held_arr.size} value{'s' if held_arr.size > 1 else ''} of {family.held_joint} swept"
+        if singular_why:
+            msg += (
+                f"; singular target: {singular_why} — the undetermined joint values "
+                "were taken from the seed"
+            )
+    else:
+        q = seed
+        ep, er = _pose_errors_list(chain.fk(seed).tolist(), Tl)
+        msg = reason
+    sol_arr.setflags(write=False)
+    return ClosedFormResult(
+        q=_readonly(q),
+        success=bool(k),
+        position_error=float(ep),
+        orientation_error=float(er),
+        iterations=0,
+        restarts=0,
+        solutions=tuple(sol_arr),  # rows of a read-only array are read-only views
+        message=msg,
+        singular=bool(singular_why),
+        family=family.name,
+        held_values=_readonly(held_used),
+    )
+
+
+def solve_all_batch(
+    chain: SerialChain,
+    T_targets: ArrayLike,
+    q_seeds: ArrayLike | None = None,
+    held: ArrayLike | None = None,
+    tolerance: float = 1e-9,
+) -> ClosedFormBatchResult:
+    """`solve_all` for N targets at once, vectorised over targets (and held values).
+
+    Args:
+        T_targets: (N, 4, 4) tip poses in the base frame. q_seeds: (N, n) or None (middle of the
+            limits). held (7R arms): one value, (K,) values swept for every target, or (N, K)
+            values per target [rad]. tolerance: as in `solve_all`.
+
+    Raises:
+        NoClosedFormError, InvalidInputError: as `solve_all`.
+    """
+    from .ik import _seed
+
+    solver = _require(chain)
+    tol = _check_tolerance(tolerance)
+    T = chain.check_target(T_targets, "T_targets")
+    if T.ndim != 3:
+        raise InvalidInputError(f"T_targets must have shape (N, 4, 4), got {T.shape}")
+    N = T.shape[0]
+    seeds = _seed(chain, q_seeds, "q_seeds", N)
+    held_arr = _held_values(solver, held, N)
+    out = _solve_arrays(solver, _orthonormal(T), seeds, held_arr, tol)
+    success = out.count > 0
+    q = seeds.copy()
+    q[success] = out.solutions[out.offsets[:-1][success]]
+    n_ok = int(success.sum())
+    msg = (
+        f"{n_ok}/{N} targets solved ({solver.info.name}), {out.solutions.shape[0]} solutions, "
+        f"{int(out.singular.sum())} singular"
+    )
+    return ClosedFormBatchResult(
+        q=_readonly(q),
+        success=_readonly(success, np.bool_),
+        count=_readonly(out.count, np.int64),
+        offsets=_readonly(out.offsets, np.int64),
+        solutions=_readonly(out.solutions),
+        singular=_readonly(out.singular, np.bool_),
+        message=msg,
+    )
+
+
+def _readonly(a: ArrayLike, dtype: type = np.float64) -> NDArray:  # type: ignore[type-arg]
+    arr: NDArray = np.array(a, dtype=dtype)  # type: ignore[type-arg]
+    arr.setflags(write=False)
+    return arr
+
+
+__all__ = [
+    "ANGLE_TOLERANCE",
+    "DEFAULT_HELD_SAMPLES",
+    "DISTANCE_TOLERANCE",
+    "ClosedFormBatchResult",
+    "ClosedFormFamily",
+    "ClosedFormResult",
+    "family_of",
+    "solve_all",
+    "solve_all_batch",
+]
