@@ -410,7 +410,7 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
 
 def _ik_all(
     args: argparse.Namespace, chain: SerialChain, T: np.ndarray, seed: np.ndarray | None
-) -> dict[str, Any] | str:
+) -> Output:
     """`ik --all`: every closed-form solution, nearest the seed first (7R arms: held joint swept)."""
     res = chain.ik_all(T, q_seed=seed)
     data = {
@@ -425,13 +425,13 @@ def _ik_all(
         print(dump_json(data) if args.json else f"not solved: {res.message}")
         raise CliError(f"no solution: {res.message}")
     if args.json:
-        return data
+        return [data]
     rows = [res.message, f"columns [rad]: {', '.join(chain.joint_names)}"]
     rows += [
         f"{i:>4}  " + " ".join(f"{x:10.6f}" for x in sol)
         for i, sol in enumerate(data["solutions"], 1)
     ]
-    return "\n".join(rows)
+    return ["\n".join(rows)]
 
 
 def _ik_text(d: dict[str, Any]) -> str:

@@ -3,8 +3,9 @@
 Conventions: twists and Jacobian rows (ω, v) as in Modern Robotics; quaternions (x, y, z, w);
 lengths in m, angles in rad. See docs/conventions.md.
 
-The IK names (`IKOptions`, `IKResult`, `IKBatchResult`) are imported on first use (PEP 562): the
-solver needs scipy.linalg, whose import costs more than numpy's, and FK/Jacobians do not need it.
+The IK names (`IKOptions`, `IKResult`, `IKBatchResult` and the closed-form results) are imported
+on first use (PEP 562): the solver needs scipy.linalg, whose import costs more than numpy's, and
+FK/Jacobians do not need it.
 """
 
 from __future__ import annotations
@@ -19,7 +20,6 @@ from .analysis import (
     manipulability_ellipsoid,
 )
 from .chain import ChainSpec, JointModel, SerialChain
-from .closed_form import ClosedFormBatchResult, ClosedFormFamily, ClosedFormResult
 from .exceptions import (
     InvalidInputError,
     KinematicsError,
@@ -29,9 +29,11 @@ from .exceptions import (
 )
 
 if TYPE_CHECKING:
+    from .closed_form import ClosedFormBatchResult, ClosedFormFamily, ClosedFormResult
     from .ik import IKBatchResult, IKOptions, IKResult
 
 _LAZY_IK = ("IKBatchResult", "IKOptions", "IKResult")
+_LAZY_CLOSED_FORM = ("ClosedFormBatchResult", "ClosedFormFamily", "ClosedFormResult")
 
 
 def __getattr__(name: str) -> Any:
@@ -39,6 +41,10 @@ def __getattr__(name: str) -> Any:
         from . import ik
 
         return getattr(ik, name)
+    if name in _LAZY_CLOSED_FORM:
+        from . import closed_form
+
+        return getattr(closed_form, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
