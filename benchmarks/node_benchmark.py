@@ -400,6 +400,7 @@ def main() -> None:
     parser.add_argument("--soak", type=float, default=0.0,
                         help="also run our node at 1 kHz this long [s] and compare its resident "
                         "memory after 1 minute with the end (the issue asks for 600)")
+    parser.add_argument("--soak-only", action="store_true", help="run only the memory soak")
     parser.add_argument("--json", help="write every figure to this file")
     args = parser.parse_args()
 
@@ -430,7 +431,7 @@ def main() -> None:
     ]
     with tempfile.TemporaryDirectory(prefix="node_bench_") as tmp:
         directory = Path(tmp)
-        for label, kind, arm, rate, extra in phases:
+        for label, kind, arm, rate, extra in [] if args.soak_only else phases:
             system = System(kind, arm, env, directory)
             try:
                 results[label] = run_phase(system, rate, args.seconds, env, directory, **extra)

@@ -1,0 +1,76 @@
+"""The live node under concurrent IK clients: timeouts hold, queue time included (a module of its
+own: it starts its own node, with 2 workers, and no other node may serve compute_ik meanwhile)."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+from kinematics_service.srv import ComputeIK
+from live_node import ROBOTS, ur5e_description
+from test_node_services import ik_request
+
+from kinematics_node.core import SerialChain
+
+CHAIN = SerialChain.from_urdf(ROBOTS / "ur5e.urdf")
+
+
+def test_ik_timeouts_hold_with_four_clients_at_once(client, start_node):
+    """4 clients call compute_ik back to back (200 ms timeouts, every third target unreachable)
+    on a node with only 2 IK workers, so requests queue behind unreachable ones that use their
+    whole timeout. Every answer still arrives by its timeout (+ 100 ms of slack for this shared
+    machine; without counting queue time it would come after up to twice the timeout), nothing
+    unreachable is reported solved, and a reachable target that is not solved says it waited for
+    a worker. The figures under load (default workers, +20 ms) are benchmarks/node_benchmark.py's."""
+    from rclpy.node import Node
+
+    start_node(robot_description=ur5e_description(), ik__workers=2)
+    timeout = 0.2
+    lo, hi = CHAIN.lower, CHAIN.upper
+    late, wrong, unexplained, solved = [], [], [], [0]
+    answered = [0]
+    nodes = [Node(f"ik_client_{k}", context=client.context) for k in range(4)]
+    for n in nodes:
+        client.executor.add_node(n)  # spun by the client's executor thread
+
+    def run(k: int) -> None:
+        cli = nodes[k].create_client(ComputeIK, "compute_ik")
+        assert cli.wait_for_service(timeout_sec=10.0)
+        rng = np.random.default_rng(k)
+        for i in range(6):
+            unreachable = (i + k) % 3 == 0
+            T = CHAIN.fk(rng.uniform(lo, hi))
+            if unreachable:
+                T[:3, 3] = [3.0, 0.0, 0.5]  # 3 m out: beyond the UR5e's 0.85 m reach
+            t0 = time.monotonic()
+            future = cli.call_async(ik_request(T, timeout=timeout))
+            done = threading.Event()
+            future.add_done_callback(lambda _, done=done: done.set())
+            assert done.wait(5.0), "no IK answer within 5 s"
+            elapsed = time.monotonic() - t0
+            resp = future.result()
+            answered[0] += 1
+            if elapsed > timeout + 0.1:
+                late.append((round(elapsed, 4), unreachable, resp.message[:80]))
+            if unreachable and resp.success:
+                wrong.append(resp.message)
+            if not unreachable:
+                if resp.success:
+                    solved[0] += 1
+                elif "IK worker" not in resp.message:
+                    unexplained.append(resp.message)
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(60)
+    for n in nodes:
+        client.executor.remove_node(n)
+        n.destroy_node()
+    assert answered[0] == 24
+    assert not wrong, f"unreachable targets reported solved: {wrong}"
+    assert not late, f"{len(late)} answers later than the timeout + 100 ms: {late}"
+    assert not unexplained, f"reachable targets failed without a reason: {unexplained}"
+    assert solved[0] >= 8, f"only {solved[0]} of 16 reachable targets solved"
