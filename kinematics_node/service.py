@@ -114,6 +114,7 @@ class PendingIK:
     joint_names: tuple[str, ...]
     stamp: Any
     options: IKOptions
+    note: str = ""  # why the target cannot be reached, when that is known beforehand
 
 
 class KinematicsService:
@@ -400,6 +401,7 @@ class KinematicsService:
         T_base_frame = self._frame_pose(model, frame, current)
         T_base_target = T_base_frame @ T_frame_target
         options = _ik_options(request, params)
+        note = _out_of_reach(chain, T_base_target, options)
         seed = request.seed
         q_seed = None
         if len(seed.name) > 0 or all(
@@ -413,7 +415,7 @@ class KinematicsService:
             self._chain_blobs[(chain.base_link, chain.tip_link)] = cached
         key, blob = cached
         job = IKJob(key, blob, T_base_target, q_seed, options, arrival + options.timeout)
-        return PendingIK(job, chain.joint_names, request.target.header.stamp, options)
+        return PendingIK(job, chain.joint_names, request.target.header.stamp, options, note)
 
     def _finish_ik(self, pending: PendingIK, outcome: IKOutcome, response: Any) -> str | None:
         options = pending.options
@@ -439,6 +441,8 @@ class KinematicsService:
             else f"tolerances ({options.position_tolerance:g} m, "
             f"{options.orientation_tolerance:g} rad)"
         )
+        if pending.note:
+            return f"no solution: {pending.note} (best position error {response.position_error:.3g} m)"
         if outcome.q is None:
             return f"no solution within {options.timeout:g} s ({outcome.message})"
         return (
@@ -545,6 +549,24 @@ class KinematicsService:
         return types.DiagnosticArray(
             header=types.Header(stamp=time_from_seconds(types, now), frame_id=""), status=[status]
         )
+
+
+def _out_of_reach(chain: SerialChain, T_base_target: FloatArray, options: IKOptions) -> str:
+    """Why the target position is beyond every configuration (`chain.reach_sphere`), or "": told
+    to the user when the search fails. (The search still runs: its best configuration, the arm
+    stretched towards the target, is the answer's solution.)"""
+    if options.axis_tolerances is not None:
+        slack = max(options.axis_tolerances[3:])  # inf when a position axis is free
+    else:
+        slack = options.position_tolerance
+    center, radius = chain.reach_sphere
+    distance = float(np.linalg.norm(T_base_target[:3, 3] - center))
+    if distance <= radius + slack:
+        return ""
+    return (
+        f"the target is {distance:.3f} m from the first joint of {chain.base_link} -> "
+        f"{chain.tip_link}, which reaches at most {radius:.3f} m"
+    )
 
 
 def _short(exc: BaseException, limit: int = 200) -> str:

@@ -303,6 +303,28 @@ class SerialChain:
         """Mask of joints without position limits (wrapped to the seed by IK)."""
         return np.isinf(self.lower) & np.isinf(self.upper)
 
+    @cached_property
+    def reach_sphere(self) -> tuple[FloatArray, float]:
+        """(c, R): every tip position lies within R [m] of c, a point of the base frame [m].
+
+        c is the origin of the first joint's frame, which no joint moves. Joint k turns about (or
+        slides along) an axis through its frame's origin o_k, so a revolute joint keeps
+        |o_{k+1} − o_k| constant and a prismatic one changes it by at most its travel: the
+        triangle inequality along the chain gives R = Σ |o_{k+1} − o_k| at home (o_{n+1} = the
+        tip) + the prismatic travels. An upper bound, cheap to test: a target farther than R from
+        c is out of reach. R is inf when a prismatic joint has no limits (or follows a mimic
+        leader, whose travel this does not bound).
+        """
+        A = self._kernel.A
+        radius = float(np.sum(np.linalg.norm(A[1:, :3, 3], axis=1)))
+        for k, prismatic in enumerate(self._kernel.prismatic):
+            if not prismatic:
+                continue
+            if self._mimic_index is not None:
+                return _readonly(A[0, :3, 3]), math.inf
+            radius += float(max(abs(self.lower[k]), abs(self.upper[k])))
+        return _readonly(A[0, :3, 3]), radius
+
     def __repr__(self) -> str:
         return (
             f"SerialChain({self.base_link!r} → {self.tip_link!r}, dof={self.dof}, "
