@@ -60,11 +60,21 @@ def _init_rclpy() -> Any:
     return rclpy
 
 
+def _spin_until_sigint(node: Any) -> None:
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+
+
 def role_echo() -> None:
     """The bare echo node: JointState in, PoseStamped (same stamp) out."""
     rclpy = _init_rclpy()
     from geometry_msgs.msg import PoseStamped
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     from rclpy.qos import qos_profile_sensor_data
     from sensor_msgs.msg import JointState
 
@@ -79,12 +89,7 @@ def role_echo() -> None:
         pub.publish(out)
 
     node.create_subscription(JointState, "joint_states", echo, qos_profile_sensor_data)
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+    _spin_until_sigint(node)
 
 
 def role_publisher(names: list[str], rate: float, seconds: float, out: str) -> None:
@@ -129,7 +134,6 @@ def role_receiver(out: str) -> None:
     """Records (stamp, arrival) of every ee_pose and ee_twist until SIGINT; writes them."""
     rclpy = _init_rclpy()
     from geometry_msgs.msg import PoseStamped, TwistStamped
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
     from rclpy.qos import QoSProfile
 
     node = rclpy.create_node("bench_receiver")
@@ -146,12 +150,7 @@ def role_receiver(out: str) -> None:
 
     node.create_subscription(PoseStamped, "ee_pose", recorder("pose"), QoSProfile(depth=1000))
     node.create_subscription(TwistStamped, "ee_twist", recorder("twist"), QoSProfile(depth=1000))
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+    _spin_until_sigint(node)
     Path(out).write_text(json.dumps(got))
 
 

@@ -20,6 +20,7 @@ from typing import Any
 
 import pytest
 
+from kinematics_node.core import SerialChain
 from kinematics_node.ros_env import (
     executable,
     keep_discovery_local,
@@ -30,14 +31,7 @@ from kinematics_node.ros_env import (
 ROOT = Path(__file__).resolve().parents[2]
 ROBOTS = ROOT / "config" / "robots"
 UR5E = ROBOTS / "ur5e.urdf"
-UR5E_JOINTS = (
-    "shoulder_pan_joint",
-    "shoulder_lift_joint",
-    "elbow_joint",
-    "wrist_1_joint",
-    "wrist_2_joint",
-    "wrist_3_joint",
-)
+UR5E_JOINTS = SerialChain.from_urdf(UR5E).joint_names
 
 _REASON = unavailable_reason()
 if _REASON is not None:
