@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from .core import SerialChain
-from .core.chain import ChainSpec, JointModel
+from .core.model import ChainSpec, JointModel
 
 FORMAT = "kinematics-chain-cache-1"
 

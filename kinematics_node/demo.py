@@ -77,7 +77,7 @@ def run_demo(robot: str, duration: float, rate: float, n_ik: int, stream: TextIO
 
     chain = load_robot(robot)
     sim = ArmSimulator.from_chain(chain, dt=1.0 / rate)
-    tracker = JointStateTracker(chain.joint_names, chain.continuous)
+    tracker = JointStateTracker(chain.joint_names, chain.continuous.tolist())
     steps = int(round(duration * rate))
     if steps < 2:
         raise ValueError(f"duration × rate gives {steps} steps; need at least 2")

@@ -19,7 +19,7 @@ from .analysis import (
     manipulability,
     manipulability_ellipsoid,
 )
-from .chain import ChainSpec, JointModel, SerialChain
+from .chain import SerialChain
 from .exceptions import (
     InvalidInputError,
     KinematicsError,
@@ -27,6 +27,7 @@ from .exceptions import (
     RobotDescriptionError,
     UnknownNameError,
 )
+from .model import ChainSpec, JointModel
 
 if TYPE_CHECKING:
     from .closed_form import ClosedFormBatchResult, ClosedFormFamily, ClosedFormResult

@@ -23,8 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from .chain import ChainSpec, JointModel, frame_aligned_with
 from .exceptions import RobotDescriptionError, UnknownNameError
+from .model import ChainSpec, JointModel, frame_aligned_with
 
 _MOVING = ("revolute", "continuous", "prismatic")
 _AXIS_TOLERANCE = 1e-4  # URDFs often print axes with 4–6 digits, e.g. "0 0.7071 0.7071"
@@ -43,7 +43,7 @@ _BOMS = (
 )
 
 
-def _short(text: str, limit: int = 60) -> str:
+def shorten(text: str, limit: int = 60) -> str:
     """`text` for an error message: one line, at most `limit` characters."""
     text = " ".join(str(text).split())
     return text if len(text) <= limit else text[: limit - 1] + "…"
@@ -74,7 +74,7 @@ def decode_xml(data: bytes, where: str = "robot description") -> str:
                 codecs.lookup(encoding)
             except LookupError:
                 raise RobotDescriptionError(
-                    f"{where} declares an unknown encoding {_short(encoding)!r}"
+                    f"{where} declares an unknown encoding {shorten(encoding)!r}"
                 ) from None
     try:
         text = data.decode(encoding)
@@ -128,10 +128,10 @@ def read_description(path_or_xml: str | bytes | PathLike[str]) -> str:
                 data = fh.read()
         except (OSError, ValueError) as exc:  # ValueError: a NUL character in the path
             raise RobotDescriptionError(
-                f"cannot read robot description {_short(filename)!r}: "
+                f"cannot read robot description {shorten(filename)!r}: "
                 f"{_one_line(getattr(exc, 'strerror', None) or exc)}"
             ) from None
-        text = decode_xml(data, f"robot description {_short(filename)!r}")
+        text = decode_xml(data, f"robot description {shorten(filename)!r}")
     else:
         text = _drop_encoding_declaration(str(path_or_xml))
     root = _parse(text, filename)
@@ -140,7 +140,7 @@ def read_description(path_or_xml: str | bytes | PathLike[str]) -> str:
         root = _parse(text, filename)
     if root.tag != "robot":
         raise RobotDescriptionError(
-            f"expected a <robot> root element, got <{_short(str(root.tag), 40)}>"
+            f"expected a <robot> root element, got <{shorten(str(root.tag), 40)}>"
         )
     return text
 
@@ -149,7 +149,7 @@ def _parse(text: str, filename: str | None) -> ET.Element:
     try:
         return ET.fromstring(text)
     except ET.ParseError as exc:
-        where = f" in {_short(filename)!r}" if filename else ""
+        where = f" in {shorten(filename)!r}" if filename else ""
         raise RobotDescriptionError(f"malformed XML{where}: {_one_line(exc)}") from None
     except (ValueError, RecursionError) as exc:  # e.g. nesting deeper than the parser allows
         raise RobotDescriptionError(f"unusable XML: {_one_line(exc)}") from None
@@ -199,7 +199,7 @@ def _numbers(el: ET.Element, attr: str, what: str, count: int | None = 3) -> lis
     raw = el.get(attr)
     if raw is None:
         return None
-    shown = f'<{el.tag} {attr}="{_short(raw, 40)}">'
+    shown = f'<{el.tag} {attr}="{shorten(raw, 40)}">'
     try:
         values = [float(v) for v in raw.split()]
     except ValueError:
@@ -224,21 +224,21 @@ def check_kinematic_elements(root: ET.Element) -> None:
         if not name:
             raise RobotDescriptionError(f"<link> number {k} has no name attribute")
         if name in link_names:
-            raise RobotDescriptionError(f"link {_short(name)!r} is defined twice")
+            raise RobotDescriptionError(f"link {shorten(name)!r} is defined twice")
         link_names.add(name)
     joint_names: set[str] = set()
     for k, j in enumerate(root.findall("joint"), start=1):
         name = j.get("name")
         if not name:
             raise RobotDescriptionError(f"<joint> number {k} has no name attribute")
-        what = f"joint {_short(name)!r}"
+        what = f"joint {shorten(name)!r}"
         if name in joint_names:
             raise RobotDescriptionError(f"{what} is defined twice")
         joint_names.add(name)
         jtype = j.get("type")
         if jtype not in _JOINT_TYPES:
             raise RobotDescriptionError(
-                f"{what} has type {_short(str(jtype), 40)!r}; expected one of {', '.join(_JOINT_TYPES)}"
+                f"{what} has type {shorten(str(jtype), 40)!r}; expected one of {', '.join(_JOINT_TYPES)}"
             )
         for role in ("parent", "child"):
             el = j.find(role)
@@ -264,11 +264,11 @@ def check_kinematic_elements(root: ET.Element) -> None:
                     value = float(raw)
                 except ValueError:
                     raise RobotDescriptionError(
-                        f'{what}: <limit {attr}="{_short(raw, 40)}"> must be a number'
+                        f'{what}: <limit {attr}="{shorten(raw, 40)}"> must be a number'
                     ) from None
                 if math.isnan(value) or (attr in ("velocity", "effort") and value < 0):
                     raise RobotDescriptionError(
-                        f'{what}: <limit {attr}="{_short(raw, 40)}"> must be '
+                        f'{what}: <limit {attr}="{shorten(raw, 40)}"> must be '
                         + ("a number" if math.isnan(value) else "≥ 0")
                     )
         mimic = j.find("mimic")
