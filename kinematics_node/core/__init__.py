@@ -14,10 +14,13 @@ from typing import TYPE_CHECKING, Any
 
 from . import rotations, se3, so3
 from .analysis import (
+    Conditioning,
     condition_number,
+    conditioning,
     is_near_singular,
     manipulability,
     manipulability_ellipsoid,
+    singular_values,
 )
 from .chain import SerialChain
 from .exceptions import (
@@ -54,6 +57,7 @@ __all__ = [
     "ClosedFormBatchResult",
     "ClosedFormFamily",
     "ClosedFormResult",
+    "Conditioning",
     "IKBatchResult",
     "IKOptions",
     "IKResult",
@@ -65,10 +69,12 @@ __all__ = [
     "SerialChain",
     "UnknownNameError",
     "condition_number",
+    "conditioning",
     "is_near_singular",
     "manipulability",
     "manipulability_ellipsoid",
     "rotations",
     "se3",
+    "singular_values",
     "so3",
 ]

@@ -168,4 +168,3 @@ class IKProblem:
         else:
             ok = (pos <= self.opts.position_tolerance) & (ori <= self.opts.orientation_tolerance)
         return E, e, pos, ori, ok, J * self.sw[None, :, None]
-
