@@ -119,10 +119,10 @@ def peer_kdl(chain: SerialChain) -> dict[str, Callable[[np.ndarray], np.ndarray 
         R = kdl.Rotation(*A[:3, :3].ravel().tolist())
         return kdl.Frame(R, kdl.Vector(*A[:3, 3].tolist()))
 
-    A = chain._kernel.A
+    A = chain.solver_model.kernel.A
     kchain = kdl.Chain()
     kchain.addSegment(kdl.Segment(kdl.Joint(kdl.Joint.Fixed), frame(A[0])))
-    for k, prism in enumerate(chain._kernel.prismatic):
+    for k, prism in enumerate(chain.solver_model.kernel.prismatic):
         jt = kdl.Joint(kdl.Joint.TransZ if prism else kdl.Joint.RotZ)
         kchain.addSegment(kdl.Segment(jt, frame(A[k + 1])))
     n = chain.dof
@@ -200,9 +200,9 @@ def peer_rtb(chain: SerialChain) -> Callable[[np.ndarray], np.ndarray | None] | 
         from roboticstoolbox import ET
     except Exception as exc:  # noqa: BLE001 - any import failure means "skip"
         return f"roboticstoolbox not importable ({type(exc).__name__}: {exc})"
-    A = chain._kernel.A
+    A = chain.solver_model.kernel.A
     ets = ET.SE3(A[0])
-    for k, prism in enumerate(chain._kernel.prismatic):
+    for k, prism in enumerate(chain.solver_model.kernel.prismatic):
         lim = [float(chain.lower[k]), float(chain.upper[k])]
         ets = ets * (ET.tz(qlim=lim) if prism else ET.Rz(qlim=lim)) * ET.SE3(A[k + 1])
     robot = rtb.Robot(ets)
@@ -238,9 +238,9 @@ def peer_ikpy(chain: SerialChain) -> Callable[[np.ndarray], np.ndarray | None] |
         return "ikpy not installed (pip install ikpy)"
     from kinematics_node.core.rotations import rpy_from_matrix
 
-    A = chain._kernel.A
+    A = chain.solver_model.kernel.A
     links = [OriginLink()]
-    for k, prism in enumerate(chain._kernel.prismatic):
+    for k, prism in enumerate(chain.solver_model.kernel.prismatic):
         axis = np.array([0.0, 0.0, 1.0])
         links.append(
             URDFLink(

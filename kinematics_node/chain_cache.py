@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from .core import SerialChain
-from .core.chain import ChainSpec, JointModel
+from .core.model import ChainSpec, JointModel
 
 FORMAT = "kinematics-chain-cache-1"
 
@@ -58,11 +58,11 @@ def chain_from_urdf_file(
         return SerialChain.from_spec(_spec_from_json(json.loads(entry.read_text("utf-8"))))
     except (OSError, ValueError, KeyError, TypeError, IndexError):
         pass  # no entry yet, or an unreadable one: parse and (re)write it
-    from .core.urdf import decode_xml, read_description, spec_from_urdf
+    from .core.urdf import RobotDescription, decode_xml
 
-    text = read_description(path)  # errors name the file
-    spec = spec_from_urdf(text, base, tip)
-    if text == decode_xml(data):  # no xacro expansion took place
+    description = RobotDescription(path)  # errors name the file
+    spec = description.chain_spec(base, tip)
+    if description.xml == decode_xml(data):  # no xacro expansion took place
         _write(directory, entry, _spec_to_json(spec))
     return SerialChain.from_spec(spec)
 

@@ -93,7 +93,7 @@ def load_chain(args: argparse.Namespace) -> SerialChain:
 
         return chain_from_urdf_file(args.urdf, args.base, args.tip)
     if args.dh:
-        from .core.urdf import _short
+        from .core.urdf import shorten
 
         try:
             with open(args.dh, "rb") as fh:
@@ -101,7 +101,7 @@ def load_chain(args: argparse.Namespace) -> SerialChain:
         except OSError as exc:
             raise CliError(f"cannot read DH table {_shown(args.dh)}: {exc.strerror}") from None
         except (ValueError, RecursionError) as exc:  # JSONDecodeError, UnicodeDecodeError
-            raise CliError(f"DH table {_shown(args.dh)} is not JSON: {_short(str(exc))}") from None
+            raise CliError(f"DH table {_shown(args.dh)} is not JSON: {shorten(str(exc))}") from None
         return SerialChain.from_dh(table)
     from .chain_cache import chain_from_urdf_file
     from .robots import default_chain_links, robot_path
@@ -429,7 +429,7 @@ def _ik_all(
     rows = [res.message, f"columns [rad]: {', '.join(chain.joint_names)}"]
     rows += [
         f"{i:>4}  " + " ".join(f"{x:10.6f}" for x in sol)
-        for i, sol in enumerate(data["solutions"], 1)
+        for i, sol in enumerate(res.solutions, 1)
     ]
     return ["\n".join(rows)]
 

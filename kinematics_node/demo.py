@@ -17,6 +17,8 @@ from typing import TextIO
 import numpy as np
 
 from .core import IKOptions, SerialChain
+from .core.analysis import singular_values
+from .core.model import middle_of_limits
 from .ee_state import JointStateTracker, compute_ee_state, conditioning
 
 
@@ -77,7 +79,7 @@ def run_demo(robot: str, duration: float, rate: float, n_ik: int, stream: TextIO
 
     chain = load_robot(robot)
     sim = ArmSimulator.from_chain(chain, dt=1.0 / rate)
-    tracker = JointStateTracker(chain.joint_names, chain.continuous)
+    tracker = JointStateTracker(chain.joint_names, chain.continuous.tolist())
     steps = int(round(duration * rate))
     if steps < 2:
         raise ValueError(f"duration × rate gives {steps} steps; need at least 2")
@@ -102,10 +104,7 @@ def run_demo(robot: str, duration: float, rate: float, n_ik: int, stream: TextIO
     w, rank = movable_manipulability(chain, q_arr)
     ik_rows = []
     options = IKOptions(timeout=0.05, rng_seed=0)
-    limited = np.isfinite(chain.lower) & np.isfinite(chain.upper)
-    seed = np.where(
-        limited, 0.5 * (np.where(limited, chain.lower, 0) + np.where(limited, chain.upper, 0)), 0.0
-    )
+    seed = middle_of_limits(chain.lower, chain.upper)
     ik_targets = []
     for k in np.linspace(0, steps - 1, n_ik).astype(int):
         target = chain.fk(q_arr[k])
@@ -133,7 +132,7 @@ def movable_manipulability(chain: SerialChain, q: np.ndarray) -> tuple[np.ndarra
     generic configurations). Yoshikawa's √det(Jv Jvᵀ) when r = 3; for a planar arm (r = 2) it
     is the area measure of the plane, where the 3-row measure would be identically zero.
     Units: [m^r/rad^r] for revolute joints."""
-    sv = np.linalg.svd(chain.jacobian(q, "world")[:, 3:, :], compute_uv=False)  # (K, k)
+    sv = singular_values(chain.jacobian(q, "world"), "linear")  # (K, k)
     tol = 1e-9 * max(float(sv.max()), 1e-300)
     rank = max(1, int((sv > tol).sum(axis=1).max()))
     return np.prod(sv[:, :rank], axis=1), rank

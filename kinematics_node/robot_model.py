@@ -7,19 +7,17 @@ service threads can share one model.
 from __future__ import annotations
 
 import threading
-import xml.etree.ElementTree as ET
 
 from .core import SerialChain
 from .core.exceptions import KinematicsError, RobotDescriptionError, UnknownNameError
-from .core.urdf import read_description
-
-_MOVING = ("revolute", "continuous", "prismatic")
+from .core.urdf import RobotDescription
 
 
 class RobotModel:
     """A parsed robot description with the default chain `base_link` → `tip_link`.
 
     Attributes:
+        description: the parsed description (`core.urdf.RobotDescription`), parsed once.
         xml: the URDF text (xacro already expanded).
         robot_name: the `<robot name>` attribute.
         joint_names: every joint of the robot (any type): names a request may mention.
@@ -37,18 +35,15 @@ class RobotModel:
         """
         if not str(description).strip():
             raise RobotDescriptionError("robot description is empty")
-        self.xml = read_description(description)
-        root = ET.fromstring(self.xml)
-        if root.tag != "robot":
-            raise RobotDescriptionError(f"expected a <robot> root element, got <{root.tag}>")
-        self.robot_name = root.get("name", "")
-        joints = root.findall("joint")
-        self.joint_names = frozenset(str(j.get("name")) for j in joints)
-        self.moving_joint_names = tuple(
-            str(j.get("name")) for j in joints if j.get("type") in _MOVING
+        self.description = RobotDescription(description)  # the one parse of the description
+        self.xml = self.description.xml
+        self.robot_name = self.description.robot_name
+        self.joint_names = self.description.joint_names
+        self.moving_joint_names = self.description.moving_joint_names
+        self.link_names = self.description.link_names
+        self.chain = SerialChain.from_spec(
+            self.description.chain_spec(base_link or None, tip_link or None)
         )
-        self.link_names = frozenset(str(link.get("name")) for link in root.findall("link"))
-        self.chain = SerialChain.from_urdf(self.xml, base_link or None, tip_link or None)
         self._lock = threading.Lock()
         self._chains: dict[tuple[str, str], SerialChain | KinematicsError] = {
             (self.chain.base_link, self.chain.tip_link): self.chain
@@ -73,7 +68,7 @@ class RobotModel:
             cached = self._chains.get(key)
         if cached is None:
             try:
-                cached = SerialChain.from_urdf(self.xml, base_link, tip_link)
+                cached = SerialChain.from_spec(self.description.chain_spec(base_link, tip_link))
             except KinematicsError as exc:  # remember failures too: rebuilding them is as slow
                 cached = exc
             with self._lock:

@@ -26,7 +26,6 @@ time in s. Continuous joints have infinite position limits.
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from os import PathLike
 from typing import Any, NamedTuple
@@ -36,8 +35,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from .core import SerialChain
 from .core._checks import as_float_array, check_finite
-from .core.exceptions import InvalidInputError, RobotDescriptionError, UnknownNameError
-from .core.urdf import read_description
+from .core.exceptions import InvalidInputError, UnknownNameError
+from .core.model import middle_of_limits, readonly
+from .core.urdf import RobotDescription
 
 FloatArray = NDArray[np.float64]
 MODES = ("demo", "velocity", "trajectory", "hold")
@@ -49,12 +49,6 @@ class SimState(NamedTuple):
     time: float
     q: FloatArray
     qdot: FloatArray
-
-
-def _readonly(a: ArrayLike) -> FloatArray:
-    arr = np.array(a, dtype=np.float64)
-    arr.setflags(write=False)
-    return arr
 
 
 def _vector(value: Any, n: int, name: str) -> FloatArray:
@@ -183,9 +177,9 @@ class ArmSimulator:
         self.joint_names = names
         self.dof = n
         self.dt = float(dt)
-        self.lower = _readonly(lo)
-        self.upper = _readonly(up)
-        self.velocity_limit = _readonly(vel)
+        self.lower = readonly(lo)
+        self.upper = readonly(up)
+        self.velocity_limit = readonly(vel)
         self.command_timeout = float(command_timeout)
         resume = None if demo_resume_after is None else float(demo_resume_after)
         self.demo_resume_after = resume if resume is not None and resume > 0 else None
@@ -194,9 +188,7 @@ class ArmSimulator:
         self._index = {name: i for i, name in enumerate(names)}
 
         if q0 is None:
-            bounded = np.isfinite(lo) & np.isfinite(up)
-            mid = 0.5 * (np.where(bounded, lo, 0.0) + np.where(bounded, up, 0.0))
-            q = np.clip(mid, lo, up)
+            q = middle_of_limits(lo, up)
         else:
             q = _vector(q0, n, "q0")
             if np.any(q < lo) or np.any(q > up):
@@ -428,37 +420,10 @@ class ArmSimulator:
 def urdf_actuated_joints(
     path_or_xml: str | PathLike[str],
 ) -> tuple[list[str], FloatArray, FloatArray, FloatArray]:
-    """(names, lower, upper, velocity) of every moving joint without <mimic>, in document order.
-
-    Continuous joints get ±inf limits; a missing velocity is inf.
+    """(names, lower, upper, velocity) of every moving joint without <mimic>, in document order
+    (`core.urdf.RobotDescription.actuated_joints`).
 
     Raises:
         RobotDescriptionError: unreadable/malformed description or no moving joint.
     """
-    root = ET.fromstring(read_description(path_or_xml))
-    names: list[str] = []
-    lower: list[float] = []
-    upper: list[float] = []
-    vel: list[float] = []
-    for joint in root.iter("joint"):
-        kind = joint.get("type")
-        if kind not in ("revolute", "continuous", "prismatic") or joint.find("mimic") is not None:
-            continue
-        name = joint.get("name")
-        if not name:
-            raise RobotDescriptionError("a <joint> has no name attribute")
-        limit = joint.find("limit")
-        attrs = {} if limit is None else limit.attrib
-        try:
-            v = float(attrs.get("velocity", "inf"))
-            lo = -math.inf if kind == "continuous" else float(attrs.get("lower", 0.0))
-            up = math.inf if kind == "continuous" else float(attrs.get("upper", 0.0))
-        except ValueError as exc:
-            raise RobotDescriptionError(f"joint {name!r} has a malformed <limit>: {exc}") from None
-        names.append(name)
-        lower.append(lo)
-        upper.append(up)
-        vel.append(v)
-    if not names:
-        raise RobotDescriptionError("the robot description has no moving, non-mimic joint")
-    return names, np.array(lower), np.array(upper), np.array(vel)
+    return RobotDescription(path_or_xml).actuated_joints()

@@ -1,4 +1,4 @@
-"""Simulated-arm messages ↔ `ArmSimulator` commands and state, without rclpy.
+"""Simulated-arm messages ↔ simulator commands and state, without rclpy (nor the simulator).
 
 Duck-typed on the ROS 2 field names, so the same functions take rclpy message objects in the node
 and rosbags message classes in the tests:
@@ -17,15 +17,33 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from kinematics_node.core.exceptions import InvalidInputError
-from kinematics_node.simulator import ArmSimulator
 
 FloatArray = NDArray[np.float64]
+
+
+class CommandableArm(Protocol):
+    """What `apply_trajectory_msg` and `apply_velocity_msg` drive: `ArmSimulator`'s command
+    interface (adapters import only the core, so the simulator is described, not imported)."""
+
+    @property
+    def joint_names(self) -> tuple[str, ...]: ...
+
+    def command_trajectory(
+        self,
+        times: ArrayLike,
+        positions: ArrayLike,
+        velocities: ArrayLike | None = None,
+        *,
+        joint_names: Sequence[str] | None = None,
+    ) -> None: ...
+
+    def command_velocity(self, qdot: ArrayLike) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -96,14 +114,14 @@ def velocity_from_msg(msg: Any, joint_names: Sequence[str]) -> FloatArray:
     return np.array(data)
 
 
-def apply_trajectory_msg(sim: ArmSimulator, msg: Any) -> TrajectoryCommand:
+def apply_trajectory_msg(sim: CommandableArm, msg: Any) -> TrajectoryCommand:
     """Validate a JointTrajectory message and start following it; returns the converted command."""
     cmd = trajectory_from_msg(msg)
     sim.command_trajectory(cmd.times, cmd.positions, cmd.velocities, joint_names=cmd.joint_names)
     return cmd
 
 
-def apply_velocity_msg(sim: ArmSimulator, msg: Any) -> FloatArray:
+def apply_velocity_msg(sim: CommandableArm, msg: Any) -> FloatArray:
     """Validate a Float64MultiArray velocity command and apply it; returns the velocities."""
     v = velocity_from_msg(msg, sim.joint_names)
     sim.command_velocity(v)

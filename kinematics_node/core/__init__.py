@@ -14,12 +14,15 @@ from typing import TYPE_CHECKING, Any
 
 from . import rotations, se3, so3
 from .analysis import (
+    Conditioning,
     condition_number,
+    conditioning,
     is_near_singular,
     manipulability,
     manipulability_ellipsoid,
+    singular_values,
 )
-from .chain import ChainSpec, JointModel, SerialChain
+from .chain import SerialChain
 from .exceptions import (
     InvalidInputError,
     KinematicsError,
@@ -27,6 +30,7 @@ from .exceptions import (
     RobotDescriptionError,
     UnknownNameError,
 )
+from .model import ChainSpec, JointModel
 
 if TYPE_CHECKING:
     from .closed_form import ClosedFormBatchResult, ClosedFormFamily, ClosedFormResult
@@ -53,6 +57,7 @@ __all__ = [
     "ClosedFormBatchResult",
     "ClosedFormFamily",
     "ClosedFormResult",
+    "Conditioning",
     "IKBatchResult",
     "IKOptions",
     "IKResult",
@@ -64,10 +69,12 @@ __all__ = [
     "SerialChain",
     "UnknownNameError",
     "condition_number",
+    "conditioning",
     "is_near_singular",
     "manipulability",
     "manipulability_ellipsoid",
     "rotations",
     "se3",
+    "singular_values",
     "so3",
 ]

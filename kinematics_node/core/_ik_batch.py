@@ -16,13 +16,11 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
-from . import se3, so3
-from ._ik_single import (
+from ._ik_problem import (
     LAMBDA_INIT,
     LAMBDA_MAX,
     LAMBDA_MIN,
@@ -30,18 +28,9 @@ from ._ik_single import (
     PINNED_STEPS,
     STALL_FRACTION,
     STALL_STEPS,
+    IKProblem,
 )
-from ._joint_space import (
-    into_limits_batch,
-    nearest_equivalent_batch,
-    periodic_mask,
-    pinnable_mask,
-    sample_bounds,
-)
-
-if TYPE_CHECKING:
-    from .chain import SerialChain
-    from .ik import IKOptions
+from ._joint_space import into_limits_batch, nearest_equivalent_batch, sample_bounds
 
 FloatArray = NDArray[np.float64]
 
@@ -55,70 +44,6 @@ class BatchOutcome:
     iterations: NDArray[np.int64]
     restarts: NDArray[np.int64]
     stop_reason: str
-
-
-class _BatchProblem:
-    """Constant data of one batch call and the vectorised error/Jacobian evaluation."""
-
-    def __init__(self, chain: SerialChain, T: FloatArray, opts: IKOptions) -> None:
-        self.chain = chain
-        self.R_t = T[:, :3, :3]
-        self.p_t = T[:, :3, 3]
-        w = np.array(opts.weights if opts.weights is not None else (1.0,) * 6)
-        self.position_only = bool(opts.position_only)
-        self.tol_p, self.tol_o = opts.position_tolerance, opts.orientation_tolerance
-        # per-axis bounds as in `SingleSolver`: inf frees the axis like a zero weight
-        self.axis_tol: FloatArray | None = None
-        if opts.axis_tolerances is not None:
-            bounds = np.array(opts.axis_tolerances)
-            w = np.where(np.isinf(bounds), 0.0, w)
-            self.axis_tol = np.where(w > 0, bounds, np.inf)
-        self.coupled = not self.position_only and bool(np.all(w > 0)) and self.axis_tol is None
-        self.w = w[3:] if self.position_only else w
-        self.sw = np.sqrt(self.w)
-        self.pos_mask = (w[3:] > 0).astype(np.float64)
-        self.ori_mask = (w[:3] > 0).astype(np.float64)
-        self.all_ori = bool(np.all(w[:3] > 0))
-
-    def evaluate(
-        self, Q: FloatArray, idx: NDArray[np.intp]
-    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_], FloatArray]:
-        """At Q (k, n) for targets idx: E, e (k, m), pos [m], ori [rad], within tolerance,
-        W^½J (k, m, n)."""
-        T_c, J = self.chain.fk_jacobian(Q, "body")
-        R_c, p_c = T_c[:, :3, :3], T_c[:, :3, 3]
-        R_cT = np.swapaxes(R_c, 1, 2)
-        R_e = R_cT @ self.R_t[idx]  # T_err = T_c⁻¹ T_t
-        p_e = (R_cT @ (self.p_t[idx] - p_c)[:, :, None])[:, :, 0]
-        if self.coupled:
-            T_e = se3.make_transform(R_e, p_e)
-            e = se3.log(T_e)
-            phi = e[:, :3]
-        else:
-            phi = so3.log(R_e)
-            e = p_e if self.position_only else np.concatenate((phi, p_e), axis=1)
-            # body Jacobian of the target point attached to the tip: J_v + J_ω × p_err
-            Jw, Jv = J[:, :3, :], J[:, 3:, :]
-            Jv = Jv + np.swapaxes(np.cross(np.swapaxes(Jw, 1, 2), p_e[:, None, :]), 1, 2)
-            J = Jv if self.position_only else np.concatenate((Jw, Jv), axis=1)
-        within: NDArray[np.bool_] | None = None
-        if self.axis_tol is not None:  # a component within its bound is met and exerts no pull
-            within = np.abs(e) <= self.axis_tol  # False for NaN
-            e = np.where(within, 0.0, e)
-        E = np.einsum("km,m->k", e * e, self.w)
-        pos = np.sqrt(np.einsum("kj,j->k", p_e * p_e, self.pos_mask))
-        if self.position_only:
-            ori = np.zeros(Q.shape[0])
-        elif self.all_ori:
-            ori = np.linalg.norm(phi, axis=1)
-        else:
-            ori = np.sqrt(np.einsum("kj,j->k", phi * phi, self.ori_mask))
-        ok: NDArray[np.bool_]
-        if within is not None:
-            ok = np.all(within, axis=1)
-        else:
-            ok = (pos <= self.tol_p) & (ori <= self.tol_o)
-        return E, e, pos, ori, ok, J * self.sw[None, :, None]
 
 
 def _lm_steps(
@@ -168,81 +93,95 @@ class _Lanes:
 _LANE_FIELDS = ("tgt", "Q", "E", "e", "pos", "ori", "ok", "J", "lam", "nu", "stall", "pinned", "it")
 
 
-def solve_batch_arrays(
-    chain: SerialChain, T: FloatArray, seeds: FloatArray, opts: IKOptions, deadline: float
-) -> BatchOutcome:
-    """Solve all targets (inputs already validated); see `ik.solve_batch`."""
-    N, n = seeds.shape
-    prob = _BatchProblem(chain, T, opts)
-    lower, upper = np.asarray(chain.lower), np.asarray(chain.upper)
-    periodic = periodic_mask(chain)
-    can_pin = pinnable_mask(chain, periodic)
-    lo, hi = sample_bounds(lower, upper, seeds)
-    rng = np.random.default_rng(opts.rng_seed)
+class BatchSolver:
+    """State of one `ik_batch` call: the lanes, and per target the best and the solved state."""
 
-    success = np.zeros(N, dtype=bool)
-    q_sol = seeds.copy()
-    sol_pos, sol_ori = np.full(N, np.inf), np.full(N, np.inf)
-    best_E, best_Q = np.full(N, np.inf), seeds.copy()
-    best_pos, best_ori = np.full(N, np.inf), np.full(N, np.inf)
-    iterations = np.zeros(N, dtype=np.int64)
-    restarts = np.zeros(N, dtype=np.int64)
-    m = 3 if opts.position_only else 6
-    eye = np.eye(m)
+    def __init__(self, problem: IKProblem, T: FloatArray, seeds: FloatArray) -> None:
+        self.problem = problem
+        self.R_t, self.p_t = T[:, :3, :3], T[:, :3, 3]
+        self.seeds = seeds
+        N = seeds.shape[0]
+        self.lo, self.hi = sample_bounds(problem.lower, problem.upper, seeds)
+        self.rng = np.random.default_rng(problem.opts.rng_seed)
+        self.eye = np.eye(problem.m)
+        self.success = np.zeros(N, dtype=bool)
+        self.q_sol = seeds.copy()
+        self.sol_pos, self.sol_ori = np.full(N, np.inf), np.full(N, np.inf)
+        self.best_E, self.best_Q = np.full(N, np.inf), seeds.copy()
+        self.best_pos, self.best_ori = np.full(N, np.inf), np.full(N, np.inf)
+        self.iterations = np.zeros(N, dtype=np.int64)
+        self.restarts = np.zeros(N, dtype=np.int64)
 
-    def new_lanes(tgt: NDArray[np.intp], Q: FloatArray) -> _Lanes:
-        E, e, pos, ori, ok, J = prob.evaluate(Q, tgt)
+    def run(self, deadline: float) -> BatchOutcome:
+        """Iterate all lanes in lock-step until every target is solved, out of restarts, or the
+        deadline passes."""
+        N = self.seeds.shape[0]
+        lanes = self._new_lanes(np.arange(N), self.seeds.copy()) if N else None
+        reason = "done"
+        while lanes is not None:
+            lanes = self._top_up(lanes.keep(~self.success[lanes.tgt]))
+            if lanes.tgt.size == 0:
+                if not self.success.all():
+                    reason = "max_restarts reached"
+                break
+            if time.perf_counter() > deadline:
+                reason = "timeout"
+                break
+            lanes = self._step(lanes)
+        return self._outcome(reason)
+
+    def _new_lanes(self, tgt: NDArray[np.intp], Q: FloatArray) -> _Lanes:
+        """Lanes starting at Q (k, n) for targets tgt, evaluated and recorded."""
+        E, e, pos, ori, ok, J = self.problem.evaluate_batch(Q, self.R_t[tgt], self.p_t[tgt])
         k = tgt.size
-        return _Lanes(
+        lanes = _Lanes(
             tgt, Q, E, e, pos, ori, ok, J, np.full(k, LAMBDA_INIT), np.full(k, 2.0),
             np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64), np.zeros(k, dtype=np.int64),
         )  # fmt: skip
+        self._record(lanes)
+        return lanes
 
-    def record(L: _Lanes) -> None:
+    def _top_up(self, lanes: _Lanes) -> _Lanes:
+        """Add random-restart lanes for unsolved targets with restarts left, up to `MIN_LANES`
+        lanes: round-robin over those targets in index order, at most `max_restarts` each."""
+        if lanes.tgt.size >= MIN_LANES:
+            return lanes
+        max_restarts = self.problem.opts.max_restarts
+        open_t = np.flatnonzero(~self.success & (self.restarts < max_restarts))
+        if not open_t.size:
+            return lanes
+        k = MIN_LANES - lanes.tgt.size
+        cand = np.tile(open_t, -(-k // open_t.size))[:k]
+        counts = np.bincount(cand, minlength=self.seeds.shape[0])
+        allowed = np.minimum(counts, max_restarts - self.restarts)
+        cand = np.repeat(np.arange(self.seeds.shape[0]), np.maximum(allowed, 0))
+        if not cand.size:
+            return lanes
+        np.add.at(self.restarts, cand, 1)
+        fresh = self._new_lanes(cand, self.rng.uniform(self.lo[cand], self.hi[cand]))
+        return _Lanes.concat(lanes, fresh).keep(~self.success[np.r_[lanes.tgt, cand]])
+
+    def _record(self, L: _Lanes) -> None:
         """Update best-so-far and solutions from the lanes' current states."""
         order = np.argsort(L.E, kind="stable")[::-1]  # the smallest E is written last
         t = L.tgt[order]
-        better = L.E[order] < best_E[t]
+        better = L.E[order] < self.best_E[t]
         tb, ob = t[better], order[better]
-        best_E[tb], best_Q[tb], best_pos[tb], best_ori[tb] = L.E[ob], L.Q[ob], L.pos[ob], L.ori[ob]
-        conv = L.ok & ~success[L.tgt]
+        self.best_E[tb], self.best_Q[tb] = L.E[ob], L.Q[ob]
+        self.best_pos[tb], self.best_ori[tb] = L.pos[ob], L.ori[ob]
+        conv = L.ok & ~self.success[L.tgt]
         if conv.any():
             ci = np.flatnonzero(conv)
             tc, first = np.unique(L.tgt[ci], return_index=True)
             ci = ci[first]
-            success[tc] = True
-            q_sol[tc], sol_pos[tc], sol_ori[tc] = L.Q[ci], L.pos[ci], L.ori[ci]
+            self.success[tc] = True
+            self.q_sol[tc], self.sol_pos[tc], self.sol_ori[tc] = L.Q[ci], L.pos[ci], L.ori[ci]
 
-    lanes = new_lanes(np.arange(N), seeds.copy()) if N else None
-    if lanes is not None:
-        record(lanes)
-    reason = "done"
-    while lanes is not None:
-        lanes = lanes.keep(~success[lanes.tgt])
-        # top up with random restarts of unsolved targets that still have restarts left
-        if lanes.tgt.size < MIN_LANES:
-            open_t = np.flatnonzero(~success & (restarts < opts.max_restarts))
-            if open_t.size:
-                # round-robin over open targets, fewest lanes first
-                k = MIN_LANES - lanes.tgt.size
-                cand = np.tile(open_t, -(-k // open_t.size))[:k]
-                # at most max_restarts per target
-                counts = np.bincount(cand, minlength=N)
-                allowed = np.minimum(counts, opts.max_restarts - restarts)
-                cand = np.repeat(np.arange(N), np.maximum(allowed, 0))
-                if cand.size:
-                    np.add.at(restarts, cand, 1)
-                    Qn = rng.uniform(lo[cand], hi[cand])
-                    fresh = new_lanes(cand, Qn)
-                    record(fresh)
-                    lanes = _Lanes.concat(lanes, fresh).keep(~success[np.r_[lanes.tgt, cand]])
-        if lanes.tgt.size == 0:
-            if not success.all():
-                reason = "max_restarts reached"
-            break
-        if time.perf_counter() > deadline:
-            reason = "timeout"
-            break
+    def _step(self, lanes: _Lanes) -> _Lanes:
+        """One LM iteration of every lane (algorithm: `ik`'s docstring); returns the lanes whose
+        attempt goes on."""
+        prob, eye = self.problem, self.eye
+        lower, upper, periodic = prob.lower, prob.upper, prob.periodic
         dq, predicted = _lm_steps(lanes.J, lanes.e * prob.sw, lanes.lam, eye)
         # active set: freeze joints at a limit that the step pushes outwards (and that a whole
         # turn would not bring back inside), then re-solve
@@ -262,10 +201,12 @@ def solve_batch_arrays(
         Q_try = into_limits_batch(lanes.Q + dq, lower, upper, periodic)
         ok_rows = np.all(np.isfinite(Q_try), axis=1)
         Q_try = np.where(ok_rows[:, None], Q_try, lanes.Q)  # non-finite step: stay, reject
-        E_t, e_t, pos_t, ori_t, ok_t, J_t = prob.evaluate(Q_try, lanes.tgt)
+        E_t, e_t, pos_t, ori_t, ok_t, J_t = prob.evaluate_batch(
+            Q_try, self.R_t[lanes.tgt], self.p_t[lanes.tgt]
+        )
         E_a = lanes.E
         acc = ok_rows & (E_t < E_a)  # NaN compares False: rejected
-        np.add.at(iterations, lanes.tgt, 1)
+        np.add.at(self.iterations, lanes.tgt, 1)
         lanes.it += 1
         # Nielsen's damping update on accepted lanes; λ ← ν λ, ν ← 2ν on rejected ones
         rho = np.where(predicted > 0, (E_a - E_t) / np.where(predicted > 0, predicted, 1.0), 0.0)
@@ -277,23 +218,26 @@ def solve_batch_arrays(
         lanes.Q[acc], lanes.E[acc], lanes.e[acc] = Q_try[acc], E_t[acc], e_t[acc]
         lanes.pos[acc], lanes.ori[acc], lanes.J[acc] = pos_t[acc], ori_t[acc], J_t[acc]
         lanes.ok[acc] = ok_t[acc]
-        record(lanes.keep(acc))
-        at_limit = ((lanes.Q <= lower) | (lanes.Q >= upper)) & can_pin
-        pinned = at_limit.sum(axis=1) > max(n - m, 0)  # more pinned joints than spare DOF
+        self._record(lanes.keep(acc))
+        at_limit = ((lanes.Q <= lower) | (lanes.Q >= upper)) & prob.pinnable
+        pinned = at_limit.sum(axis=1) > prob.spare  # more pinned joints than spare DOF
         lanes.pinned = np.where(acc, np.where(pinned, lanes.pinned + 1, 0), lanes.pinned)
-        ended = (lanes.lam > LAMBDA_MAX) | (lanes.it >= opts.max_iterations)
+        ended = (lanes.lam > LAMBDA_MAX) | (lanes.it >= prob.opts.max_iterations)
         ended |= (lanes.stall >= STALL_STEPS) | (lanes.pinned >= PINNED_STEPS)
-        lanes = lanes.keep(~ended)
+        return lanes.keep(~ended)
 
-    q_out = np.where(success[:, None], q_sol, best_Q)
-    # periodic joints: the whole-turn equivalent within limits closest to the seed
-    q_out = nearest_equivalent_batch(q_out, seeds, lower, upper, periodic)
-    return BatchOutcome(
-        q=q_out,
-        success=success,
-        position_error=np.where(success, sol_pos, best_pos),
-        orientation_error=np.where(success, sol_ori, best_ori),
-        iterations=iterations,
-        restarts=restarts,
-        stop_reason=reason,
-    )
+    def _outcome(self, reason: str) -> BatchOutcome:
+        success = self.success
+        q_out = np.where(success[:, None], self.q_sol, self.best_Q)
+        # periodic joints: the whole-turn equivalent within limits closest to the seed
+        prob = self.problem
+        q_out = nearest_equivalent_batch(q_out, self.seeds, prob.lower, prob.upper, prob.periodic)
+        return BatchOutcome(
+            q=q_out,
+            success=success,
+            position_error=np.where(success, self.sol_pos, self.best_pos),
+            orientation_error=np.where(success, self.sol_ori, self.best_ori),
+            iterations=self.iterations,
+            restarts=self.restarts,
+            stop_reason=reason,
+        )

@@ -16,40 +16,26 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg.lapack import dposv
 
-from ._joint_space import (
-    into_limits,
-    nearest_equivalent,
-    periodic_mask,
-    pinnable_mask,
-    sample_bounds,
+from ._ik_problem import (
+    LAMBDA_INIT,
+    LAMBDA_MAX,
+    LAMBDA_MIN,
+    MAX_STEP,
+    PINNED_STEPS,
+    STALL_FRACTION,
+    STALL_STEPS,
+    IKProblem,
 )
+from ._joint_space import into_limits, nearest_equivalent, sample_bounds
 from ._pose_error import relative_pose, se3_log, so3_log
-
-if TYPE_CHECKING:
-    from .chain import SerialChain
-    from .ik import IKOptions
+from .model import TWO_PI
 
 FloatArray = NDArray[np.float64]
-
-LAMBDA_INIT = 1e-2  # initial damping [same units as J J^T: m² or 1]
-LAMBDA_MIN = 1e-12
-LAMBDA_MAX = 1e6  # beyond this the attempt is stuck (steps rejected ~9 times in a row)
-TWO_PI = 2.0 * math.pi
-MAX_STEP = 1.0  # largest joint change per step [rad or m]; the step is scaled down to it
-STALL_FRACTION = 0.05  # an accepted step that lowers the cost by less than 5 % ...
-STALL_STEPS = 2  # ... this many times in a row ends the attempt (a local minimum or a limit)
-# More joints pinned at a limit than the arm has spare degrees of freedom, max(n − m, 0), for this
-# many accepted steps in a row ends the attempt: the free joints cannot span the task any more. On
-# Panda this ends ~2/3 of the attempts that would fail, ~5 steps earlier, and ~5 % of attempts
-# that would succeed; net, the share of targets needing > 80 iterations halves (1.8 % → 0.9 %).
-PINNED_STEPS = 2
-
 
 def _lm_step(Jt: FloatArray, r: FloatArray, lam: float, eye: FloatArray) -> list[float] | None:
     """Δq = Jᵀ(J Jᵀ + λI)⁻¹ r from Jt = Jᵀ (n × m), as a list; None if the factorisation fails.
@@ -76,43 +62,37 @@ class SingleOutcome:
 class SingleSolver:
     """State of one IK call (never shared between calls or threads)."""
 
-    def __init__(
-        self,
-        chain: SerialChain,
-        T_target: FloatArray,
-        seed: FloatArray,
-        opts: IKOptions,
-        joint_weights: FloatArray,
-    ) -> None:
-        self.opts = opts
-        self.internal = None if chain._mimic_index is None else chain._internal_scalar
-        self.G = chain._G
-        self.prismatic = chain._kernel.prismatic
-        self.n = chain.dof
+    def __init__(self, problem: IKProblem, T_target: FloatArray, seed: FloatArray) -> None:
+        self.opts = opts = problem.opts
+        model = problem.model
+        self.internal = model.to_internal
+        self.G = model.G
+        self.prismatic = model.kernel.prismatic
         R, p = T_target[:3, :3], T_target[:3, 3]
         self.target = tuple(R.ravel().tolist() + p.tolist())
         self.seed: list[float] = seed.tolist()
-        self.lower: list[float] = chain.lower.tolist()
-        self.upper: list[float] = chain.upper.tolist()
-        periodic = periodic_mask(chain)
-        self.periodic: list[bool] = periodic.tolist()
-        self.pinnable: list[bool] = pinnable_mask(chain, periodic).tolist()
-        self.joint_weights: list[float] = joint_weights.tolist()
+        self.lower: list[float] = problem.lower.tolist()
+        self.upper: list[float] = problem.upper.tolist()
+        self.periodic: list[bool] = problem.periodic.tolist()
+        self.pinnable: list[bool] = problem.pinnable.tolist()
+        self.joint_weights: list[float] = problem.joint_weights.tolist()
+        self.spare = problem.spare
         self._sampler: tuple[np.random.Generator, FloatArray, FloatArray] | None = None
 
-        w = opts.weights if opts.weights is not None else (1.0,) * 6
-        self.position_only = bool(opts.position_only)
-        # TRAC-IK-style per-axis bounds on the decoupled error. An infinite bound frees its axis
-        # exactly like a zero weight (the row leaves the cost and the Jacobian); a finite bound
-        # zeroes its component while it is met, so the step leaves it where it is.
-        self.axis_tol: list[float] | None = None
-        if opts.axis_tolerances is not None:
-            bounds = opts.axis_tolerances
-            w = tuple(0.0 if math.isinf(b) else x for b, x in zip(bounds, w, strict=True))
-            self.axis_tol = [b if x > 0 else math.inf for b, x in zip(bounds, w, strict=True)]
-        self.coupled = not self.position_only and all(x > 0 for x in w) and self.axis_tol is None
-        self.w = list(w[3:]) if self.position_only else list(w)
-        self.sw = np.sqrt(np.array(self.w))
+        # The error and its weights, as `problem` defines them (plain floats for this solver).
+        self.position_only = problem.position_only
+        self.coupled = problem.coupled
+        self.axis_tol: list[float] | None = (
+            None if problem.axis_tol is None else problem.axis_tol.tolist()
+        )
+        self.w: list[float] = problem.w.tolist()
+        self.sw = problem.sw
+        self.pos_mask: list[bool] = problem.pos_mask.tolist()
+        self.ori_mask: list[bool] = problem.ori_mask.tolist()
+        self.all_ori = all(self.ori_mask)
+        self.tol_p = opts.position_tolerance
+        self.tol_o = opts.orientation_tolerance
+        # Speed-ups of this solver, chosen once; none changes the step:
         self.unit_weights = all(x == 1.0 for x in self.w)
         # The LM step Δq = Jᵀ(JJᵀ + λI)⁻¹r is unchanged when J's rows and r are rotated together
         # (an orthogonal change of task-space axes). With weights that are equal within the
@@ -121,35 +101,39 @@ class SingleSolver:
         # saved per Jacobian), only r is rotated (18).
         blocks = [self.w] if self.position_only else [self.w[:3], self.w[3:]]
         self.base_axes = all(len(set(b)) == 1 for b in blocks)
-        self.plain = self.coupled and self.unit_weights
         # Coupled error in base axes: J is the world Jacobian at the tip, which the generated
-        # kernel returns directly; otherwise it is assembled from the joint axes in `jacobian`.
-        self.world_columns = self.coupled and self.base_axes
-        kernel = chain._kernel
-        self.fk = kernel.fk_world if self.world_columns else kernel.fk_axes
-        self.pos_mask = [x > 0 for x in w[3:]]
-        self.ori_mask = [x > 0 for x in w[:3]]
-        self.all_ori = all(self.ori_mask)
-        self.tol_p = opts.position_tolerance
-        self.tol_o = opts.orientation_tolerance
+        # kernel returns directly; otherwise it is assembled from the joint axes.
+        world_columns = self.coupled and self.base_axes
+        self.fk = model.kernel.fk_world if world_columns else model.kernel.fk_axes
+        self.jacobian = self._world_jacobian if world_columns else self._axes_jacobian
+        # The default (full pose, unit weights) has its own short evaluation.
+        plain = self.coupled and self.unit_weights
+        self.evaluate = self._evaluate_plain if plain else self._evaluate_weighted
         self.iterations = 0
         self.best: tuple[float, list[float], float, float] | None = None  # (E, q, pos, ori)
 
     # ------------------------------------------------------------------ evaluation
-    def evaluate(
+    def _evaluate_plain(
         self, q: list[float]
     ) -> tuple[float, list[float], float, float, bool, tuple, list]:  # type: ignore[type-arg]
-        """(E = Σ wᵢ eᵢ², e, position error [m], orientation error [rad], within tolerance, pose,
-        joint axes or, if `world_columns`, the world Jacobian's columns)."""
+        """`_evaluate_weighted` for the default problem: full pose, unit weights (E = ‖V_b‖²)."""
         t, axes = self.fk(q if self.internal is None else self.internal(q))
         Te = relative_pose(t, self.target)
         px, py, pz = Te[9], Te[10], Te[11]
-        if self.plain:  # the default: full pose, unit weights
-            e0, e1, e2, e3, e4, e5, theta = se3_log(Te)
-            E = e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3 + e4 * e4 + e5 * e5
-            pos = math.sqrt(px * px + py * py + pz * pz)
-            ok = pos <= self.tol_p and theta <= self.tol_o
-            return E, [e0, e1, e2, e3, e4, e5], pos, theta, ok, t, axes
+        e0, e1, e2, e3, e4, e5, theta = se3_log(Te)
+        E = e0 * e0 + e1 * e1 + e2 * e2 + e3 * e3 + e4 * e4 + e5 * e5
+        pos = math.sqrt(px * px + py * py + pz * pz)
+        ok = pos <= self.tol_p and theta <= self.tol_o
+        return E, [e0, e1, e2, e3, e4, e5], pos, theta, ok, t, axes
+
+    def _evaluate_weighted(
+        self, q: list[float]
+    ) -> tuple[float, list[float], float, float, bool, tuple, list]:  # type: ignore[type-arg]
+        """(E = Σ wᵢ eᵢ², e, position error [m], orientation error [rad], within tolerance, pose,
+        joint axes or, with the world Jacobian, its columns) at q."""
+        t, axes = self.fk(q if self.internal is None else self.internal(q))
+        Te = relative_pose(t, self.target)
+        px, py, pz = Te[9], Te[10], Te[11]
         if self.coupled:
             e0, e1, e2, e3, e4, e5, theta = se3_log(Te)
             e = [e0, e1, e2, e3, e4, e5]
@@ -182,14 +166,17 @@ class SingleSolver:
             ok = pos <= self.tol_p and ori <= self.tol_o
         return E, e, pos, ori, ok, t, axes
 
-    def jacobian(self, t: tuple, axes: list) -> FloatArray:  # type: ignore[type-arg]
+    def _world_jacobian(self, t: tuple, axes: list) -> FloatArray:  # type: ignore[type-arg]
+        """`_axes_jacobian` for the coupled error in base axes: `axes` already holds the world
+        Jacobian's columns."""
+        Jt = np.array(axes)
+        if self.G is not None:
+            Jt = self.G.T @ Jt
+        return Jt if self.unit_weights else Jt * self.sw
+
+    def _axes_jacobian(self, t: tuple, axes: list) -> FloatArray:  # type: ignore[type-arg]
         """Transposed weighted Jacobian (W^½ J)ᵀ (n × m) of the error (see `ik`), in tip axes or,
-        if `base_axes`, in base axes."""
-        if self.world_columns:  # `axes` already holds the world Jacobian's columns
-            Jt = np.array(axes)
-            if self.G is not None:
-                Jt = self.G.T @ Jt
-            return Jt if self.unit_weights else Jt * self.sw
+        if `base_axes`, in base axes, from each joint's axis and point."""
         r00, r01, r02, r10, r11, r12, r20, r21, r22, cx, cy, cz = t
         if self.coupled:  # body Jacobian: reference point = tip origin
             qx, qy, qz = cx, cy, cz
@@ -257,7 +244,7 @@ class SingleSolver:
         nu = 2.0
         stall = 0
         pinned_run = 0
-        spare = max(self.n - len(e), 0)  # redundant degrees of freedom
+        spare = self.spare  # redundant degrees of freedom
         lower, upper, periodic, pinnable = self.lower, self.upper, self.periodic, self.pinnable
         edge = [i for i, v in enumerate(q) if v <= lower[i] or v >= upper[i]]  # joints at a limit
         eye = np.eye(len(e))

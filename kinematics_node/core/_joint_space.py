@@ -15,36 +15,38 @@ pose). Prismatic joints never are.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
 
-if TYPE_CHECKING:
-    from .chain import SerialChain
+from .model import TWO_PI
 
 FloatArray = NDArray[np.float64]
-TWO_PI = 2.0 * math.pi
 
 
-def periodic_mask(chain: SerialChain) -> NDArray[np.bool_]:
-    """Which actuated joints are 2π-periodic (see the module docstring)."""
-    periodic = np.array([t != "prismatic" for t in chain.joint_types], dtype=bool)
-    G = chain._G
+def periodic_mask(
+    joint_types: Sequence[str], G: FloatArray | None, internal_prismatic: Sequence[bool]
+) -> NDArray[np.bool_]:
+    """Which actuated joints are 2π-periodic (see the module docstring), from their types, the
+    mimic map θ = G q + offset (None: no mimic joints) and the kinds of the internal joints."""
+    periodic = np.array([t != "prismatic" for t in joint_types], dtype=bool)
     if G is not None:
-        internal_prismatic = np.asarray(chain._kernel.prismatic, dtype=bool)
+        prismatic = np.asarray(internal_prismatic, dtype=bool)
         for j in np.flatnonzero(periodic):
             followers = np.flatnonzero(G[:, j])
             mult = G[followers, j]
-            if internal_prismatic[followers].any() or not np.allclose(mult, np.round(mult)):
+            if prismatic[followers].any() or not np.allclose(mult, np.round(mult)):
                 periodic[j] = False
     return periodic
 
 
-def pinnable_mask(chain: SerialChain, periodic: NDArray[np.bool_]) -> NDArray[np.bool_]:
+def pinnable_mask(
+    lower: FloatArray, upper: FloatArray, periodic: NDArray[np.bool_]
+) -> NDArray[np.bool_]:
     """Joints that can sit pinned at a limit: all but periodic joints whose range spans a whole
     turn (for those a turn back inside always fits)."""
-    return ~(periodic & (chain.upper - chain.lower >= TWO_PI))
+    return ~(periodic & (upper - lower >= TWO_PI))
 
 
 def sample_bounds(

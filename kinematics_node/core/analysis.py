@@ -2,11 +2,13 @@
 
 `part` selects rows: "linear" (v, units m/rad or m/m), "angular" (ω), or "full" (all six; mixes
 units, so its values depend on the length unit: prefer "linear"/"angular" for thresholds).
-All measures come from the singular values σ₁ ≥ … ≥ σ_k of the selected rows (k = min(rows, n)).
+All measures come from the singular values σ₁ ≥ … ≥ σ_k of the selected rows (k = min(rows, n)),
+`singular_values`; `conditioning` gives the measures the node publishes from one Jacobian.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -27,13 +29,18 @@ def _rows(J: ArrayLike, part: str) -> FloatArray:
     raise ValueError(f"part must be 'full', 'linear' or 'angular', got {part!r}")
 
 
+def singular_values(J: ArrayLike, part: Part = "full") -> FloatArray:
+    """σ₁ ≥ … ≥ σ_k (..., k) of the selected rows of J: the one SVD behind every measure here."""
+    return np.asarray(np.linalg.svd(_rows(J, part), compute_uv=False), dtype=np.float64)
+
+
 def manipulability(J: ArrayLike, part: Part = "full") -> FloatArray:
     """Yoshikawa's measure w = √det(J Jᵀ) = σ₁ σ₂ ⋯ σ_k (MR §5.4; De Luca). Zero at a singularity.
 
     For a chain with fewer joints than rows (n < rows) the product of the n singular values,
     √det(Jᵀ J), is returned instead, so that the measure is still informative.
     """
-    return np.prod(np.linalg.svd(_rows(J, part), compute_uv=False), axis=-1)
+    return np.prod(singular_values(J, part), axis=-1)
 
 
 def manipulability_ellipsoid(J: ArrayLike, part: Part = "linear") -> tuple[FloatArray, FloatArray]:
@@ -49,7 +56,10 @@ def manipulability_ellipsoid(J: ArrayLike, part: Part = "linear") -> tuple[Float
 
 def condition_number(J: ArrayLike, part: Part = "full") -> FloatArray:
     """σ_max / σ_min of the selected rows (MR's μ₂ = √μ₃); ∞ at a singularity."""
-    s = np.linalg.svd(_rows(J, part), compute_uv=False)
+    return _condition(singular_values(J, part))
+
+
+def _condition(s: FloatArray) -> FloatArray:
     with np.errstate(divide="ignore"):
         return np.where(
             s[..., -1] > 0, s[..., 0] / np.where(s[..., -1] > 0, s[..., -1], 1.0), np.inf
@@ -60,5 +70,34 @@ def is_near_singular(
     J: ArrayLike, part: Part = "full", threshold: float = 1e-3
 ) -> NDArray[np.bool_]:
     """True where the smallest singular value of the selected rows is below `threshold`."""
-    s = np.linalg.svd(_rows(J, part), compute_uv=False)
-    return s[..., -1] < threshold
+    return singular_values(J, part)[..., -1] < threshold
+
+
+@dataclass(frozen=True)
+class Conditioning:
+    """How well-conditioned one Jacobian (6, n) is (see `conditioning`).
+
+    Attributes:
+        manipulability: Yoshikawa's measure of the linear rows (a volume, [m^k/rad^k] for k
+            revolute joints); comparable across arms, unlike the full measure.
+        condition_number: σ_max / σ_min of all six rows (∞ at a singularity; mixes rad and m).
+        min_singular_value: σ_min of all six rows.
+        near_singular: σ_min below the threshold.
+    """
+
+    manipulability: float
+    condition_number: float
+    min_singular_value: float
+    near_singular: bool
+
+
+def conditioning(J: ArrayLike, singular_threshold: float = 1e-3) -> Conditioning:
+    """`Conditioning` of one Jacobian (6, n), rows (ω, v): the linear rows' manipulability and
+    the full matrix's condition number and smallest singular value, from two SVDs."""
+    s = singular_values(J, "full")
+    return Conditioning(
+        manipulability=float(np.prod(singular_values(J, "linear"), axis=-1)),
+        condition_number=float(_condition(s)),
+        min_singular_value=float(s[..., -1]),
+        near_singular=bool(s[..., -1] < singular_threshold),
+    )

@@ -15,24 +15,25 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, partial
 from os import PathLike
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import se3
 from ._checks import as_float_array, check_finite, check_transform
+from ._joint_space import periodic_mask
 from ._kernel import Kernel
 from .exceptions import InvalidInputError, RobotDescriptionError, UnknownNameError
+from .model import ChainSpec, Frame, SolverModel, readonly
 
 if TYPE_CHECKING:
     from .closed_form import ClosedFormBatchResult, ClosedFormResult
     from .ik import IKBatchResult, IKOptions, IKResult
 
 FloatArray = NDArray[np.float64]
-Frame = Literal["space", "body", "world"]
 _FRAMES = ("space", "body", "world")
 
 
@@ -82,60 +83,6 @@ def _check_spec_numbers(spec: ChainSpec) -> None:
         raise RobotDescriptionError("a mimic joint has a non-finite multiplier or offset")
 
 
-def _readonly(a: ArrayLike) -> FloatArray:
-    arr = np.array(a, dtype=np.float64)
-    arr.setflags(write=False)
-    return arr
-
-
-def frame_aligned_with(axis: ArrayLike) -> FloatArray:
-    """A rotation matrix whose third column is the unit vector `axis` (x, y chosen deterministically)."""
-    z = np.asarray(axis, dtype=np.float64)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = np.cross(helper, z)
-    x /= np.linalg.norm(x)
-    return np.column_stack((x, np.cross(z, x), z))
-
-
-@dataclass(frozen=True)
-class JointModel:
-    """One moving joint of the chain at the home configuration.
-
-    Attributes:
-        name: joint name.
-        prismatic: True for prismatic (value in m), False for revolute/continuous (value in rad).
-        H: 4×4 home pose of the joint frame in the base: origin on the axis, z along the axis.
-    """
-
-    name: str
-    prismatic: bool
-    H: FloatArray
-
-
-@dataclass(frozen=True)
-class ChainSpec:
-    """Everything a description parser hands to `SerialChain` (internal, but documented).
-
-    `joints` are all moving joints on the path, including mimic followers. The actuated variables
-    map to them as θ_internal = G q + offset (G is the identity unless there are mimic joints).
-    `links` lists the chain's links base→tip as (name, home pose in base, index of the last moving
-    joint before the link or −1).
-    """
-
-    base_link: str
-    tip_link: str
-    joints: list[JointModel]
-    M: FloatArray
-    actuated_names: list[str]
-    joint_types: list[str]
-    lower: FloatArray
-    upper: FloatArray
-    velocity_limit: FloatArray
-    G: FloatArray
-    offset: FloatArray
-    links: list[tuple[str, FloatArray, int]]
-
-
 @dataclass(frozen=True, eq=False, repr=False)
 class SerialChain:
     """Immutable PoE model of a serial chain from `base_link` to `tip_link`.
@@ -152,6 +99,8 @@ class SerialChain:
         B: (6, n) body screw axes at home, B = [Ad_{M⁻¹}] S (MR eq. 4.16).
         M: (4, 4) home pose of the tip in the base (all joint values 0).
         link_names: links of the chain, base to tip (fixed-joint links included).
+        solver_model: what the numeric IK solvers use beyond the arrays above (the generated
+            scalar kernel, the mimic map, the 2π-periodic joints); see `model.SolverModel`.
     """
 
     base_link: str
@@ -165,6 +114,7 @@ class SerialChain:
     B: FloatArray
     M: FloatArray
     link_names: tuple[str, ...]
+    solver_model: SolverModel = field(compare=False)
     _kernel: Kernel = field(compare=False)
     _G: FloatArray | None = field(compare=False)
     _offset: FloatArray | None = field(compare=False)
@@ -211,6 +161,9 @@ class SerialChain:
                 idx.append((int(nz[0]), float(G[k, nz[0]]), float(offset[k])))
             mimic_index = tuple(idx)
 
+        G_used = None if trivial else readonly(G)
+        to_internal = None if mimic_index is None else partial(_internal_from_index, mimic_index)
+        periodic = periodic_mask(spec.joint_types, G_used, kernel.prismatic)
         link_joint, link_offset = [], []
         for _name, T_home, k in spec.links:
             link_joint.append(k)
@@ -220,19 +173,20 @@ class SerialChain:
             tip_link=spec.tip_link,
             joint_names=tuple(spec.actuated_names),
             joint_types=tuple(spec.joint_types),
-            lower=_readonly(spec.lower),
-            upper=_readonly(spec.upper),
-            velocity_limit=_readonly(spec.velocity_limit),
-            S=_readonly(S),
-            B=_readonly(B),
-            M=_readonly(spec.M),
+            lower=readonly(spec.lower),
+            upper=readonly(spec.upper),
+            velocity_limit=readonly(spec.velocity_limit),
+            S=readonly(S),
+            B=readonly(B),
+            M=readonly(spec.M),
             link_names=tuple(name for name, _, _ in spec.links),
+            solver_model=SolverModel(kernel, to_internal, G_used, readonly(periodic, np.bool_)),
             _kernel=kernel,
-            _G=None if trivial else _readonly(G),
-            _offset=None if trivial else _readonly(offset),
+            _G=G_used,
+            _offset=None if trivial else readonly(offset),
             _mimic_index=mimic_index,
             _link_joint=tuple(link_joint),
-            _link_offset=_readonly(np.array(link_offset)),
+            _link_offset=readonly(np.array(link_offset)),
         )
 
     @classmethod
@@ -359,7 +313,7 @@ class SerialChain:
         mi = self._mimic_index
         if mi is None:
             return list(q)
-        return [m * q[i] + c for i, m, c in mi]
+        return _internal_from_index(mi, q)
 
     def _scalar_q(self, q: ArrayLike) -> list[float] | None:
         """Fast validation of a single configuration; None if `q` is a batch."""
@@ -595,6 +549,13 @@ class SerialChain:
 
 
 # ---------------------------------------------------------------------- helpers
+def _internal_from_index(
+    mimic_index: tuple[tuple[int, float, float], ...], q: Sequence[float]
+) -> list[float]:
+    """θ_internal[k] = m·q[i] + c for each internal joint's (leader i, multiplier m, offset c)."""
+    return [m * q[i] + c for i, m, c in mimic_index]
+
+
 def _pose_from_flat(t: tuple[float, ...]) -> FloatArray:
     return np.array(
         (

@@ -38,7 +38,6 @@ from __future__ import annotations
 import math
 import weakref
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -48,10 +47,8 @@ from . import _closed_form_vector as vector
 from . import subproblems as sp
 from ._checks import as_float_array, check_finite
 from .exceptions import InvalidInputError, NoClosedFormError
-from .ik import IKResult, default_seed
-
-if TYPE_CHECKING:
-    from .chain import SerialChain
+from .ik import IKResult, check_seed, default_seed
+from .model import TWO_PI, KinematicChain, readonly
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -71,8 +68,7 @@ _REFINE_BELOW = 1e-2
 _REFINE_ABOVE = 1e-12
 #: A solution counts once: two that agree to this [rad] in every joint (modulo 2π) are one.
 _SAME_SOLUTION = 1e-9
-_TWO_PI = 2.0 * math.pi
-_INV_TWO_PI = 1.0 / _TWO_PI
+_INVTWO_PI = 1.0 / TWO_PI
 
 
 # ---------------------------------------------------------------------- public types
@@ -296,7 +292,7 @@ class _Solver:
 
     def __init__(
         self,
-        chain: SerialChain,
+        chain: KinematicChain,
         structure: _Structure,
         held: int | None,
     ) -> None:
@@ -339,7 +335,7 @@ class _Solver:
         """Upper bounds for the equivalents: the limit, or seed + π for an unbounded side."""
         lo = self.lo_eff(seed)
         return np.where(
-            self.continuous, lo + _TWO_PI - 1e-9,
+            self.continuous, lo + TWO_PI - 1e-9,
             np.where(np.isfinite(self.upper_arr), self.upper_arr, seed + math.pi),
         )  # fmt: skip
 
@@ -402,7 +398,7 @@ def _confirm(solver: _Solver) -> bool:
     return True
 
 
-def _why_not(chain: SerialChain) -> str:
+def _why_not(chain: KinematicChain) -> str:
     """Why a chain has no closed form, in a sentence (for NoClosedFormError)."""
     if any(t == "prismatic" for t in chain.joint_types):
         return "it has prismatic joints (only all-revolute arms have a closed form here)"
@@ -422,7 +418,7 @@ def _why_not(chain: SerialChain) -> str:
     )
 
 
-def detect(chain: SerialChain) -> _Solver | None:
+def detect(chain: KinematicChain) -> _Solver | None:
     """The closed-form solver of `chain`, or None. Geometry only: the lines of the screw axes S."""
     if any(t == "prismatic" for t in chain.joint_types) or chain.dof not in (6, 7):
         return None
@@ -478,7 +474,7 @@ def _held_coverage(solver: _Solver) -> float:
 # ---------------------------------------------------------------------- solving
 def _wrap(a: FloatArray) -> FloatArray:
     """Angles into (−π, π]."""
-    return a - _TWO_PI * np.ceil((a - math.pi) / _TWO_PI)
+    return a - TWO_PI * np.ceil((a - math.pi) / TWO_PI)
 
 
 def _pose_errors(T: FloatArray, T_t: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -490,7 +486,7 @@ def _pose_errors(T: FloatArray, T_t: FloatArray) -> tuple[FloatArray, FloatArray
 
 
 def _refine(
-    chain: SerialChain, Q: FloatArray, T_t: FloatArray, frozen: int | None, steps: int = 2
+    chain: KinematicChain, Q: FloatArray, T_t: FloatArray, frozen: int | None, steps: int = 2
 ) -> FloatArray:
     """Gauss–Newton steps J_world Δq = (ω_err, p_t − p) toward T_t, with ω_err the rotation vector of
     R_t Rᵀ to first order, vee((A − Aᵀ)/2) (damped by 1e-12 so a singular J stays solvable)."""
@@ -705,7 +701,7 @@ def _solve_single(
     whys: set[str] = set()
     for q6, why in cands:
         q = [-x for x in reversed(q6)] if st.reversed else q6
-        q = [x - _TWO_PI * math.ceil((x - math.pi) * _INV_TWO_PI) for x in q]  # into (−π, π]
+        q = [x - TWO_PI * math.ceil((x - math.pi) * _INVTWO_PI) for x in q]  # into (−π, π]
         ep, er = _pose_errors_list(chain.fk(q).tolist(), T)
         if (
             (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
@@ -720,7 +716,7 @@ def _solve_single(
             continue
         q2 = q[2]  # a cheap first test on one joint (branches often share the first joint)
         if any(
-            (abs(q2 - o[2]) <= _SAME_SOLUTION or abs(abs(q2 - o[2]) - _TWO_PI) <= _SAME_SOLUTION)
+            (abs(q2 - o[2]) <= _SAME_SOLUTION or abs(abs(q2 - o[2]) - TWO_PI) <= _SAME_SOLUTION)
             and _same(q, o)
             for o in accepted
         ):
@@ -741,7 +737,7 @@ def _same(a: list[float], b: list[float]) -> bool:
     """Two solutions with angles in (−π, π] are equal modulo 2π to `_SAME_SOLUTION`."""
     for x, y in zip(a, b, strict=True):
         d = abs(x - y)
-        if d > _SAME_SOLUTION and abs(d - _TWO_PI) > _SAME_SOLUTION:
+        if d > _SAME_SOLUTION and abs(d - TWO_PI) > _SAME_SOLUTION:
             return False
     return True
 
@@ -794,12 +790,12 @@ def _equivalents(solver: _Solver, Q: FloatArray, seeds: FloatArray) -> tuple[Flo
         lo, hi = solver.lo_wide, solver.hi_wide
     else:
         lo, hi = solver.lo_eff(seeds[0]) - 1e-10, solver.hi_eff(seeds[0]) + 1e-10
-    k_lo = np.ceil((lo - Q) * (1.0 / _TWO_PI))
-    cnt = (np.floor((hi - Q) * (1.0 / _TWO_PI)) - k_lo + 1).astype(np.int64)
+    k_lo = np.ceil((lo - Q) * (1.0 / TWO_PI))
+    cnt = (np.floor((hi - Q) * (1.0 / TWO_PI)) - k_lo + 1).astype(np.int64)
     m = int(cnt.max()) if Q.shape[0] else 0
     if m <= 1:
         keep = np.flatnonzero((cnt == 1).all(axis=1))
-        out = Q[keep] + _TWO_PI * k_lo[keep]
+        out = Q[keep] + TWO_PI * k_lo[keep]
     else:
         n = chain.dof
         combos = _COMBOS.get((m, n))
@@ -808,13 +804,13 @@ def _equivalents(solver: _Solver, Q: FloatArray, seeds: FloatArray) -> tuple[Flo
             _COMBOS[(m, n)] = combos
         ok = (combos[None, :, :] < cnt[:, None, :]).all(axis=2)
         keep, which = np.nonzero(ok)
-        out = Q[keep] + _TWO_PI * (k_lo[keep] + combos[which])
+        out = Q[keep] + TWO_PI * (k_lo[keep] + combos[which])
     return np.clip(out, solver.lower_arr, solver.upper_arr), keep
 
 
 def _wrap1(a: float) -> float:
     """One angle into (−π, π]."""
-    return a - _TWO_PI * math.ceil((a - math.pi) / _TWO_PI)
+    return a - TWO_PI * math.ceil((a - math.pi) / TWO_PI)
 
 
 _STAGE_TEXT = {
@@ -858,7 +854,7 @@ def _duplicates(Q: FloatArray, acc: BoolArray) -> BoolArray:
     lane, j, i = np.nonzero(close)  # branch j may repeat earlier branch i
     if lane.size:
         d = np.abs(Q[lane, j] - Q[lane, i])
-        same = ((d <= _SAME_SOLUTION) | (np.abs(d - _TWO_PI) <= _SAME_SOLUTION)).all(axis=1)
+        same = ((d <= _SAME_SOLUTION) | (np.abs(d - TWO_PI) <= _SAME_SOLUTION)).all(axis=1)
         dup[lane[same], j[same]] = True
     return dup
 
@@ -890,7 +886,7 @@ def _insert(Q6: FloatArray, j: int, values: FloatArray) -> FloatArray:
 
 
 def _within_limits(
-    chain: SerialChain, Q: FloatArray, owner: IntArray, tag: IntArray, seeds: FloatArray
+    chain: KinematicChain, Q: FloatArray, owner: IntArray, tag: IntArray, seeds: FloatArray
 ) -> tuple[FloatArray, IntArray, IntArray]:
     """Every whole-turn equivalent of each solution (angles in (−π, π]) within the limits.
 
@@ -904,31 +900,31 @@ def _within_limits(
             break
         qj = Q[:, j]
         if not (np.isfinite(lo[j]) or np.isfinite(hi[j])):
-            Q[:, j] = qj + _TWO_PI * np.round((seeds[owner, j] - qj) / _TWO_PI)
+            Q[:, j] = qj + TWO_PI * np.round((seeds[owner, j] - qj) / TWO_PI)
             continue
         lo_j = lo[j] if np.isfinite(lo[j]) else seeds[owner, j] - math.pi
         hi_j = hi[j] if np.isfinite(hi[j]) else seeds[owner, j] + math.pi
-        k_lo = np.ceil((lo_j - eps - qj) / _TWO_PI)
-        k_hi = np.floor((hi_j + eps - qj) / _TWO_PI)
+        k_lo = np.ceil((lo_j - eps - qj) / TWO_PI)
+        k_hi = np.floor((hi_j + eps - qj) / TWO_PI)
         cnt = np.maximum(k_hi - k_lo + 1, 0).astype(np.int64)
         if np.all(cnt == 1):
-            Q[:, j] = qj + _TWO_PI * k_lo
+            Q[:, j] = qj + TWO_PI * k_lo
             continue
         rep = np.repeat(np.arange(Q.shape[0]), cnt)
         start = np.cumsum(cnt) - cnt
         k = k_lo[rep] + (np.arange(rep.size) - start[rep])
         Q, owner, tag = Q[rep], owner[rep], tag[rep]
-        Q[:, j] = Q[:, j] + _TWO_PI * k
+        Q[:, j] = Q[:, j] + TWO_PI * k
     if Q.shape[0]:
         Q = np.clip(Q, lo, hi)
     return Q, owner, tag
 
 
 # ---------------------------------------------------------------------- public entry points
-_SOLVERS: weakref.WeakKeyDictionary[SerialChain, _Solver | None] = weakref.WeakKeyDictionary()
+_SOLVERS: weakref.WeakKeyDictionary[KinematicChain, _Solver | None] = weakref.WeakKeyDictionary()
 
 
-def _solver(chain: SerialChain) -> _Solver | None:
+def _solver(chain: KinematicChain) -> _Solver | None:
     """The chain's detected solver, detected once per chain (the chain is immutable)."""
     try:
         return _SOLVERS[chain]
@@ -938,13 +934,13 @@ def _solver(chain: SerialChain) -> _Solver | None:
         return solver
 
 
-def family_of(chain: SerialChain) -> ClosedFormFamily | None:
+def family_of(chain: KinematicChain) -> ClosedFormFamily | None:
     """The closed-form family of `chain` with its details, or None where none applies."""
     solver = _solver(chain)
     return None if solver is None else solver.family()
 
 
-def _require(chain: SerialChain) -> _Solver:
+def _require(chain: KinematicChain) -> _Solver:
     solver = _solver(chain)
     if solver is None:
         raise NoClosedFormError(
@@ -1034,7 +1030,7 @@ def _check_tolerance(tolerance: float) -> float:
 
 
 def solve_all(
-    chain: SerialChain,
+    chain: KinematicChain,
     T_target: ArrayLike,
     q_seed: ArrayLike | None = None,
     held: ArrayLike | None = None,
@@ -1060,7 +1056,6 @@ def solve_all(
         NoClosedFormError: the chain has no closed-form family (the message says what is missing).
         InvalidInputError: bad target, seed, held values or tolerance.
     """
-    from .ik import _seed  # the seed rules of `ik`: validated, clamped into the limits
 
     solver = _require(chain)
     tol = _check_tolerance(tolerance)
@@ -1075,7 +1070,7 @@ def solve_all(
     if q_seed is None:
         seed = solver.default_seed
     else:
-        seed = _seed(chain, q_seed, "q_seed", None)
+        seed = check_seed(chain, q_seed, "q_seed", None)
     held_arr = _held_values(solver, held, None)
     family = solver.info
     if solver.held is None:
@@ -1106,7 +1101,7 @@ def solve_all(
         msg = reason
     sol_arr.setflags(write=False)
     return ClosedFormResult(
-        q=_readonly(q),
+        q=readonly(q),
         success=bool(k),
         position_error=float(ep),
         orientation_error=float(er),
@@ -1116,12 +1111,12 @@ def solve_all(
         message=msg,
         singular=bool(singular_why),
         family=family.name,
-        held_values=_readonly(held_used),
+        held_values=readonly(held_used),
     )
 
 
 def solve_all_batch(
-    chain: SerialChain,
+    chain: KinematicChain,
     T_targets: ArrayLike,
     q_seeds: ArrayLike | None = None,
     held: ArrayLike | None = None,
@@ -1137,7 +1132,6 @@ def solve_all_batch(
     Raises:
         NoClosedFormError, InvalidInputError: as `solve_all`.
     """
-    from .ik import _seed
 
     solver = _require(chain)
     tol = _check_tolerance(tolerance)
@@ -1145,7 +1139,7 @@ def solve_all_batch(
     if T.ndim != 3:
         raise InvalidInputError(f"T_targets must have shape (N, 4, 4), got {T.shape}")
     N = T.shape[0]
-    seeds = _seed(chain, q_seeds, "q_seeds", N)
+    seeds = check_seed(chain, q_seeds, "q_seeds", N)
     held_arr = _held_values(solver, held, N)
     out = _solve_arrays(solver, _orthonormal(T), seeds, held_arr, tol)
     success = out.count > 0
@@ -1157,20 +1151,14 @@ def solve_all_batch(
         f"{int(out.singular.sum())} singular"
     )
     return ClosedFormBatchResult(
-        q=_readonly(q),
-        success=_readonly(success, np.bool_),
-        count=_readonly(out.count, np.int64),
-        offsets=_readonly(out.offsets, np.int64),
-        solutions=_readonly(out.solutions),
-        singular=_readonly(out.singular, np.bool_),
+        q=readonly(q),
+        success=readonly(success, np.bool_),
+        count=readonly(out.count, np.int64),
+        offsets=readonly(out.offsets, np.int64),
+        solutions=readonly(out.solutions),
+        singular=readonly(out.singular, np.bool_),
         message=msg,
     )
-
-
-def _readonly(a: ArrayLike, dtype: type = np.float64) -> NDArray:  # type: ignore[type-arg]
-    arr: NDArray = np.array(a, dtype=dtype)  # type: ignore[type-arg]
-    arr.setflags(write=False)
-    return arr
 
 
 __all__ = [

@@ -20,8 +20,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ._checks import as_float_array, check_finite, check_transform
-from .chain import ChainSpec, JointModel, frame_aligned_with
 from .exceptions import RobotDescriptionError
+from .model import ChainSpec, JointModel, frame_aligned_with
 
 
 def _rot_z(t: float) -> np.ndarray:

@@ -40,196 +40,26 @@ the result is reproducible whenever the search ends by success or `max_restarts`
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._ik_batch import BatchOutcome, solve_batch_arrays
+from ._ik_batch import BatchOutcome, BatchSolver
+from ._ik_problem import IKProblem
 from ._ik_single import SingleSolver
 from .exceptions import InvalidInputError
-
-if TYPE_CHECKING:
-    from .chain import SerialChain
+from .ik_options import IKOptions
+from .model import KinematicChain, middle_of_limits, readonly
 
 FloatArray = NDArray[np.float64]
-Mode = Literal["speed", "distance"]
-_MODES = ("speed", "distance")
 # Below this many targets `ik_batch` solves them one by one with the scalar solver: the lock-step
 # NumPy iteration costs ~1 ms whatever the batch size, so it only pays off for larger batches
 # (measured on Panda and UR5: 1.4 vs 0.44 ms per target at N = 10, about even at N = 50–64,
 # 0.2 vs 0.5 ms at N = 200).
 SCALAR_BATCH_BELOW = 48
-
-
-def _is_real(x: object) -> bool:
-    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
-
-
-def _is_int(x: object) -> bool:
-    return isinstance(x, (int, np.integer)) and not isinstance(x, bool)
-
-
-@dataclass(frozen=True)
-class IKOptions:
-    """Settings of the IK solver (immutable; validated on construction).
-
-    Attributes:
-        position_tolerance: success threshold on ‖p_target − p(q)‖ [m], > 0.
-        orientation_tolerance: success threshold on the rotation angle of R(q)ᵀ R_target [rad], > 0.
-        timeout: time budget of one `ik` call [s], > 0; the call returns within about a
-            millisecond of it. For `ik_batch` see `batch_timeout`.
-        max_restarts: random restarts allowed after the first attempt (int ≥ 0).
-        max_iterations: Levenberg–Marquardt iterations per attempt (int ≥ 1).
-        mode: "speed" returns the first solution; "distance" keeps restarting until the time
-            budget (or `max_restarts`) is used up and returns the solution closest to the seed.
-        num_solutions: number of distinct solutions to collect (int ≥ 1), returned in
-            `IKResult.solutions` sorted by distance to the seed.
-        position_only: ignore the orientation of the target (only the position must match).
-        weights: None, or 6 non-negative floats in (ω, v) order, tip-frame axes, multiplying the
-            squared error components in the least-squares cost; a zero weight frees that component
-            (it is then also excluded from the success test). At least one must be positive.
-        axis_tolerances: None, or 6 bounds > 0 in (ω, v) order, tip-frame axes (inf allowed), on
-            the components of the error e = (log(R(q)ᵀ R_target), R(q)ᵀ(p_target − p(q))), as
-            TRAC-IK's per-axis bounds: success means |eᵢ| ≤ axis_tolerances[i] for every i (the
-            two scalar tolerances are then not used), and a component already within its bound
-            does not pull on the solver, so e.g. (1e-4, 1e-4, inf, 1e-5, 1e-5, 1e-5) leaves the
-            rotation about the tool's z axis free. Not combined with `position_only` (give inf
-            for the three ω bounds instead).
-        joint_weights: None, or one non-negative float per joint for the joint-space distance
-            d(q, q_seed)² = Σ wⱼ (qⱼ − q_seedⱼ)² used by "distance" mode and to sort solutions.
-        solution_separation: two solutions are distinct when some joint differs by more than this
-            [rad or m] (continuous joints compared modulo 2π); > 0.
-        batch_timeout: time budget of a whole `ik_batch` call [s]; None means `timeout` × N.
-        rng_seed: seed of the random restarts (None: fresh entropy each call).
-    """
-
-    position_tolerance: float = 1e-5
-    orientation_tolerance: float = 1e-4
-    timeout: float = 0.05
-    max_restarts: int = 1000
-    max_iterations: int = 60
-    mode: Mode = "speed"
-    num_solutions: int = 1
-    position_only: bool = False
-    weights: tuple[float, ...] | None = None
-    axis_tolerances: tuple[float, ...] | None = None
-    joint_weights: tuple[float, ...] | None = None
-    solution_separation: float = 1e-2
-    batch_timeout: float | None = None
-    rng_seed: int | None = None
-
-    def __post_init__(self) -> None:
-        for name in (
-            "position_tolerance",
-            "orientation_tolerance",
-            "timeout",
-            "solution_separation",
-        ):
-            value = getattr(self, name)
-            if not _is_real(value) or not math.isfinite(value) or value <= 0:
-                raise InvalidInputError(
-                    f"IKOptions.{name} must be a finite number > 0, got {value!r}"
-                )
-        if self.batch_timeout is not None and (
-            not _is_real(self.batch_timeout)
-            or not math.isfinite(self.batch_timeout)
-            or self.batch_timeout <= 0
-        ):
-            raise InvalidInputError(
-                f"IKOptions.batch_timeout must be None or a finite number > 0 [s], "
-                f"got {self.batch_timeout!r}"
-            )
-        if not _is_int(self.max_restarts) or self.max_restarts < 0:
-            raise InvalidInputError(
-                f"IKOptions.max_restarts must be an int ≥ 0, got {self.max_restarts!r}"
-            )
-        if not _is_int(self.max_iterations) or self.max_iterations < 1:
-            raise InvalidInputError(
-                f"IKOptions.max_iterations must be an int ≥ 1, got {self.max_iterations!r}"
-            )
-        if not _is_int(self.num_solutions) or self.num_solutions < 1:
-            raise InvalidInputError(
-                f"IKOptions.num_solutions must be an int ≥ 1, got {self.num_solutions!r}"
-            )
-        if self.mode not in _MODES:
-            raise InvalidInputError(f"IKOptions.mode must be one of {_MODES}, got {self.mode!r}")
-        if not isinstance(self.position_only, (bool, np.bool_)):
-            raise InvalidInputError(
-                f"IKOptions.position_only must be a bool, got {self.position_only!r}"
-            )
-        if self.rng_seed is not None and (not _is_int(self.rng_seed) or self.rng_seed < 0):
-            raise InvalidInputError(
-                f"IKOptions.rng_seed must be None or an int ≥ 0, got {self.rng_seed!r}"
-            )
-        if self.weights is not None:
-            w = _weights_tuple(self.weights, "weights")
-            if len(w) != 6:
-                raise InvalidInputError(
-                    "IKOptions.weights must have 6 values ordered (ωx, ωy, ωz, vx, vy, vz), "
-                    f"got {len(w)}"
-                )
-            active = w[3:] if self.position_only else w
-            if not any(x > 0 for x in active):
-                raise InvalidInputError(
-                    f"IKOptions.weights must have at least one positive "
-                    f"{'position ' if self.position_only else ''}weight, got {w}"
-                )
-            object.__setattr__(self, "weights", w)
-        if self.axis_tolerances is not None:
-            object.__setattr__(self, "axis_tolerances", _axis_tolerances(self))
-        if self.joint_weights is not None:
-            object.__setattr__(
-                self, "joint_weights", _weights_tuple(self.joint_weights, "joint_weights")
-            )
-
-
-def _float_array(values: object, name: str, expected: str) -> FloatArray:
-    """`values` as a float array, or an InvalidInputError saying what IKOptions.`name` must be."""
-    try:
-        return np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InvalidInputError(f"IKOptions.{name} must be {expected}, got {values!r}") from None
-
-
-def _weights_tuple(values: object, name: str) -> tuple[float, ...]:
-    arr = _float_array(values, name, "a sequence of numbers")
-    if arr.ndim != 1:
-        raise InvalidInputError(f"IKOptions.{name} must be a flat sequence, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
-        raise InvalidInputError(f"IKOptions.{name} must be finite and ≥ 0, got {arr.tolist()}")
-    return tuple(float(x) for x in arr)
-
-
-def _axis_tolerances(opts: IKOptions) -> tuple[float, ...]:
-    arr = _float_array(opts.axis_tolerances, "axis_tolerances", "6 numbers")
-    if arr.shape != (6,):
-        raise InvalidInputError(
-            "IKOptions.axis_tolerances must have 6 values ordered (ωx, ωy, ωz, vx, vy, vz) "
-            f"[rad, m], got shape {arr.shape}"
-        )
-    if np.any(np.isnan(arr)) or np.any(arr <= 0):
-        raise InvalidInputError(
-            f"IKOptions.axis_tolerances must be > 0 (inf frees an axis), got {arr.tolist()}"
-        )
-    if np.all(np.isinf(arr)):
-        raise InvalidInputError("IKOptions.axis_tolerances must bound at least one axis")
-    if opts.position_only:
-        raise InvalidInputError(
-            "IKOptions.axis_tolerances and position_only cannot be combined: "
-            "give inf for the three ω bounds instead"
-        )
-    return tuple(float(x) for x in arr)
-
-
-def _readonly(a: ArrayLike, dtype: type = np.float64) -> NDArray:  # type: ignore[type-arg]
-    arr: NDArray = np.array(a, dtype=dtype)  # type: ignore[type-arg]
-    arr.setflags(write=False)
-    return arr
 
 
 @dataclass(frozen=True)
@@ -283,15 +113,20 @@ class IKBatchResult:
 
 
 # ---------------------------------------------------------------------- boundary helpers
-def default_seed(chain: SerialChain) -> FloatArray:
+def default_seed(chain: KinematicChain) -> FloatArray:
     """Middle of the joint limits; 0 for continuous joints (clipped into half-bounded limits)."""
-    lo, hi = chain.lower, chain.upper
-    finite = np.isfinite(lo) & np.isfinite(hi)
-    mid = np.where(finite, 0.5 * (np.where(finite, lo, 0.0) + np.where(finite, hi, 0.0)), 0.0)
-    return np.clip(mid, lo, hi)
+    return middle_of_limits(chain.lower, chain.upper)
 
 
-def _seed(chain: SerialChain, q_seed: ArrayLike | None, name: str, batch: int | None) -> FloatArray:
+def check_seed(
+    chain: KinematicChain, q_seed: ArrayLike | None, name: str, batch: int | None
+) -> FloatArray:
+    """The seed rules of `ik` (and `ik_all`): `default_seed` when None, else validated as shape
+    (n,) or, for a `batch` of N, (N, n), and clamped into the limits.
+
+    Raises:
+        InvalidInputError: wrong shape or a non-finite value, naming `name`.
+    """
     if q_seed is None:
         s = default_seed(chain)
         return s if batch is None else np.tile(s, (batch, 1))
@@ -310,20 +145,9 @@ def _options(options: IKOptions | None) -> IKOptions:
     return options
 
 
-def _joint_weights(chain: SerialChain, opts: IKOptions) -> FloatArray:
-    if opts.joint_weights is None:
-        return np.ones(chain.dof)
-    if len(opts.joint_weights) != chain.dof:
-        raise InvalidInputError(
-            f"IKOptions.joint_weights must have {chain.dof} values (one per joint "
-            f"{list(chain.joint_names)}), got {len(opts.joint_weights)}"
-        )
-    return np.array(opts.joint_weights)
-
-
 # ---------------------------------------------------------------------- public entry points
 def solve(
-    chain: SerialChain,
+    chain: KinematicChain,
     T_target: ArrayLike,
     q_seed: ArrayLike | None = None,
     options: IKOptions | None = None,
@@ -350,13 +174,12 @@ def solve(
         raise InvalidInputError(
             f"T_target must have shape (4, 4) (use ik_batch for many), got {T.shape}"
         )
-    seed = _seed(chain, q_seed, "q_seed", None)
+    seed = check_seed(chain, q_seed, "q_seed", None)
     start = time.perf_counter()
     deadline = start + opts.timeout
-    solver = SingleSolver(chain, T, seed, opts, _joint_weights(chain, opts))
-    out = solver.run(deadline)
+    out = SingleSolver(IKProblem.build(chain, opts), T, seed).run(deadline)
     elapsed_ms = (time.perf_counter() - start) * 1e3
-    solutions = tuple(_readonly(s) for s in out.solutions)
+    solutions = tuple(readonly(s) for s in out.solutions)
     if out.success:
         n_found = len(solutions)
         msg = f"found {n_found} solution{'s' if n_found > 1 else ''} in {elapsed_ms:.2f} ms"
@@ -370,7 +193,7 @@ def solve(
             f"(tolerances {opts.position_tolerance:g} m / {opts.orientation_tolerance:g} rad)"
         )
     return IKResult(
-        q=_readonly(out.q),
+        q=readonly(out.q),
         success=out.success,
         position_error=out.position_error,
         orientation_error=out.orientation_error,
@@ -382,7 +205,7 @@ def solve(
 
 
 def solve_batch(
-    chain: SerialChain,
+    chain: KinematicChain,
     T_targets: ArrayLike,
     q_seeds: ArrayLike | None = None,
     options: IKOptions | None = None,
@@ -412,42 +235,42 @@ def solve_batch(
     if T.ndim != 3:
         raise InvalidInputError(f"T_targets must have shape (N, 4, 4), got {T.shape}")
     N = T.shape[0]
-    seeds = _seed(chain, q_seeds, "q_seeds", N)
+    seeds = check_seed(chain, q_seeds, "q_seeds", N)
     start = time.perf_counter()
     budget = opts.batch_timeout if opts.batch_timeout is not None else opts.timeout * max(N, 1)
+    problem = IKProblem.build(chain, opts)
     if N < SCALAR_BATCH_BELOW:
-        out = _solve_each(chain, T, seeds, opts, start + budget)
+        out = _solve_each(problem, T, seeds, start + budget)
     else:
-        out = solve_batch_arrays(chain, T, seeds, opts, start + budget)
+        out = BatchSolver(problem, T, seeds).run(start + budget)
     elapsed_ms = (time.perf_counter() - start) * 1e3
     n_ok = int(out.success.sum())
     msg = f"{n_ok}/{N} targets solved in {elapsed_ms:.1f} ms"
     if n_ok < N:
         msg += f" ({out.stop_reason})"
     return IKBatchResult(
-        q=_readonly(out.q),
-        success=_readonly(out.success, np.bool_),
-        position_error=_readonly(out.position_error),
-        orientation_error=_readonly(out.orientation_error),
-        iterations=_readonly(out.iterations, np.int64),
-        restarts=_readonly(out.restarts, np.int64),
+        q=readonly(out.q),
+        success=readonly(out.success, np.bool_),
+        position_error=readonly(out.position_error),
+        orientation_error=readonly(out.orientation_error),
+        iterations=readonly(out.iterations, np.int64),
+        restarts=readonly(out.restarts, np.int64),
         message=msg,
     )
 
 
 def _solve_each(
-    chain: SerialChain, T: FloatArray, seeds: FloatArray, opts: IKOptions, deadline: float
+    problem: IKProblem, T: FloatArray, seeds: FloatArray, deadline: float
 ) -> BatchOutcome:
     """Small batches: the scalar solver per target, each with `opts.timeout` but never past the
     batch's deadline. Results equal those of `ik` on each target whenever neither budget binds."""
-    joint_weights = _joint_weights(chain, opts)
     outs = []
     for T_k, seed_k in zip(T, seeds, strict=True):
-        own = min(time.perf_counter() + opts.timeout, deadline)
-        outs.append(SingleSolver(chain, T_k, seed_k, opts, joint_weights).run(own))
+        own = min(time.perf_counter() + problem.opts.timeout, deadline)
+        outs.append(SingleSolver(problem, T_k, seed_k).run(own))
     failed = [o.stop_reason for o in outs if not o.success]
     return BatchOutcome(
-        q=np.array([o.q for o in outs]).reshape(len(outs), chain.dof),
+        q=np.array([o.q for o in outs]).reshape(len(outs), len(problem.lower)),
         success=np.array([o.success for o in outs], dtype=bool),
         position_error=np.array([o.position_error for o in outs], dtype=np.float64),
         orientation_error=np.array([o.orientation_error for o in outs], dtype=np.float64),
@@ -461,6 +284,7 @@ __all__: Sequence[str] = [
     "IKBatchResult",
     "IKOptions",
     "IKResult",
+    "check_seed",
     "default_seed",
     "solve",
     "solve_batch",

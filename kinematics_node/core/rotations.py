@@ -137,7 +137,8 @@ def rpy_from_matrix(R: ArrayLike) -> FloatArray:
     """(roll, pitch, yaw) with pitch ∈ [−π/2, π/2] (De Luca, RPY inverse problem).
 
     θ = atan2(−r31, √(r32² + r33²)); ψ = atan2(r32, r33); φ = atan2(r21, r11). At θ = ±π/2 only
-    φ ∓ ψ... is defined: yaw is set to 0 and roll = atan2(±r12, r22) carries the rotation.
+    ψ ∓ φ (roll ∓ yaw) is defined: yaw is set to 0 and roll = atan2(±r12, r22) carries the
+    rotation.
     """
     M = np.asarray(R, dtype=np.float64)
     c = np.hypot(M[..., 2, 1], M[..., 2, 2])

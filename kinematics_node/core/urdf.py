@@ -23,10 +23,9 @@ from typing import Any
 
 import numpy as np
 
-from .chain import ChainSpec, JointModel, frame_aligned_with
 from .exceptions import RobotDescriptionError, UnknownNameError
+from .model import MOVING_JOINT_TYPES, ChainSpec, JointModel, frame_aligned_with
 
-_MOVING = ("revolute", "continuous", "prismatic")
 _AXIS_TOLERANCE = 1e-4  # URDFs often print axes with 4–6 digits, e.g. "0 0.7071 0.7071"
 
 
@@ -43,7 +42,7 @@ _BOMS = (
 )
 
 
-def _short(text: str, limit: int = 60) -> str:
+def shorten(text: str, limit: int = 60) -> str:
     """`text` for an error message: one line, at most `limit` characters."""
     text = " ".join(str(text).split())
     return text if len(text) <= limit else text[: limit - 1] + "…"
@@ -74,7 +73,7 @@ def decode_xml(data: bytes, where: str = "robot description") -> str:
                 codecs.lookup(encoding)
             except LookupError:
                 raise RobotDescriptionError(
-                    f"{where} declares an unknown encoding {_short(encoding)!r}"
+                    f"{where} declares an unknown encoding {shorten(encoding)!r}"
                 ) from None
     try:
         text = data.decode(encoding)
@@ -104,7 +103,14 @@ def _drop_encoding_declaration(text: str) -> str:
 
 
 def read_description(path_or_xml: str | bytes | PathLike[str]) -> str:
-    """Return URDF XML text from a path, XML text or XML bytes, expanding xacro when needed.
+    """URDF XML text of a description; see `RobotDescription` (which also keeps the parse)."""
+    return _read(path_or_xml)[0]
+
+
+def _read(path_or_xml: str | bytes | PathLike[str]) -> tuple[str, ET.Element]:
+    """(URDF XML text, its parsed root) from a path, XML text or XML bytes, expanding xacro when needed.
+
+    Returns URDF XML text from a path, XML text or XML bytes, expanding xacro when needed.
 
     Bytes and files are decoded as XML says (byte-order mark, else the declared encoding, else
     UTF-8). Xacro is run for `.xacro` files and for descriptions with xacro content (elements or
@@ -128,10 +134,10 @@ def read_description(path_or_xml: str | bytes | PathLike[str]) -> str:
                 data = fh.read()
         except (OSError, ValueError) as exc:  # ValueError: a NUL character in the path
             raise RobotDescriptionError(
-                f"cannot read robot description {_short(filename)!r}: "
+                f"cannot read robot description {shorten(filename)!r}: "
                 f"{_one_line(getattr(exc, 'strerror', None) or exc)}"
             ) from None
-        text = decode_xml(data, f"robot description {_short(filename)!r}")
+        text = decode_xml(data, f"robot description {shorten(filename)!r}")
     else:
         text = _drop_encoding_declaration(str(path_or_xml))
     root = _parse(text, filename)
@@ -140,16 +146,16 @@ def read_description(path_or_xml: str | bytes | PathLike[str]) -> str:
         root = _parse(text, filename)
     if root.tag != "robot":
         raise RobotDescriptionError(
-            f"expected a <robot> root element, got <{_short(str(root.tag), 40)}>"
+            f"expected a <robot> root element, got <{shorten(str(root.tag), 40)}>"
         )
-    return text
+    return text, root
 
 
 def _parse(text: str, filename: str | None) -> ET.Element:
     try:
         return ET.fromstring(text)
     except ET.ParseError as exc:
-        where = f" in {_short(filename)!r}" if filename else ""
+        where = f" in {shorten(filename)!r}" if filename else ""
         raise RobotDescriptionError(f"malformed XML{where}: {_one_line(exc)}") from None
     except (ValueError, RecursionError) as exc:  # e.g. nesting deeper than the parser allows
         raise RobotDescriptionError(f"unusable XML: {_one_line(exc)}") from None
@@ -199,7 +205,7 @@ def _numbers(el: ET.Element, attr: str, what: str, count: int | None = 3) -> lis
     raw = el.get(attr)
     if raw is None:
         return None
-    shown = f'<{el.tag} {attr}="{_short(raw, 40)}">'
+    shown = f'<{el.tag} {attr}="{shorten(raw, 40)}">'
     try:
         values = [float(v) for v in raw.split()]
     except ValueError:
@@ -224,21 +230,21 @@ def check_kinematic_elements(root: ET.Element) -> None:
         if not name:
             raise RobotDescriptionError(f"<link> number {k} has no name attribute")
         if name in link_names:
-            raise RobotDescriptionError(f"link {_short(name)!r} is defined twice")
+            raise RobotDescriptionError(f"link {shorten(name)!r} is defined twice")
         link_names.add(name)
     joint_names: set[str] = set()
     for k, j in enumerate(root.findall("joint"), start=1):
         name = j.get("name")
         if not name:
             raise RobotDescriptionError(f"<joint> number {k} has no name attribute")
-        what = f"joint {_short(name)!r}"
+        what = f"joint {shorten(name)!r}"
         if name in joint_names:
             raise RobotDescriptionError(f"{what} is defined twice")
         joint_names.add(name)
         jtype = j.get("type")
         if jtype not in _JOINT_TYPES:
             raise RobotDescriptionError(
-                f"{what} has type {_short(str(jtype), 40)!r}; expected one of {', '.join(_JOINT_TYPES)}"
+                f"{what} has type {shorten(str(jtype), 40)!r}; expected one of {', '.join(_JOINT_TYPES)}"
             )
         for role in ("parent", "child"):
             el = j.find(role)
@@ -264,11 +270,11 @@ def check_kinematic_elements(root: ET.Element) -> None:
                     value = float(raw)
                 except ValueError:
                     raise RobotDescriptionError(
-                        f'{what}: <limit {attr}="{_short(raw, 40)}"> must be a number'
+                        f'{what}: <limit {attr}="{shorten(raw, 40)}"> must be a number'
                     ) from None
                 if math.isnan(value) or (attr in ("velocity", "effort") and value < 0):
                     raise RobotDescriptionError(
-                        f'{what}: <limit {attr}="{_short(raw, 40)}"> must be '
+                        f'{what}: <limit {attr}="{shorten(raw, 40)}"> must be '
                         + ("a number" if math.isnan(value) else "≥ 0")
                     )
         mimic = j.find("mimic")
@@ -299,15 +305,92 @@ def _load_robot(text: str) -> Any:
     return urdf.robot
 
 
+class RobotDescription:
+    """A robot description, read and parsed once (xacro expanded), and the chains between its
+    links. The yourdfpy model behind `chain_spec` is loaded on its first call.
+
+    Attributes:
+        xml: the URDF text. root: its parsed <robot> element. robot_name: `<robot name>`.
+        joint_names: every joint (any type). link_names: every link.
+        moving_joint_names: joints of a type in `MOVING_JOINT_TYPES` (mimic followers included),
+            in document order.
+
+    Raises:
+        RobotDescriptionError: as `read_description`.
+    """
+
+    def __init__(self, path_or_xml: str | bytes | PathLike[str]) -> None:
+        self.xml, self.root = _read(path_or_xml)
+        self.robot_name = self.root.get("name", "")
+        joints = self.root.findall("joint")
+        self.joint_names = frozenset(str(j.get("name")) for j in joints)
+        self.moving_joint_names = tuple(
+            str(j.get("name")) for j in joints if j.get("type") in MOVING_JOINT_TYPES
+        )
+        self.link_names = frozenset(str(link.get("name")) for link in self.root.findall("link"))
+        self._robot: Any = None  # yourdfpy's model; loading it twice in a race is harmless
+
+    def chain_spec(self, base_link: str | None = None, tip_link: str | None = None) -> ChainSpec:
+        """The chain `base_link` → `tip_link` (see the module docstring and `spec_from_urdf`).
+
+        Raises:
+            RobotDescriptionError: malformed or unsupported description, naming the culprit.
+            UnknownNameError: `base_link` or `tip_link` is not a link of the robot.
+        """
+        robot = self._robot
+        if robot is None:
+            check_kinematic_elements(self.root)
+            robot = self._robot = _load_robot(self.xml)
+        return _chain_spec(robot, base_link, tip_link)
+
+    def actuated_joints(self) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
+        """(names, lower, upper, velocity) of every moving joint without <mimic>, in document
+        order: the joints robot_state_publisher needs in ``joint_states``. Continuous joints get
+        ±inf limits; a missing limit is 0, a missing velocity inf.
+
+        Raises:
+            RobotDescriptionError: a nameless joint, a malformed <limit>, or no such joint.
+        """
+        names: list[str] = []
+        lower: list[float] = []
+        upper: list[float] = []
+        vel: list[float] = []
+        for joint in self.root.iter("joint"):
+            kind = joint.get("type")
+            if kind not in MOVING_JOINT_TYPES or joint.find("mimic") is not None:
+                continue
+            name = joint.get("name")
+            if not name:
+                raise RobotDescriptionError("a <joint> has no name attribute")
+            limit = joint.find("limit")
+            attrs = {} if limit is None else limit.attrib
+            try:
+                v = float(attrs.get("velocity", "inf"))
+                lo = -math.inf if kind == "continuous" else float(attrs.get("lower", 0.0))
+                up = math.inf if kind == "continuous" else float(attrs.get("upper", 0.0))
+            except ValueError as exc:
+                raise RobotDescriptionError(
+                    f"joint {name!r} has a malformed <limit>: {exc}"
+                ) from None
+            names.append(name)
+            lower.append(lo)
+            upper.append(up)
+            vel.append(v)
+        if not names:
+            raise RobotDescriptionError("the robot description has no moving, non-mimic joint")
+        return names, np.array(lower), np.array(upper), np.array(vel)
+
+
 def spec_from_urdf(
     path_or_xml: str | bytes | PathLike[str],
     base_link: str | None = None,
     tip_link: str | None = None,
 ) -> ChainSpec:
     """Parse a description and extract the chain `base_link` → `tip_link` (see module docstring)."""
-    text = read_description(path_or_xml)
-    check_kinematic_elements(ET.fromstring(text))
-    robot = _load_robot(text)
+    return RobotDescription(path_or_xml).chain_spec(base_link, tip_link)
+
+
+def _chain_spec(robot: Any, base_link: str | None, tip_link: str | None) -> ChainSpec:
     links = [link.name for link in robot.links]
     if not links:
         raise RobotDescriptionError("the robot description has no <link>")
@@ -437,7 +520,7 @@ def _build_spec(base: str, tip: str, path: list[Any], joints: dict[str, Any]) ->
     ] = []  # (leader name, multiplier, offset) per moving joint
     chain_links: list[tuple[str, np.ndarray, int]] = [(base, np.eye(4), -1)]
     for j in path:
-        if j.type not in _MOVING and j.type != "fixed":
+        if j.type not in MOVING_JOINT_TYPES and j.type != "fixed":
             raise RobotDescriptionError(
                 f"joint {j.name!r} on the chain {base!r} → {tip!r} is of type {j.type!r}; "
                 "only revolute, continuous, prismatic and fixed joints are supported"
@@ -473,7 +556,7 @@ def _build_spec(base: str, tip: str, path: list[Any], joints: dict[str, Any]) ->
             raise RobotDescriptionError(
                 f"a mimic joint follows joint {name!r}, which is not defined"
             )
-        if leader_joint.type not in _MOVING:
+        if leader_joint.type not in MOVING_JOINT_TYPES:
             raise RobotDescriptionError(
                 f"a mimic joint follows joint {name!r} of type {leader_joint.type!r}, which cannot move"
             )

@@ -51,3 +51,22 @@ def test_batched_measures_shapes(real_arm):
     assert condition_number(J, "angular").shape == (8,)
     with pytest.raises(ValueError, match="part must be"):
         manipulability(J, "twist")
+
+
+def test_conditioning_gathers_the_measures_of_one_jacobian(real_arm):
+    from kinematics_node.core import conditioning, singular_values
+
+    chain, _ = real_arm
+    for q in random_q(chain, np.random.default_rng(32), 3):
+        J = chain.jacobian(q, "world")
+        c = conditioning(J, singular_threshold=1e-3)
+        assert c.manipulability == pytest.approx(float(manipulability(J, "linear")), rel=1e-12)
+        assert c.condition_number == pytest.approx(float(condition_number(J, "full")), rel=1e-12)
+        assert c.min_singular_value == pytest.approx(np.linalg.svd(J, compute_uv=False)[-1])
+        assert c.near_singular == bool(is_near_singular(J, "full", 1e-3))
+        np.testing.assert_allclose(
+            singular_values(J, "angular"), np.linalg.svd(J[:3], compute_uv=False)
+        )
+    J0 = np.zeros((6, chain.dof))  # every singular value 0: singular, infinitely ill-conditioned
+    c0 = conditioning(J0)
+    assert c0.condition_number == np.inf and c0.near_singular and c0.manipulability == 0.0

@@ -165,11 +165,10 @@ def test_position_only_reaches_position_and_ignores_orientation() -> None:
         T_bad[:3, :3] = so3.exp(rng.normal(size=3))  # an orientation we do not ask for
         res = chain.ik(T_bad, options=IKOptions(position_only=True, timeout=0.5, rng_seed=1))
         assert res.success and res.orientation_error == 0.0
-        p_err, _ = pose_errors(fk_pin(res.q), T_bad)
+        p_err, o_err = pose_errors(fk_pin(res.q), T_bad)
         assert p_err <= POS_TOL
-    # the same targets with orientation required are generally not met by these answers
-    res_full = chain.ik(T_bad, options=IKOptions(timeout=0.02, rng_seed=1))
-    assert res_full.success or res_full.orientation_error > ORI_TOL
+        # the orientation was ignored: the answer does not have the random orientation asked for
+        assert o_err > 100 * ORI_TOL
 
 
 def test_zero_position_weights_solve_orientation_only() -> None:
@@ -442,18 +441,39 @@ def test_batch_agrees_with_single_calls(name: str, batch_path: str) -> None:
     chain, fk_pin = arm(name), PinFK(name)
     N = 40
     _, T = random_targets(chain, N, seed=17)
-    res = chain.ik_batch(T, options=IKOptions(timeout=0.05, rng_seed=0))
+    # budgets that never bind, so that both runs are deterministic for rng_seed = 0
+    opts = IKOptions(timeout=5.0, rng_seed=0)
+    res = chain.ik_batch(T, options=opts)
     assert res.q.shape == (N, chain.dof)
     for field in ("success", "position_error", "orientation_error", "iterations", "restarts"):
         assert getattr(res, field).shape == (N,)
         assert not getattr(res, field).flags.writeable
     assert res.success.all(), res.message
-    single = [chain.ik(T[k], options=IKOptions(timeout=0.05, rng_seed=0)) for k in range(N)]
+    single = [chain.ik(T[k], options=opts) for k in range(N)]
     assert all(s.success for s in single)
     for k in range(N):
         p_err, o_err = pose_errors(fk_pin(res.q[k]), T[k])
         assert p_err <= POS_TOL and o_err <= ORI_TOL and within_limits(chain, res.q[k])
         assert res.position_error[k] == pytest.approx(p_err, abs=1e-9)
+    if batch_path == "per-target":  # the same solver per target: the very same answers
+        for k, s in enumerate(single):
+            np.testing.assert_array_equal(res.q[k], s.q)
+            assert (res.iterations[k], res.restarts[k]) == (s.iterations, s.restarts)
+            assert (res.position_error[k], res.orientation_error[k]) == (
+                s.position_error,
+                s.orientation_error,
+            )
+    else:  # lock-step restarts run in parallel; the attempt from the seed is the same LM
+        one = IKOptions(timeout=5.0, rng_seed=0, max_restarts=0)
+        res1 = chain.ik_batch(T, options=one)
+        single1 = [chain.ik(T[k], options=one) for k in range(N)]
+        # rounding differs (NumPy vs plain floats), so an attempt near its limits may end
+        # differently; the others end on the same solution, each within the tolerances (a
+        # redundant arm may stop at another point of its self-motion, so only 6 joints compare)
+        both = [k for k, s in enumerate(single1) if s.success and res1.success[k]]
+        assert len(both) >= 0.8 * N
+        for k in both if chain.dof == 6 else []:
+            np.testing.assert_allclose(res1.q[k], single1[k].q, atol=1e-3)
 
 
 def test_batch_failure_reports_best_configuration_and_custom_seeds(batch_path: str) -> None:

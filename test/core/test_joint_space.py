@@ -109,7 +109,9 @@ _MIMIC_URDF = """<robot name="m">
 )  # fmt: skip
 def test_periodic_mask_follows_joint_types_and_mimic_multipliers(mult, kind, want) -> None:
     chain = SerialChain.from_urdf(_MIMIC_URDF.format(mult=mult, kind=kind), tip_link="c")
-    assert periodic_mask(chain).tolist() == want
+    assert chain.solver_model.periodic.tolist() == want
+    model = chain.solver_model
+    assert periodic_mask(chain.joint_types, model.G, model.kernel.prismatic).tolist() == want
     # the claim behind the mask: a whole turn of a periodic joint leaves the tip pose unchanged
     q = np.array([0.4, 0.2])
     for j, periodic in enumerate(want):
@@ -141,7 +143,7 @@ def test_ik_on_chains_with_a_mimic_joint_single_and_batch(mult, kind, batch_path
     """The mimic follower is on the path, so IK works through θ_internal = G q + offset (the G
     branch of the Jacobian), with a periodic (integer) and a non-periodic (0.5) leader."""
     chain = SerialChain.from_urdf(_MIMIC_URDF.format(mult=mult, kind=kind), tip_link="c")
-    assert chain._G is not None
+    assert chain.solver_model.G is not None
     rng = np.random.default_rng(4)
     lo, hi = np.maximum(chain.lower, -3.0), np.minimum(chain.upper, 3.0)
     T = chain.fk(rng.uniform(lo, hi, (10, chain.dof)))

@@ -51,7 +51,7 @@ def test_joint_axes_are_the_space_jacobian_columns() -> None:
     rng = np.random.default_rng(7)
     chain = _random_chain(rng, 7)
     for q in rng.uniform(-3, 3, (10, 7)):
-        _, axes = chain._kernel.fk_jacobian_scalar(q.tolist(), True)
+        _, axes = chain.solver_model.kernel.fk_jacobian_scalar(q.tolist(), True)
         Js = chain.jacobian(q, "space")
         for k, (zx, zy, zz, ox, oy, oz) in enumerate(axes):
             z, o = np.array([zx, zy, zz]), np.array([ox, oy, oz])
@@ -59,13 +59,13 @@ def test_joint_axes_are_the_space_jacobian_columns() -> None:
                 np.testing.assert_allclose(Js[3:, k], z, atol=1e-12)
             else:
                 np.testing.assert_allclose(Js[:, k], np.r_[z, np.cross(o, z)], atol=1e-12)
-        assert chain._kernel.fk_jacobian_scalar(q.tolist(), False)[1] == []
+        assert chain.solver_model.kernel.fk_jacobian_scalar(q.tolist(), False)[1] == []
 
 
 def test_world_columns_are_z_and_z_cross_tip_minus_o() -> None:
     rng = np.random.default_rng(8)
     chain = _random_chain(rng, 8)
-    kernel = chain._kernel
+    kernel = chain.solver_model.kernel
     for q in rng.uniform(-3, 3, (10, 8)).tolist():
         t, axes = kernel.fk_axes(q)
         t_w, cols = kernel.fk_world(q)
@@ -90,7 +90,7 @@ def test_folded_constants_stay_exact_to_rounding() -> None:
     c = np.cos(np.pi / 2)  # 6e-17, not 0
     M = np.array([[c, -1.0, 0, 0.3], [1.0, c, 0, 0.1], [0, 0, 1.0, 0.5], [0, 0, 0, 1.0]])
     chain = SerialChain.from_poe(S, M)
-    source = _generate_scalar(chain._kernel.A, chain._kernel.prismatic, "pose")
+    source = _generate_scalar(chain.solver_model.kernel.A, chain.solver_model.kernel.prismatic, "pose")
     assert "e-1" not in source  # no ~1e-17 constants survive: they were folded to 0
     for q in rng.uniform(-3, 3, (20, 5)):
         np.testing.assert_allclose(chain.fk(q), _poe(chain, q), rtol=0, atol=1e-13)
