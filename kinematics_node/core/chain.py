@@ -275,9 +275,9 @@ class SerialChain:
             if not prismatic:
                 continue
             if self._mimic_index is not None:
-                return _readonly(A[0, :3, 3]), math.inf
+                return readonly(A[0, :3, 3]), math.inf
             radius += float(max(abs(self.lower[k]), abs(self.upper[k])))
-        return _readonly(A[0, :3, 3]), radius
+        return readonly(A[0, :3, 3]), radius
 
     def __repr__(self) -> str:
         return (
