@@ -19,7 +19,7 @@ import numpy as np
 from .core import IKOptions, SerialChain
 from .core.analysis import singular_values
 from .core.model import middle_of_limits
-from .ee_state import JointStateTracker, compute_ee_state, conditioning
+from .ee_state import JointStateTracker, compute_ee_state
 
 
 @dataclass
@@ -83,7 +83,7 @@ def run_demo(robot: str, duration: float, rate: float, n_ik: int, stream: TextIO
     steps = int(round(duration * rate))
     if steps < 2:
         raise ValueError(f"duration × rate gives {steps} steps; need at least 2")
-    t_log, q_log, p_log, v_log, w_log = [], [], [], [], []
+    t_log, q_log, p_log, v_log = [], [], [], []
     bar = Progress(steps, stream, "simulating")
     for k in range(steps):
         t, q, qdot = sim.step()
@@ -95,10 +95,8 @@ def run_demo(robot: str, duration: float, rate: float, n_ik: int, stream: TextIO
         q_log.append(state.q)
         p_log.append(state.T_base_tip[:3, 3])
         v_log.append(np.nan if state.twist is None else float(np.linalg.norm(state.twist[3:])))
-        w_log.append(conditioning(chain, state.q).manipulability)
         bar.update(k + 1)
     bar.close()
-    del w_log  # the node's 3-row measure; the picture uses the rank-aware one below
 
     q_arr = np.array(q_log)
     w, rank = movable_manipulability(chain, q_arr)

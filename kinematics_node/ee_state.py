@@ -20,7 +20,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from .core import SerialChain, condition_number, manipulability
+from .core import SerialChain
 from .core.exceptions import InvalidInputError
 
 FloatArray = NDArray[np.float64]
@@ -173,25 +173,6 @@ class EndEffectorState:
     twist: FloatArray | None
 
 
-@dataclass(frozen=True)
-class Conditioning:
-    """How well-conditioned the arm is at one configuration (from the world Jacobian).
-
-    Attributes:
-        manipulability: Yoshikawa measure √det(J_v J_vᵀ) of the linear rows: a volume, in
-            (m/rad)³ for a spatial arm of revolute joints.
-        condition_number: σ_max / σ_min of the full 6×n Jacobian (∞ at a singularity). It mixes
-            rad/s and m/s rows, so it depends on the unit of length.
-        min_singular_value: σ_min of the full Jacobian.
-        near_singular: σ_min below the threshold.
-    """
-
-    manipulability: float
-    condition_number: float
-    min_singular_value: float
-    near_singular: bool
-
-
 def compute_ee_state(
     chain: SerialChain,
     q: FloatArray,
@@ -210,19 +191,4 @@ def compute_ee_state(
             twist = np.concatenate((Rt @ twist[:3], Rt @ twist[3:]))
     return EndEffectorState(
         stamp=stamp, q=np.asarray(q, dtype=np.float64), qdot=qdot, T_base_tip=T, twist=twist
-    )
-
-
-def conditioning(
-    chain: SerialChain, q: FloatArray, singular_threshold: float = 1e-3
-) -> Conditioning:
-    """Manipulability, condition number and near-singularity at `q` (one SVD and the measures of
-    `kinematics_node.core.analysis`)."""
-    _, J = chain.fk_jacobian(q, "world")
-    sigma_min = float(np.linalg.svd(J, compute_uv=False)[-1])
-    return Conditioning(
-        manipulability=float(manipulability(J, "linear")),
-        condition_number=float(condition_number(J, "full")),
-        min_singular_value=sigma_min,
-        near_singular=bool(sigma_min < singular_threshold),
     )

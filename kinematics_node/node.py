@@ -65,7 +65,7 @@ from msg_adapters import MessageTypes, matrix_from_transform
 from .core.exceptions import InvalidInputError, KinematicsError
 from .ik_pool import IKOutcome, IKPool
 from .parameters import PARAMETERS, SPECS, STARTUP_ONLY, ParameterSpec
-from .service import KinematicsService
+from .service import KinematicsService, Severity
 
 try:  # not on PyPI: present on a full ROS 2 installation
     from tf2_ros import Buffer, TransformListener
@@ -191,9 +191,8 @@ class KinematicsNode(Node):
             self._pose_pub.publish(out.pose)
         if out.twist is not None:
             self._twist_pub.publish(out.twist)
-        problem = out.problem
-        if problem is not None and problem != "velocity unknown":
-            self._warn_throttled(problem)
+        if out.problem is not None and out.severity >= Severity.WARN:
+            self._warn_throttled(out.problem)
 
     def _warn_throttled(self, problem: str) -> None:
         """Log each distinct problem at most once per WARN_PERIOD seconds (at 1 kHz a bad stream

@@ -27,6 +27,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from enum import IntEnum
 from typing import Any
 
 import numpy as np
@@ -45,10 +46,12 @@ from msg_adapters import (
     twist_stamped_from_core,
 )
 
-from .core import IKOptions, SerialChain, manipulability
+from .core import IKOptions, SerialChain, se3
 from .core._checks import check_transform
+from .core.analysis import conditioning
 from .core.exceptions import InvalidInputError, KinematicsError, RobotDescriptionError
-from .ee_state import EndEffectorState, JointStateTracker, compute_ee_state, conditioning
+from .core.model import Frame
+from .ee_state import EndEffectorState, JointStateTracker, compute_ee_state
 from .ik_pool import IKJob, IKOutcome, solve_job
 from .parameters import defaults, validate_parameters
 from .robot_model import RobotModel
@@ -59,7 +62,8 @@ FloatArray = NDArray[np.float64]
 #: available). Raises any exception when the transform is unavailable (its text is reported).
 LookupTransform = Callable[[str, str], ArrayLike]
 
-JACOBIAN_FRAMES = ("world", "body", "space")
+JACOBIAN_FRAMES: tuple[Frame, ...] = ("world", "body", "space")
+JACOBIAN_FRAMES_BY_NAME: dict[str, Frame] = {f: f for f in JACOBIAN_FRAMES}
 NO_DESCRIPTION = (
     "no robot description loaded yet: set the robot_description parameter or publish it on the "
     "robot_description topic (std_msgs/String, transient local)"
@@ -68,16 +72,30 @@ NO_DESCRIPTION = (
 _log = logging.getLogger(__name__)
 
 
+class Severity(IntEnum):
+    """How a joint_states problem is reported (the values are DiagnosticStatus levels).
+
+    NOTE: not logged, not in diagnostics (the velocity is not known yet); WARN: logged
+    (throttled) and a diagnostics WARN; ERROR: logged and a diagnostics ERROR.
+    """
+
+    NOTE = 0
+    WARN = 1
+    ERROR = 2
+
+
 @dataclass(frozen=True)
 class EEMessages:
     """What to publish after a joint state: any of them may be None.
 
-    `problem` explains why nothing (or only the pose) is published, for logs and diagnostics.
+    `problem` explains why nothing (or only the pose) is published, for logs and diagnostics, and
+    `severity` says how loudly.
     """
 
     pose: Any | None = None
     twist: Any | None = None
     problem: str | None = None
+    severity: Severity = Severity.NOTE
 
 
 class _Rates:
@@ -151,7 +169,7 @@ class KinematicsService:
         self._chain_blobs: dict[tuple[str, str], tuple[bytes, bytes]] = {}  # pickled chains
         self._rates = _Rates()
         self._last_state: EndEffectorState | None = None
-        self._last_problem: str | None = None
+        self._last_problem: tuple[str, Severity] | None = None
         self.configure(params or {})
 
     # ------------------------------------------------------------------ configuration
@@ -234,24 +252,29 @@ class KinematicsService:
         """
         model, tracker = self._model, self._tracker
         if model is None or tracker is None:
-            return self._problem(NO_DESCRIPTION)
+            return self._problem(NO_DESCRIPTION, Severity.WARN)
         try:
             stamp = seconds_from_time(msg.header.stamp)
             stale_before = tracker.stale_samples
             changed = tracker.update(msg.name, msg.position, msg.velocity, stamp)
         except (KinematicsError, TypeError, ValueError, AttributeError, OverflowError) as exc:
-            return self._problem(f"joint_states sample rejected: {_short(exc)}")
+            return self._problem(f"joint_states sample rejected: {_short(exc)}", Severity.ERROR)
         self._rates.record(self._clock(), stamp)
         if not changed:
             if tracker.stale_samples > stale_before:
-                return EEMessages(problem="stale joint_states sample (older stamp) ignored")
+                return EEMessages(
+                    problem="stale joint_states sample (older stamp) ignored",
+                    severity=Severity.WARN,
+                )
             return EEMessages(problem=None)
         index = self._chain_index
         q = tracker.positions(index)
         chain = model.chain
         if not all(math.isfinite(v) for v in q):
             missing = [chain.joint_names[k] for k, v in enumerate(q) if not math.isfinite(v)]
-            return EEMessages(problem=f"waiting for joint_states of {missing}")
+            return EEMessages(
+                problem=f"waiting for joint_states of {missing}", severity=Severity.WARN
+            )
         qdot = tracker.velocities(index)
         twist_frame = self._params["twist_frame"]
         state = compute_ee_state(
@@ -262,21 +285,24 @@ class KinematicsService:
             twist_frame,
         )
         if not np.isfinite(state.T_base_tip).all():
-            return self._problem("end-effector pose is not finite; nothing published")
-        twist_ok = state.twist is not None and bool(np.isfinite(state.twist).all())
+            return self._problem(
+                "end-effector pose is not finite; nothing published", Severity.WARN
+            )
+        V = state.twist
+        twist_ok = V is not None and bool(np.isfinite(V).all())
         self._last_state = state
         self._last_problem = None
         types = self._types
         pose = pose_stamped_from_matrix(types, state.T_base_tip, chain.base_link, msg.header.stamp)
         twist = None
-        if twist_ok:
+        if V is not None and twist_ok:
             frame = chain.tip_link if twist_frame == "body" else chain.base_link
-            twist = twist_stamped_from_core(types, state.twist, frame, msg.header.stamp)
+            twist = twist_stamped_from_core(types, V, frame, msg.header.stamp)
         return EEMessages(pose=pose, twist=twist, problem=None if twist_ok else "velocity unknown")
 
-    def _problem(self, text: str) -> EEMessages:
-        self._last_problem = text
-        return EEMessages(problem=text)
+    def _problem(self, text: str, severity: Severity) -> EEMessages:
+        self._last_problem = (text, severity)
+        return EEMessages(problem=text, severity=severity)
 
     # ------------------------------------------------------------------ services
     def compute_fk(self, request: Any, response: Any) -> Any:
@@ -371,10 +397,11 @@ class KinematicsService:
 
     def _jacobian(self, request: Any, response: Any) -> None:
         model, current, _ = self._snapshot()
-        frame = str(request.frame) or "world"
-        if frame not in JACOBIAN_FRAMES:
+        frame = JACOBIAN_FRAMES_BY_NAME.get(str(request.frame) or "world")
+        if frame is None:
             raise InvalidInputError(
-                f"frame must be one of {list(JACOBIAN_FRAMES)} (or empty), got {frame!r}"
+                f"frame must be one of {list(JACOBIAN_FRAMES)} (or empty), got "
+                f"{str(request.frame)!r}"
             )
         chain = model.chain_to(str(request.tip_link))
         q = self._q(model, chain, request.joint_state, current, "joint_state")
@@ -387,10 +414,11 @@ class KinematicsService:
         response.reference_point_frame = chain.base_link if frame == "space" else chain.tip_link
         response.base_link = chain.base_link
         response.tip_link = chain.tip_link
-        sv = np.linalg.svd(J_world, compute_uv=False)
-        response.manipulability = float(manipulability(J_world, "linear"))
-        response.min_singular_value = float(sv[-1])
-        response.condition_number = float(sv[0] / sv[-1]) if sv[-1] > 0 else -1.0
+        c = conditioning(J_world)
+        response.manipulability = c.manipulability
+        response.min_singular_value = c.min_singular_value
+        # the srv's documented -1.0 for an infinite condition number (exact singularity)
+        response.condition_number = _finite_or(c.condition_number, -1.0)
         return None
 
     def _prepare_ik(self, request: Any, arrival: float) -> PendingIK:
@@ -479,7 +507,7 @@ class KinematicsService:
                         f"{missing}, which have not been received"
                     )
                 T = chain.fk([current[j] for j in chain.joint_names])
-                return np.linalg.inv(T) if invert else T
+                return se3.inverse(T) if invert else T
         if self._lookup is None:
             raise InvalidInputError(
                 f"unknown target frame {name!r}: not a link of the robot, and frames from TF "
@@ -525,7 +553,8 @@ class KinematicsService:
                 ("joint_states_latency_s", f"{latency:.6f}"),
             ]
             if state is not None:
-                c = conditioning(model.chain, state.q, params["singular_threshold"])
+                J = model.chain.jacobian(state.q, "world")
+                c = conditioning(J, params["singular_threshold"])
                 cond = c.condition_number
                 values += [
                     ("manipulability", f"{c.manipulability:.6g}"),
@@ -535,10 +564,10 @@ class KinematicsService:
                 if c.near_singular:
                     severity = max(severity, 1)
                     notes.append("near a singularity")
-            if problem and problem != "velocity unknown":
-                sev = 2 if problem.startswith("joint_states sample rejected") else 1
-                severity = max(severity, sev)
-                notes.append(problem)
+            if problem is not None:
+                text, level = problem
+                severity = max(severity, int(level))
+                notes.append(text)
         status = S(
             level=(S.OK, S.WARN, S.ERROR)[severity],
             name="kinematics_node: end effector",
