@@ -41,7 +41,7 @@ from msg_adapters import (
     matrix_from_pose,
     pose_stamped_from_matrix,
     q_from_joint_state,
-    seconds_from_time,
+    sample_from_joint_state,
     time_from_seconds,
     twist_stamped_from_core,
 )
@@ -254,9 +254,9 @@ class KinematicsService:
         if model is None or tracker is None:
             return self._problem(NO_DESCRIPTION, Severity.WARN)
         try:
-            stamp = seconds_from_time(msg.header.stamp)
+            names, positions, velocities, stamp = sample_from_joint_state(msg)
             stale_before = tracker.stale_samples
-            changed = tracker.update(msg.name, msg.position, msg.velocity, stamp)
+            changed = tracker.update(names, positions, velocities, stamp)
         except (KinematicsError, TypeError, ValueError, AttributeError, OverflowError) as exc:
             return self._problem(f"joint_states sample rejected: {_short(exc)}", Severity.ERROR)
         self._rates.record(self._clock(), stamp)

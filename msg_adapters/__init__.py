@@ -26,12 +26,19 @@ from .jacobian import (
     jacobian_from_fields,
     ros_rows_from_core,
 )
-from .joint_state import joint_state_from_q, positions_by_name, q_from_joint_state
+from .joint_state import (
+    JointStateSample,
+    joint_state_from_q,
+    positions_by_name,
+    q_from_joint_state,
+    sample_from_joint_state,
+)
 from .stamps import copy_time, header, seconds_from_time, time_from_seconds
 from .types import MESSAGE_NAMES, MessageTypes
 
 __all__ = [
     "MESSAGE_NAMES",
+    "JointStateSample",
     "ROW_LABELS",
     "MessageTypes",
     "copy_time",
@@ -48,6 +55,7 @@ __all__ = [
     "positions_by_name",
     "q_from_joint_state",
     "ros_rows_from_core",
+    "sample_from_joint_state",
     "seconds_from_time",
     "time_from_seconds",
     "transform_from_matrix",

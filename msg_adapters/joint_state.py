@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -19,6 +19,30 @@ from kinematics_node.core.exceptions import InvalidInputError
 from .types import MessageTypes
 
 FloatArray = NDArray[np.float64]
+
+
+class JointStateSample(NamedTuple):
+    """The fields of a sensor_msgs/JointState the node tracks, read once at the boundary.
+
+    Attributes:
+        names, positions, velocities: as in the message (velocities may be empty); sequences of
+            str and float, not copied (rclpy gives lists and array('d')).
+        stamp: header stamp [s].
+    """
+
+    names: Sequence[str]
+    positions: Sequence[float]
+    velocities: Sequence[float]
+    stamp: float
+
+
+def sample_from_joint_state(msg: Any) -> JointStateSample:
+    """`JointStateSample` of a sensor_msgs/JointState (values are checked by the tracker that
+    merges them, `kinematics_node.ee_state.JointStateTracker`, not here: this runs at 1 kHz)."""
+    stamp = msg.header.stamp
+    return JointStateSample(
+        msg.name, msg.position, msg.velocity, int(stamp.sec) + int(stamp.nanosec) * 1e-9
+    )
 
 
 def positions_by_name(
