@@ -3,8 +3,11 @@
 Why processes: the node's pose path must keep up with 1 kHz joint_states, and a Python thread that
 runs IK in the same process holds the GIL away from it (measured in ../shared/ROS2_FROM_PYPI.md:
 69 % of messages answered instead of 100 %). So IK runs in a `concurrent.futures` process pool
-whose workers run at a lower CPU priority (`nice`), so the pose path keeps its core whenever it
-has work, and the solves share what is left.
+whose workers run at the lowest CPU priority (nice 19), so the pose path keeps its core whenever
+it has work, and the solves share what is left. (Measured with benchmarks/node_benchmark.py, 4 IK
+clients at 500 Hz joint_states: nice 10 let the workers delay joint_states by up to 14 ms at
+the node; nice 19 kept that under 10 ms and every IK answer in time. SCHED_IDLE did as well for
+the poses but starved some reachable solves.)
 
 Deadlines: a job carries the monotonic time by which it must be answered (request arrival +
 timeout; `time.monotonic` is the system-wide CLOCK_MONOTONIC, the same in every process). A worker
@@ -123,11 +126,12 @@ class IKPool:
 
     Args:
         workers: number of processes (solves that run at once; more jobs wait in a queue).
-        niceness: added to the workers' nice value (0 = same priority as the caller).
+        niceness: added to the workers' nice value (0 = same priority as the caller; 19 = run
+            only on what normal-priority work leaves, at about 1.5 % of a contended core).
         grace: how long after a job's deadline the watchdog answers it as timed out [s].
     """
 
-    def __init__(self, workers: int, niceness: int = 10, grace: float = 0.01) -> None:
+    def __init__(self, workers: int, niceness: int = 19, grace: float = 0.01) -> None:
         if workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers}")
         ctx = multiprocessing.get_context("forkserver")
