@@ -2,8 +2,8 @@
 `KinematicsService` (`service.py`), which is tested without ROS.
 
 Topics (relative names, so namespaces and remaps apply):
-  sub  joint_states       sensor_msgs/JointState   sensor-data QoS (best effort: matches reliable
-                                                   and best-effort publishers)
+  sub  joint_states       sensor_msgs/JointState   best effort (matches reliable and best-effort
+                                                   publishers), depth 100 (100 ms at 1 kHz)
   sub  robot_description  std_msgs/String          transient local, reliable (only when the
                                                    robot_description parameter is empty)
   pub  ee_pose            geometry_msgs/PoseStamped
@@ -52,9 +52,9 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import (
     DurabilityPolicy,
+    HistoryPolicy,
     QoSProfile,
     ReliabilityPolicy,
-    qos_profile_sensor_data,
 )
 from rclpy.task import Future
 from rclpy.time import Time
@@ -73,6 +73,15 @@ try:  # not on PyPI: present on a full ROS 2 installation
 except ImportError:  # pragma: no cover - depends on the installation
     Buffer = TransformListener = None
 
+#: joint_states: best effort (matches reliable and best-effort publishers, as the sensor-data
+#: profile does) with room for 100 samples: 100 ms at 1 kHz. The sensor-data profile keeps 5, so
+#: any 5 ms hiccup (another process's turn on a busy machine) dropped samples for good.
+JOINT_STATES_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=100,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
+    durability=DurabilityPolicy.VOLATILE,
+)
 #: Seconds between two log lines about the same joint_states problem.
 WARN_PERIOD = 5.0
 TF_MISSING = "TF frames need tf2_ros, which is not installed here (it comes with a full ROS 2)"
@@ -140,7 +149,7 @@ class KinematicsNode(Node):
             JointState,
             "joint_states",
             self._on_joint_state,
-            qos_profile_sensor_data,
+            JOINT_STATES_QOS,
             callback_group=group,
         )
         latched = QoSProfile(
