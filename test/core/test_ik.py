@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from kin_testing import erd_path
+from kin_testing import PinocchioOracle, erd_path
 from scipy.spatial.transform import Rotation
 
 from kinematics_node.core import IKOptions, InvalidInputError, SerialChain, se3, so3
@@ -40,22 +40,14 @@ def arm(name: str) -> SerialChain:
 
 
 class PinFK:
-    """Forward kinematics by Pinocchio (an oracle nobody here wrote), by joint name."""
+    """Forward kinematics by Pinocchio (an oracle nobody here wrote) at our q, to the arm's tip."""
 
     def __init__(self, name: str) -> None:
-        pin = pytest.importorskip("pinocchio")
-        self.pin = pin
-        self.model = pin.buildModelFromUrdf(str(_path(name)))
-        self.data = self.model.createData()
-        self.frame = self.model.getFrameId(ARMS[name][1])
-        chain = arm(name)
-        self.idx = [self.model.joints[self.model.getJointId(j)].idx_q for j in chain.joint_names]
+        self.oracle = PinocchioOracle.from_urdf(_path(name), arm(name).joint_names)
+        self.tip = ARMS[name][1]
 
     def __call__(self, q: np.ndarray) -> np.ndarray:
-        qp = self.pin.neutral(self.model)
-        qp[self.idx] = q
-        self.pin.framesForwardKinematics(self.model, self.data, qp)
-        return self.data.oMf[self.frame].homogeneous
+        return self.oracle.pose(q, self.tip)
 
 
 def pose_errors(T_a: np.ndarray, T_b: np.ndarray) -> tuple[float, float]:

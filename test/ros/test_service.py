@@ -12,6 +12,7 @@ import threading
 
 import numpy as np
 import pytest
+from kin_testing import PinocchioOracle
 
 import msg_adapters as ma
 from kinematics_node.core import SerialChain, se3
@@ -88,19 +89,6 @@ def pose_matrix(msg) -> np.ndarray:
     return ma.matrix_from_pose(msg.pose)
 
 
-def pinocchio_pose(path, joint_names, q, frame):
-    pin = pytest.importorskip("pinocchio", reason="Pinocchio (pip install pin) is the FK oracle")
-    model = pin.buildModelFromUrdf(str(path))
-    data = model.createData()
-    qp = pin.neutral(model)
-    for name, value in zip(joint_names, q, strict=True):
-        jid = model.getJointId(name)
-        assert model.nqs[jid] == 1, "test assumes 1-dof revolute joints"
-        qp[model.idx_qs[jid]] = value
-    pin.framesForwardKinematics(model, data, qp)
-    return data.oMf[model.getFrameId(frame)].homogeneous
-
-
 # =========================================================================== joint_states
 def test_pose_matches_pinocchio_and_is_stamped_with_the_joint_state(ros, ur5, ur5_path, q_ur5):
     chain = chain_of(ur5)
@@ -109,7 +97,7 @@ def test_pose_matches_pinocchio_and_is_stamped_with_the_joint_state(ros, ur5, ur
     check_message(ros, out.pose)
     assert out.pose.header.frame_id == "base_link"
     assert (out.pose.header.stamp.sec, out.pose.header.stamp.nanosec) == (1700000000, 123456789)
-    expected = pinocchio_pose(ur5_path, chain.joint_names, q_ur5, "tool0")
+    expected = PinocchioOracle.from_urdf(ur5_path, chain.joint_names).pose(q_ur5, "tool0")
     np.testing.assert_allclose(pose_matrix(out.pose), expected, atol=1e-9)
 
 
@@ -262,7 +250,7 @@ def test_fk_service_for_another_tip_link(ros, ur5, ur5_path, q_ur5):
     )
     resp = ur5.compute_fk(req, ros.response("ComputeFK"))
     assert resp.success, resp.message
-    expected = pinocchio_pose(ur5_path, chain.joint_names, q_ur5, "forearm_link")
+    expected = PinocchioOracle.from_urdf(ur5_path, chain.joint_names).pose(q_ur5, "forearm_link")
     np.testing.assert_allclose(pose_matrix(resp.pose), expected, atol=1e-9)
 
 
