@@ -477,6 +477,14 @@ def test_ik_zero_timeout_means_the_node_default(ros, ur5, q_ur5):
     req = ros.request("ComputeIK", target=_target(ros, chain.fk(q_ur5 + 0.05)), timeout=0.0)
     resp = _ik(ros, ur5, req)
     assert resp.success, resp.message
+    # The job the service builds: timeout 0 takes the parameter ik.timeout, any other its own.
+    ur5.configure({"ik.timeout": 0.375})
+    for asked, expected in ((0.0, 0.375), (0.125, 0.125)):
+        req.timeout = asked
+        pending = ur5.prepare_ik(ros.roundtrip(req), ros.response("ComputeIK"), now=50.0)
+        assert pending is not None
+        assert pending.options.timeout == expected
+        assert pending.job.deadline == 50.0 + expected
 
 
 # =========================================================================== parameters
