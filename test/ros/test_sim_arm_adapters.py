@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import ast
 import importlib.util
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -169,16 +167,11 @@ def test_joint_state_fields_are_python_floats_and_serialize(sim):
 
 
 # ----------------------------------------------------------------------------- node and launch
-def test_sim_arm_node_parses_and_its_pure_modules_import_without_rclpy():
+def test_sim_arm_node_parses_and_has_a_main():
+    # (its pure modules import without rclpy: test_import_graph.py)
     source = (REPO / "kinematics_node" / "sim_arm.py").read_text(encoding="utf-8")
     tree = ast.parse(source)
     assert any(isinstance(n, ast.FunctionDef) and n.name == "main" for n in tree.body)
-    code = (
-        "import sys, kinematics_node.simulator, kinematics_node.robots;"
-        "import msg_adapters.joint_commands; sys.exit('rclpy' in sys.modules)"
-    )
-    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
 
 
 LAUNCH = REPO / "launch" / "sim_arm.launch.py"
