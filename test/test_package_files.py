@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 CMAKE = (ROOT / "CMakeLists.txt").read_text(encoding="utf-8")
 
 # Imports that are not ROS packages: the standard library, our own packages, pip-only packages.
@@ -67,7 +67,7 @@ def test_package_xml_declares_every_ros_package_the_code_imports():
         (p, run) for d in ("kinematics_node", "msg_adapters") for p in (ROOT / d).rglob("*.py")
     ]
     sources += [(p, run) for p in (ROOT / "launch").glob("*.py")]
-    sources += [(ROOT / "test/ros/test_launch_integration.py", tests)]
+    sources += [(ROOT / "test/launch/test_launch_integration.py", tests)]
     missing = []
     for path, declared in sources:
         for name in _imports(path) - stdlib - OWN - PIP_ONLY - {"__future__"}:
