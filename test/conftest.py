@@ -1,9 +1,20 @@
-"""Shared fixtures (helpers live in kin_testing.py, importable because pythonpath includes test/)."""
+"""Shared fixtures (helpers live in kin_testing.py, ros_testing.py and service_testing.py,
+importable because pythonpath includes test/: unique names, so no test imports the wrong file)."""
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import pytest
 from kin_testing import REAL_ARMS, erd_path
+from ros_testing import RosTypes
+
+# The fixtures of the KinematicsService tests (ur5, clock, q_ur5), next to their helpers.
+pytest_plugins = ["service_testing"]
+
+if os.environ.get("KINEMATICS_LAUNCH_TEST_SEPARATE"):  # CMake runs it through add_launch_test
+    collect_ignore = ["launch/test_launch_integration.py"]
 
 
 @pytest.fixture(params=REAL_ARMS, ids=[a[0] for a in REAL_ARMS])
@@ -31,3 +42,19 @@ def batch_path(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) 
 def _private_chain_cache(tmp_path_factory, monkeypatch):
     """The CLI caches parsed URDFs in the user's cache directory; tests use their own."""
     monkeypatch.setenv("KINEMATICS_CACHE_DIR", str(tmp_path_factory.mktemp("chain_cache")))
+
+
+@pytest.fixture(scope="session")
+def ros() -> RosTypes:
+    """Real ROS 2 message classes (rosbags) with our srv types; skips without rosbags."""
+    return RosTypes()
+
+
+@pytest.fixture(scope="session")
+def ur5_path() -> Path:
+    return erd_path("ur_description/urdf/ur5_robot.urdf")
+
+
+@pytest.fixture(scope="session")
+def panda_path() -> Path:
+    return erd_path("panda_description/urdf/panda.urdf")

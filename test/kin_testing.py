@@ -32,3 +32,80 @@ def random_q(chain, rng, n=None):
     hi = np.where(np.isfinite(chain.upper), chain.upper, np.pi)
     size = (chain.dof,) if n is None else (n, chain.dof)
     return rng.uniform(lo, hi, size=size)
+
+
+class PinocchioOracle:
+    """Pinocchio (an oracle nobody here wrote) for one description, in our joint order and our
+    conventions: Jacobian rows (ω, v), poses in Pinocchio's world (the URDF root).
+
+    Continuous joints have two configuration entries in Pinocchio, (cos θ, sin θ); revolute and
+    prismatic joints one. Joints not in `joint_names` stay at Pinocchio's neutral configuration.
+    """
+
+    def __init__(self, model, joint_names) -> None:
+        import pinocchio
+
+        self.pin = pinocchio
+        self.model = model
+        self.data = model.createData()
+        self.joint_names = tuple(joint_names)
+        self.joints = [model.joints[model.getJointId(name)] for name in self.joint_names]
+        #: Pinocchio velocity columns of our joints, in our order.
+        self.cols = [joint.idx_v for joint in self.joints]
+
+    @classmethod
+    def from_urdf(cls, path, joint_names, *, mimic: bool = False) -> PinocchioOracle:
+        pin = pytest.importorskip("pinocchio", reason="Pinocchio (pip install pin) is the oracle")
+        model = (
+            pin.buildModelFromUrdf(str(path), mimic=True)
+            if mimic
+            else pin.buildModelFromUrdf(str(path))
+        )
+        return cls(model, joint_names)
+
+    @classmethod
+    def from_xml(cls, urdf_text: str, joint_names) -> PinocchioOracle:
+        pin = pytest.importorskip("pinocchio", reason="Pinocchio (pip install pin) is the oracle")
+        return cls(pin.buildModelFromXML(urdf_text), joint_names)
+
+    def q(self, q) -> np.ndarray:
+        """Pinocchio's configuration for our q [rad or m]: continuous joints take (cos, sin)."""
+        out = self.pin.neutral(self.model)
+        for joint, value in zip(self.joints, q, strict=True):
+            if joint.nq == 2:
+                out[joint.idx_q : joint.idx_q + 2] = (np.cos(value), np.sin(value))
+            else:
+                out[joint.idx_q] = value
+        return out
+
+    def frame_id(self, frame: str) -> int:
+        return self.model.getFrameId(frame)
+
+    def pose(self, q, frame: str) -> np.ndarray:
+        """T_world_frame (4×4) at our q."""
+        return self.pose_of_configuration(self.q(q), frame)
+
+    def pose_of_configuration(self, q_pin, frame: str) -> np.ndarray:
+        """T_world_frame (4×4) at a Pinocchio configuration (for mimic joints set by hand)."""
+        self.pin.framesForwardKinematics(self.model, self.data, q_pin)
+        return self.data.oMf[self.frame_id(frame)].homogeneous
+
+    def pose_and_jacobians(self, q, frame: str | int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """(T_world_frame, {"world", "body", "space": 6×n Jacobian, rows (ω, v), our columns}).
+
+        "world" is Pinocchio's LOCAL_WORLD_ALIGNED, "body" LOCAL and "space" WORLD; Pinocchio
+        orders twists (v, ω), so its rows are swapped here.
+        """
+        pin = self.pin
+        fid = frame if isinstance(frame, int) else self.frame_id(frame)
+        pin.computeJointJacobians(self.model, self.data, self.q(q))
+        pin.updateFramePlacements(self.model, self.data)
+        J = {}
+        for name, ref in (
+            ("world", pin.LOCAL_WORLD_ALIGNED),
+            ("body", pin.LOCAL),
+            ("space", pin.WORLD),
+        ):
+            Jp = pin.getFrameJacobian(self.model, self.data, fid, ref)[:, self.cols]
+            J[name] = np.vstack((Jp[3:], Jp[:3]))
+        return self.data.oMf[fid].homogeneous, J

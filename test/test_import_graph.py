@@ -10,6 +10,8 @@ private name.
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -162,3 +164,32 @@ def test_no_module_imports_a_private_name_of_another(top):
             if private:
                 hits.append(f"{path.relative_to(ROOT)}:{line} {target}: {private}")
     assert hits == []
+
+
+#: Modules that must import without ROS, by layer: the core, the adapters, the node's plain logic.
+WITHOUT_ROS = {
+    "core": ("kinematics_node.core",),
+    "msg_adapters": ("msg_adapters", "msg_adapters.joint_commands"),
+    "node_logic": (
+        "kinematics_node.service",
+        "kinematics_node.ee_state",
+        "kinematics_node.simulator",
+        "kinematics_node.robots",
+    ),
+}
+ROS_PACKAGES = ("rclpy", "rosidl_runtime_py", "geometry_msgs", "sensor_msgs")
+
+
+@pytest.mark.parametrize("layer", list(WITHOUT_ROS))
+def test_the_pure_modules_import_without_rclpy_or_ros_messages(layer: str) -> None:
+    """Imported for real in a fresh interpreter, one layer at a time (so a failure names the
+    layer that pulled ROS in): no ROS Python package is loaded on the way."""
+    code = (
+        f"import sys, {', '.join(WITHOUT_ROS[layer])}; "
+        f"print(sorted(m for m in sys.modules if m.split('.')[0] in {ROS_PACKAGES!r}))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from kin_testing import PinocchioOracle
 
 from kinematics_node import robots
 from kinematics_node.core import RobotDescriptionError, SerialChain, UnknownNameError
@@ -197,38 +198,16 @@ def test_lookup_prefers_the_source_tree_and_reports_where_it_searched(tmp_path):
 pin = pytest.importorskip("pinocchio")
 
 
-def _pin_config(model, chain: SerialChain, q: np.ndarray) -> tuple[np.ndarray, list[int]]:
-    """Pinocchio configuration for our q (continuous joints are (cos, sin) there) + v columns."""
-    q_pin = pin.neutral(model)
-    cols = []
-    for name, value in zip(chain.joint_names, q, strict=True):
-        joint = model.joints[model.getJointId(name)]
-        if joint.nq == 2:
-            q_pin[joint.idx_q : joint.idx_q + 2] = (math.cos(value), math.sin(value))
-        else:
-            q_pin[joint.idx_q] = value
-        cols.append(joint.idx_v)
-    return q_pin, cols
-
-
 @pytest.mark.parametrize("name", BUNDLED)
 def test_fk_and_jacobians_agree_with_pinocchio(name):
     chain = robots.load_robot(name)
-    model = pin.buildModelFromUrdf(str(robots.robot_path(name)))
-    data = model.createData()
-    fid = model.getFrameId(chain.tip_link)
+    oracle = PinocchioOracle.from_urdf(robots.robot_path(name), chain.joint_names)
     rng = np.random.default_rng(7)
     for q in random_q(chain, rng, N_CONFIGS):
-        q_pin, cols = _pin_config(model, chain, q)
-        pin.framesForwardKinematics(model, data, q_pin)
-        np.testing.assert_allclose(chain.fk(q), data.oMf[fid].homogeneous, atol=1e-9)
-        # Pinocchio rows are (v, ω); ours (ω, v).
-        J_lwa = pin.computeFrameJacobian(model, data, q_pin, fid, pin.LOCAL_WORLD_ALIGNED)[:, cols]
-        J_world = chain.jacobian(q, frame="world")
-        np.testing.assert_allclose(J_world, np.vstack((J_lwa[3:], J_lwa[:3])), atol=1e-9)
-        J_local = pin.computeFrameJacobian(model, data, q_pin, fid, pin.LOCAL)[:, cols]
-        J_body = chain.jacobian(q, frame="body")
-        np.testing.assert_allclose(J_body, np.vstack((J_local[3:], J_local[:3])), atol=1e-9)
+        T_pin, J_pin = oracle.pose_and_jacobians(q, chain.tip_link)
+        np.testing.assert_allclose(chain.fk(q), T_pin, atol=1e-9)
+        np.testing.assert_allclose(chain.jacobian(q, frame="world"), J_pin["world"], atol=1e-9)
+        np.testing.assert_allclose(chain.jacobian(q, frame="body"), J_pin["body"], atol=1e-9)
 
 
 def test_panda_mimic_finger_agrees_with_pinocchio_mimic_model():
@@ -243,15 +222,11 @@ def test_panda_mimic_finger_agrees_with_pinocchio_mimic_model():
         gap = left.fk(q)[:3, 3] - chain.fk(q)[:3, 3]
         assert np.linalg.norm(gap) == pytest.approx(2 * q[-1], abs=1e-12)
     try:
-        model = pin.buildModelFromUrdf(str(path), mimic=True)
+        oracle = PinocchioOracle.from_urdf(path, chain.joint_names, mimic=True)
     except Exception as exc:  # older Pinocchio without mimic support
         pytest.skip(f"this Pinocchio cannot build mimic joints: {exc}")
-    data = model.createData()
-    fid = model.getFrameId("panda_rightfinger")
     for q in random_q(chain, rng, 10):
-        q_pin, _ = _pin_config(model, chain, q)
-        pin.framesForwardKinematics(model, data, q_pin)
-        np.testing.assert_allclose(chain.fk(q), data.oMf[fid].homogeneous, atol=1e-9)
+        np.testing.assert_allclose(chain.fk(q), oracle.pose(q, "panda_rightfinger"), atol=1e-9)
 
 
 def test_panda_has_several_leaves_so_the_tip_must_be_named():

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from kin_testing import erd_path
+from kin_testing import PinocchioOracle, erd_path
 from scipy.spatial.transform import Rotation
 
 from kinematics_node.core import IKOptions, InvalidInputError, SerialChain, se3, so3
@@ -40,22 +40,14 @@ def arm(name: str) -> SerialChain:
 
 
 class PinFK:
-    """Forward kinematics by Pinocchio (an oracle nobody here wrote), by joint name."""
+    """Forward kinematics by Pinocchio (an oracle nobody here wrote) at our q, to the arm's tip."""
 
     def __init__(self, name: str) -> None:
-        pin = pytest.importorskip("pinocchio")
-        self.pin = pin
-        self.model = pin.buildModelFromUrdf(str(_path(name)))
-        self.data = self.model.createData()
-        self.frame = self.model.getFrameId(ARMS[name][1])
-        chain = arm(name)
-        self.idx = [self.model.joints[self.model.getJointId(j)].idx_q for j in chain.joint_names]
+        self.oracle = PinocchioOracle.from_urdf(_path(name), arm(name).joint_names)
+        self.tip = ARMS[name][1]
 
     def __call__(self, q: np.ndarray) -> np.ndarray:
-        qp = self.pin.neutral(self.model)
-        qp[self.idx] = q
-        self.pin.framesForwardKinematics(self.model, self.data, qp)
-        return self.data.oMf[self.frame].homogeneous
+        return self.oracle.pose(q, self.tip)
 
 
 def pose_errors(T_a: np.ndarray, T_b: np.ndarray) -> tuple[float, float]:
@@ -289,34 +281,55 @@ def test_num_solutions_are_distinct_and_valid() -> None:
 
 
 # ---------------------------------------------------------------------- failures and refusals
+def wall_times(call, repeats: int = 5) -> tuple[list, np.ndarray]:
+    """The results of `repeats` calls and their wall times [s].
+
+    A busy machine can delay any one call by tens of milliseconds; a solver that overruns its
+    deadline overruns it in every call. So the fastest call is held to the tight bound, and every
+    call to a loose one that still fails a solver ignoring its timeout.
+    """
+    results, times = [], []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        results.append(call())
+        times.append(time.perf_counter() - t0)
+    return results, np.array(times)
+
+
 def test_unreachable_target_fails_cleanly_within_the_timeout() -> None:
     chain = arm("panda")
     T = chain.fk(np.zeros(7))
     T[:3, 3] += (10.0, 0.0, 0.0)
-    t0 = time.perf_counter()
-    res = chain.ik(T, options=IKOptions(timeout=0.02, rng_seed=0))
-    elapsed = time.perf_counter() - t0
-    assert not res.success and elapsed < 0.02 + 0.05
-    assert np.all(np.isfinite(res.q)) and within_limits(chain, res.q)
-    p_err, o_err = pose_errors(chain.fk(res.q), T)
-    assert res.position_error == pytest.approx(p_err, rel=1e-9)
-    assert res.orientation_error == pytest.approx(o_err, abs=1e-9)
-    assert 8.0 < p_err < 10.0  # Panda reaches about 1 m; the best residual is what is left
-    assert "timeout" in res.message and "best residual" in res.message and res.solutions == ()
+    # max_restarts high enough that only the timeout can end the search (1000 take ~0.2 s)
+    opts = IKOptions(timeout=0.02, rng_seed=0, max_restarts=10**6)
+    results, elapsed = wall_times(lambda: chain.ik(T, options=opts), repeats=3)
+    assert elapsed.min() < 0.02 + 0.05 and elapsed.max() < 0.02 + 0.5, elapsed
+    for res in results:
+        assert not res.success
+        assert np.all(np.isfinite(res.q)) and within_limits(chain, res.q)
+        p_err, o_err = pose_errors(chain.fk(res.q), T)
+        assert res.position_error == pytest.approx(p_err, rel=1e-9)
+        assert res.orientation_error == pytest.approx(o_err, abs=1e-9)
+        assert 8.0 < p_err < 10.0  # Panda reaches about 1 m; the best residual is what is left
+        assert "timeout" in res.message and "best residual" in res.message and res.solutions == ()
 
 
 def test_tiny_timeout_is_honoured() -> None:
     chain = arm("xarm7")
     T = chain.fk(np.zeros(7))
     T[:3, 3] += (3.0, 0.0, 0.0)
+    # (ignoring the timeout, the default 1000 restarts take ~0.5 s, a batch of 50 ~10 s)
     for timeout in (0.002, 0.005):
-        t0 = time.perf_counter()
-        res = chain.ik(T, options=IKOptions(timeout=timeout))
-        assert time.perf_counter() - t0 < timeout + 0.005
-        assert not res.success
-    t0 = time.perf_counter()
-    res_b = chain.ik_batch(np.repeat(T[None], 50, 0), options=IKOptions(batch_timeout=0.01))
-    assert time.perf_counter() - t0 < 0.01 + 0.05 and not res_b.success.any()
+        opts = IKOptions(timeout=timeout)
+        results, elapsed = wall_times(lambda opts=opts: chain.ik(T, options=opts))
+        assert elapsed.min() < timeout + 0.005 and elapsed.max() < timeout + 0.25, elapsed
+        assert not any(res.success for res in results)
+    T_b = np.repeat(T[None], 50, 0)
+    results, elapsed = wall_times(
+        lambda: chain.ik_batch(T_b, options=IKOptions(batch_timeout=0.01)), repeats=3
+    )
+    assert elapsed.min() < 0.01 + 0.05 and elapsed.max() < 0.01 + 0.5, elapsed
+    assert not any(res_b.success.any() for res_b in results)
 
 
 def test_max_restarts_ends_the_search() -> None:

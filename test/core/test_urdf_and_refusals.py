@@ -232,14 +232,3 @@ def test_dh_and_poe_refusals():
         SerialChain.from_poe(
             np.array([[0, 0, 1, 0, 0, 0]]).T, 2 * np.eye(4) - np.diag([0, 0, 0, 1])
         )
-
-
-def test_core_import_does_not_import_rclpy():
-    import subprocess
-    import sys
-
-    code = (
-        "import sys, kinematics_node.core, kinematics_node.ee_state; print('rclpy' in sys.modules)"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "False"

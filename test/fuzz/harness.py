@@ -383,7 +383,7 @@ def _numbers_in(data: Any) -> list[float]:
 
 # ====================================================================== 4./5. ROS messages
 class Messages:
-    """rosbags message classes (ROS 2 Humble) plus our srv types, built like test/ros does."""
+    """rosbags message classes (ROS 2 Humble) plus our srv types, built like test/ros_testing.py does."""
 
     def __init__(self) -> None:
         from rosbags.typesys import Stores, get_types_from_msg, get_typestore

@@ -10,6 +10,7 @@ import time
 import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped
+from kin_testing import PinocchioOracle
 from kinematics_service.srv import ComputeFK, ComputeIK, ComputeJacobian
 from live_node import ROBOTS, UR5E_JOINTS, ur5e_description, wait_until
 from test_node_topics import Stream, joint_state
@@ -22,35 +23,8 @@ Q = np.array([0.3, -1.1, 1.4, -0.6, 0.8, 0.2])
 
 
 @pytest.fixture(scope="module")
-def pinocchio():
-    pin = pytest.importorskip("pinocchio", reason="Pinocchio (pip install pin) is the oracle")
-    model = pin.buildModelFromXML(ur5e_description())
-    return pin, model, model.createData()
-
-
-def pin_q(pin, model, q):
-    """Pinocchio's configuration for our joint order (continuous joints take cos/sin)."""
-    out = pin.neutral(model)
-    for name, value in zip(CHAIN.joint_names, q, strict=True):
-        joint = model.joints[model.getJointId(name)]
-        if joint.nq == 2:
-            out[joint.idx_q : joint.idx_q + 2] = (math.cos(value), math.sin(value))
-        else:
-            out[joint.idx_q] = value
-    return out
-
-
-def pin_pose_and_jacobian(pinocchio, q, frame="tool0"):
-    """(T_base_frame, world Jacobian in ROS rows (v, ω)) from Pinocchio, our joint order."""
-    pin, model, data = pinocchio
-    pq = pin_q(pin, model, q)
-    fid = model.getFrameId(frame)
-    pin.forwardKinematics(model, data, pq)
-    pin.updateFramePlacements(model, data)
-    pin.computeJointJacobians(model, data, pq)
-    J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
-    cols = [model.joints[model.getJointId(n)].idx_v for n in CHAIN.joint_names]
-    return data.oMf[fid].homogeneous, J[:, cols]
+def pinocchio() -> PinocchioOracle:
+    return PinocchioOracle.from_xml(ur5e_description(), CHAIN.joint_names)
 
 
 @pytest.fixture(scope="module")
@@ -103,14 +77,14 @@ def test_fk_matches_pinocchio_for_the_tip_and_another_link(node, client, pinocch
     resp = client.call(ComputeFK, "compute_fk", fk_request(UR5E_JOINTS, q))
     assert resp.success, resp.message
     assert resp.pose.header.frame_id == "base_link"
-    T_pin, _ = pin_pose_and_jacobian(pinocchio, q)
+    T_pin = pinocchio.pose(q, "tool0")
     np.testing.assert_allclose(matrix_from_pose(resp.pose.pose), T_pin, atol=1e-9)
     # a subset: the other joints keep the node's current joint_states (Q)
     resp = client.call(ComputeFK, "compute_fk", fk_request(["elbow_joint"], [0.5], "forearm_link"))
     assert resp.success, resp.message
     q_mixed = Q.copy()
     q_mixed[2] = 0.5
-    T_pin, _ = pin_pose_and_jacobian(pinocchio, q_mixed, "forearm_link")
+    T_pin = pinocchio.pose(q_mixed, "forearm_link")
     np.testing.assert_allclose(matrix_from_pose(resp.pose.pose), T_pin, atol=1e-9)
 
 
@@ -125,8 +99,8 @@ def test_jacobian_matches_the_core_and_pinocchio(node, client, pinocchio, frame)
     J = jacobian_from_fields(resp)  # core rows (ω, v)
     np.testing.assert_allclose(J, CHAIN.jacobian(q, frame), atol=1e-12)
     if frame == "world":
-        _, J_pin = pin_pose_and_jacobian(pinocchio, q)  # rows (v, ω)
-        np.testing.assert_allclose(np.r_[J[3:], J[:3]], J_pin, atol=1e-9)
+        _, J_pin = pinocchio.pose_and_jacobians(q, "tool0")
+        np.testing.assert_allclose(J, J_pin["world"], atol=1e-9)
     assert math.isfinite(resp.manipulability) and resp.manipulability > 0
 
 

@@ -1,6 +1,6 @@
 """End-to-end test of the installed package with launch_testing (runs only where ROS 2 is sourced
 and this package is built: `colcon test --packages-select kinematics_service`, or
-`launch_test test/ros/test_launch_integration.py`). Elsewhere it skips, saying why.
+`launch_test test/launch/test_launch_integration.py`). Elsewhere it skips, saying why.
 
 Starts launch/kinematics.launch.py with the UR5 of example-robot-data, publishes joint_states, and
 checks ee_pose / ee_twist against the pure-Python core, the three services, and that a slow IK call

@@ -12,93 +12,17 @@ import threading
 
 import numpy as np
 import pytest
+from kin_testing import PinocchioOracle
+from service_testing import T_BASE_CAMERA, chain_of, check_message, js
 
 import msg_adapters as ma
 from kinematics_node.core import SerialChain, se3
 from kinematics_node.core.exceptions import InvalidInputError, KinematicsError
 from kinematics_node.service import KinematicsService
 
-T_BASE_CAMERA = np.array(  # the fake TF tree: camera 1 m above the base, rotated 90° about z
-    [[0.0, -1.0, 0.0, 0.2], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 1.0], [0.0, 0.0, 0.0, 1.0]]
-)
-
-
-def fake_tf(target: str, source: str) -> np.ndarray:
-    if (target, source) == ("base_link", "camera"):
-        return T_BASE_CAMERA
-    raise LookupError(f'"{source}" passed to lookupTransform argument source_frame does not exist')
-
-
-class Clock:
-    def __init__(self) -> None:
-        self.now = 100.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
-@pytest.fixture
-def clock() -> Clock:
-    return Clock()
-
-
-@pytest.fixture
-def ur5(ros, ur5_path, clock) -> KinematicsService:
-    params = {
-        "robot_description": ur5_path.read_text(),
-        "base_link": "base_link",
-        "tip_link": "tool0",
-    }
-    return KinematicsService(ros.types, params, lookup_transform=fake_tf, clock=clock)
-
-
-@pytest.fixture
-def q_ur5() -> np.ndarray:
-    return np.array([0.3, -1.1, 1.4, -0.6, 0.8, 0.2])
-
-
-def js(ros, names, positions, t=0.0, velocity=()):
-    """A JointState stamped t [s] (or (sec, nanosec))."""
-    sec, nanosec = t if isinstance(t, tuple) else (math.floor(t), round((t - math.floor(t)) * 1e9))
-    return ros.new(
-        "sensor_msgs/msg/JointState",
-        header=ros.new(
-            "std_msgs/msg/Header",
-            stamp=ros.new("builtin_interfaces/msg/Time", sec=sec, nanosec=nanosec),
-        ),
-        name=list(names),
-        position=np.asarray(positions, dtype=float),
-        velocity=np.asarray(velocity, dtype=float),
-    )
-
-
-def check_message(ros, msg) -> None:
-    """rclpy would accept it, it is finite, and it survives CDR unchanged."""
-    assert ros.rclpy_type_problems(msg) == []
-    back = ros.roundtrip(msg)
-    assert back.__msgtype__ == msg.__msgtype__
-
-
-def chain_of(svc: KinematicsService) -> SerialChain:
-    assert svc.model is not None
-    return svc.model.chain
-
 
 def pose_matrix(msg) -> np.ndarray:
     return ma.matrix_from_pose(msg.pose)
-
-
-def pinocchio_pose(path, joint_names, q, frame):
-    pin = pytest.importorskip("pinocchio", reason="Pinocchio (pip install pin) is the FK oracle")
-    model = pin.buildModelFromUrdf(str(path))
-    data = model.createData()
-    qp = pin.neutral(model)
-    for name, value in zip(joint_names, q, strict=True):
-        jid = model.getJointId(name)
-        assert model.nqs[jid] == 1, "test assumes 1-dof revolute joints"
-        qp[model.idx_qs[jid]] = value
-    pin.framesForwardKinematics(model, data, qp)
-    return data.oMf[model.getFrameId(frame)].homogeneous
 
 
 # =========================================================================== joint_states
@@ -109,7 +33,7 @@ def test_pose_matches_pinocchio_and_is_stamped_with_the_joint_state(ros, ur5, ur
     check_message(ros, out.pose)
     assert out.pose.header.frame_id == "base_link"
     assert (out.pose.header.stamp.sec, out.pose.header.stamp.nanosec) == (1700000000, 123456789)
-    expected = pinocchio_pose(ur5_path, chain.joint_names, q_ur5, "tool0")
+    expected = PinocchioOracle.from_urdf(ur5_path, chain.joint_names).pose(q_ur5, "tool0")
     np.testing.assert_allclose(pose_matrix(out.pose), expected, atol=1e-9)
 
 
@@ -262,7 +186,7 @@ def test_fk_service_for_another_tip_link(ros, ur5, ur5_path, q_ur5):
     )
     resp = ur5.compute_fk(req, ros.response("ComputeFK"))
     assert resp.success, resp.message
-    expected = pinocchio_pose(ur5_path, chain.joint_names, q_ur5, "forearm_link")
+    expected = PinocchioOracle.from_urdf(ur5_path, chain.joint_names).pose(q_ur5, "forearm_link")
     np.testing.assert_allclose(pose_matrix(resp.pose), expected, atol=1e-9)
 
 
@@ -489,6 +413,14 @@ def test_ik_zero_timeout_means_the_node_default(ros, ur5, q_ur5):
     req = ros.request("ComputeIK", target=_target(ros, chain.fk(q_ur5 + 0.05)), timeout=0.0)
     resp = _ik(ros, ur5, req)
     assert resp.success, resp.message
+    # The job the service builds: timeout 0 takes the parameter ik.timeout, any other its own.
+    ur5.configure({"ik.timeout": 0.375})
+    for asked, expected in ((0.0, 0.375), (0.125, 0.125)):
+        req.timeout = asked
+        pending = ur5.prepare_ik(ros.roundtrip(req), ros.response("ComputeIK"), now=50.0)
+        assert pending is not None
+        assert pending.options.timeout == expected
+        assert pending.job.deadline == 50.0 + expected
 
 
 # =========================================================================== parameters

@@ -1,22 +1,16 @@
-"""Fixtures for the ROS-layer tests: real ROS 2 message classes and CDR from rosbags, our own srv
-types parsed from srv/*.srv, and real arms from example-robot-data. No rclpy needed."""
+"""Helpers of the ROS-layer tests: real ROS 2 message classes and CDR from rosbags, and our own srv
+types parsed from srv/*.srv (fixture `ros` in conftest.py). No rclpy needed."""
 
 from __future__ import annotations
 
 import array
-import os
-import sysconfig
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-ERD = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
-
-if os.environ.get("KINEMATICS_LAUNCH_TEST_SEPARATE"):  # CMake runs it through add_launch_test
-    collect_ignore = ["test_launch_integration.py"]
+ROOT = Path(__file__).resolve().parents[1]
 
 _FLOATS = ("float32", "float64")
 _INTS = (
@@ -61,13 +55,6 @@ _TYPECODE = {
     "int64": "q",
     "uint64": "Q",
 }
-
-
-def robot_path(relative: str) -> Path:
-    path = ERD / relative
-    if not path.exists():
-        pytest.skip(f"example-robot-data not installed ({path} missing): pip install '.[test]'")
-    return path
 
 
 class RosTypes:
@@ -199,18 +186,3 @@ def _base_problem(t: str, v: Any, where: str) -> list[str]:
     else:
         ok = type(v) is int
     return [] if ok else [f"{where}: {type(v).__name__} {v!r} for a {t} field"]
-
-
-@pytest.fixture(scope="session")
-def ros() -> RosTypes:
-    return RosTypes()
-
-
-@pytest.fixture(scope="session")
-def ur5_path() -> Path:
-    return robot_path("ur_description/urdf/ur5_robot.urdf")
-
-
-@pytest.fixture(scope="session")
-def panda_path() -> Path:
-    return robot_path("panda_description/urdf/panda.urdf")

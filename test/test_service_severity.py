@@ -5,12 +5,12 @@ from __future__ import annotations
 import math
 
 import pytest
-from test_service import chain_of, clock, js, ur5  # noqa: F401  (fixtures)
+from service_testing import chain_of, js
 
 from kinematics_node.service import Severity
 
 
-def test_each_problem_carries_its_severity_into_the_logs_and_diagnostics(ros, ur5, clock):  # noqa: F811
+def test_each_problem_carries_its_severity_into_the_logs_and_diagnostics(ros, ur5, clock):
     S = ros.cls("diagnostic_msgs/msg/DiagnosticStatus")
     names = chain_of(ur5).joint_names
     q = [0.0, -1.0, 1.0, 0.0, 0.5, 0.0]  # away from singularities (they WARN in diagnostics)

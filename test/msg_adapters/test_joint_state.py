@@ -1,0 +1,71 @@
+"""msg_adapters.joint_state against real ROS 2 message classes (rosbags): conversions, refusals,
+CDR, typing."""
+
+from __future__ import annotations
+
+import array
+import math
+
+import numpy as np
+import pytest
+
+import msg_adapters as ma
+from kinematics_node.core.exceptions import InvalidInputError
+
+JOINTS = ("j1", "j2", "j3")
+
+
+def _js(ros, names, positions, velocity=()):
+    return ros.new(
+        "sensor_msgs/msg/JointState",
+        name=list(names),
+        position=np.asarray(positions, dtype=float),
+        velocity=np.asarray(velocity, dtype=float),
+    )
+
+
+# --------------------------------------------------------------------------- JointState
+def test_q_from_joint_state_matches_by_name_in_any_order_and_ignores_other_joints(ros):
+    msg = _js(ros, ["finger", "j3", "j1", "j2"], [9.0, 0.3, 0.1, 0.2])
+    q = ma.q_from_joint_state(msg, JOINTS)
+    np.testing.assert_array_equal(q, [0.1, 0.2, 0.3])
+
+
+def test_q_from_joint_state_fills_a_subset_from_the_default(ros):
+    msg = _js(ros, ["j2"], [5.0])
+    np.testing.assert_array_equal(
+        ma.q_from_joint_state(msg, JOINTS, q_default=[1, 2, 3]), [1, 5, 3]
+    )
+    with pytest.raises(InvalidInputError, match="j1"):
+        ma.q_from_joint_state(msg, JOINTS)
+
+
+@pytest.mark.parametrize(
+    ("names", "positions", "needle"),
+    [
+        (["j1", "j2"], [0.0], "2 names but 1 positions"),
+        (["j1", "j1"], [0.0, 1.0], "'j1' more than once"),
+        (["j1", "bogus"], [0.0, 1.0], "'bogus'"),
+        (["j1", "j2", "j3"], [0.0, math.nan, 0.0], "'j2' is nan"),
+        (["j1", "j2", "j3"], [0.0, 0.0, math.inf], "'j3' is inf"),
+    ],
+)
+def test_q_from_joint_state_refuses_bad_input_naming_it(ros, names, positions, needle):
+    with pytest.raises(InvalidInputError, match=needle):
+        ma.q_from_joint_state(_js(ros, names, positions), JOINTS, known_names={"j1", "j2", "j3"})
+
+
+def test_joint_state_round_trip_cdr_and_rclpy_types(ros):
+    q, qdot = np.array([0.1, -0.2, 0.3]), np.array([1.0, 2.0, 3.0])
+    stamp = ros.new("builtin_interfaces/msg/Time", sec=12, nanosec=345)
+    msg = ma.joint_state_from_q(ros.types, JOINTS, q, ma.header(ros.types, stamp, "base"), qdot)
+    assert ros.rclpy_type_problems(msg) == []
+    back = ros.roundtrip(msg)
+    np.testing.assert_array_equal(ma.q_from_joint_state(back, JOINTS), q)
+    np.testing.assert_array_equal(back.velocity, qdot)
+    assert (back.header.stamp.sec, back.header.stamp.nanosec) == (12, 345)
+
+
+def test_float_sequences_accept_array_d_as_rclpy_does(ros):
+    msg = ros.new("sensor_msgs/msg/JointState", name=["j1"], position=array.array("d", [0.5]))
+    assert ma.q_from_joint_state(msg, ["j1"])[0] == 0.5
