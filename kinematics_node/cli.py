@@ -647,8 +647,16 @@ def _demo(args: argparse.Namespace) -> int:
     if not 2 <= steps <= _MAX_STEPS:
         raise CliError(f"--duration × --rate gives {steps} joint states; need 2 to {_MAX_STEPS:,}")
     from . import demo
+    from .robots import robot_path
     from .ros_env import unavailable_reason
 
+    # Everything the user can get wrong, before anything starts (and before saying which demo)
+    robot_path(args.robot)
+    try:
+        demo.check_matplotlib()
+        path = demo.check_picture_path(args.out)
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
     reason = None if args.no_ros else unavailable_reason()
     if args.no_ros or reason is not None:
         if reason is not None:
@@ -656,14 +664,7 @@ def _demo(args: argparse.Namespace) -> int:
                   file=sys.stderr)
         return demo.main(args.robot, args.out, args.duration, args.rate)
     from . import live_demo
-    from .robots import robot_path
 
-    robot_path(args.robot)  # an unknown robot: one line, before anything starts
-    try:
-        demo.check_matplotlib()
-        path = demo.check_picture_path(args.out)
-    except ValueError as exc:
-        raise CliError(str(exc)) from None
     return live_demo.main(args.robot, path, args.duration, args.rate)
 
 
