@@ -29,6 +29,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from .core import KinematicsError, SerialChain
+from .core.ik_options import IKOptions
 
 _MAX_SHOWN = 40  # characters of user input echoed in an error message
 _MAX_STEPS = 1_000_000  # demo: joint states simulated at most
@@ -329,7 +330,7 @@ _IK_OPTION_NAMES = {  # IKOptions field → the option that sets it (library nam
 
 
 def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
-    from .core import IKOptions
+
     from .core.rotations import matrix_from_quaternion
 
     v = parse_floats(args.target, "--target")
@@ -600,14 +601,20 @@ def build_parser() -> argparse.ArgumentParser:
                 default="speed",
                 help="speed: first solution; distance: closest to the seed within the timeout",
             )
-            p.add_argument("--timeout", type=positive, default=0.05, help="time budget [s]")
+            ik_defaults = IKOptions()  # one source of the IK defaults: the library's
             p.add_argument(
-                "--position-tolerance", type=positive, default=1e-5, help="position error [m]"
+                "--timeout", type=positive, default=ik_defaults.timeout, help="time budget [s]"
+            )
+            p.add_argument(
+                "--position-tolerance",
+                type=positive,
+                default=ik_defaults.position_tolerance,
+                help="position error [m]",
             )
             p.add_argument(
                 "--orientation-tolerance",
                 type=positive,
-                default=1e-4,
+                default=ik_defaults.orientation_tolerance,
                 help="orientation error (rotation angle) [rad]",
             )
             how = p.add_mutually_exclusive_group()

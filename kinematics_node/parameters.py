@@ -12,6 +12,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from .core.ik_options import IKOptions
+
 
 @dataclass(frozen=True)
 class ParameterSpec:
@@ -29,6 +31,9 @@ class ParameterSpec:
     positive: bool = False
     choices: tuple[str, ...] = ()
 
+
+#: The IK defaults are the library's (one source): a node and `chain.ik` agree unless configured.
+_IK = IKOptions()
 
 PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec(
@@ -52,7 +57,7 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ),
     ParameterSpec(
         "ik.position_tolerance",
-        1e-5,
+        _IK.position_tolerance,
         "Default IK position tolerance [m] (requests may override).",
         minimum=1e-12,
         maximum=1.0,
@@ -60,7 +65,7 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ),
     ParameterSpec(
         "ik.orientation_tolerance",
-        1e-4,
+        _IK.orientation_tolerance,
         "Default IK orientation tolerance [rad] (requests may override).",
         minimum=1e-12,
         maximum=math.pi,
@@ -68,7 +73,7 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ),
     ParameterSpec(
         "ik.timeout",
-        0.05,
+        _IK.timeout,
         "Default IK wall-clock budget [s] (requests may override; honoured to the ms).",
         minimum=1e-4,
         maximum=60.0,
@@ -76,12 +81,12 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ),
     ParameterSpec(
         "ik.max_restarts",
-        100000,
+        _IK.max_restarts,
         "Maximum random restarts of the IK solver within its timeout. The default leaves the "
         "timeout to decide (one restart takes ~0.5 ms); lower it to give up on unreachable "
         "targets before their timeout.",
         minimum=0,
-        maximum=100000,
+        maximum=10**9,
     ),
     ParameterSpec(
         "ik.workers",
