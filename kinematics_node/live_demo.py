@@ -21,6 +21,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from .core.model import middle_of_limits
 from .demo import DemoRun, movable_manipulability, plot
 from .robots import default_chain_links, load_robot, robot_path
 from .ros_env import executable, keep_discovery_local, local_ros_env
@@ -153,9 +154,9 @@ def _listen_and_call(chain: Any, robot: str, duration: float, stream: TextIO) ->
         jac_err = np.abs(jacobian_from_fields(jac_resp) - chain.jacobian(q_last, "world")).max()
         ik = ComputeIK.Request()
         ik.target = fk_resp.pose
-        mid = np.where(np.isfinite(chain.lower), 0.5 * (chain.lower + chain.upper), 0.0)
+        mid = middle_of_limits(chain.lower, chain.upper)
         ik.seed.name = list(chain.joint_names)
-        ik.seed.position = [float(v) for v in np.nan_to_num(mid)]
+        ik.seed.position = [float(v) for v in mid]
         ik.timeout = 0.1
         ik_resp, ik_ms = call("ik", ik)
     finally:
