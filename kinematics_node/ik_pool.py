@@ -34,6 +34,7 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -134,15 +135,9 @@ class IKPool:
     def __init__(self, workers: int, niceness: int = 19, grace: float = 0.01) -> None:
         if workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers}")
-        ctx = multiprocessing.get_context("forkserver")
-        # Workers fork from a server that has imported the core once, so each starts in ~10 ms.
-        # "__main__" too: a worker otherwise re-imports the main script (the node's, with rclpy)
-        # by itself; imported once in the server, the workers inherit it.
-        ctx.set_forkserver_preload(["__main__", "kinematics_node.core", "kinematics_node.ik_pool"])
-        self._executor = ProcessPoolExecutor(
-            workers, mp_context=ctx, initializer=_init_worker, initargs=(niceness,)
-        )
         self.workers = workers
+        self._niceness = niceness
+        self._executor = self._new_executor()
         self._grace = grace
         self._lock = threading.Lock()
         self._wake = threading.Condition(self._lock)
@@ -152,6 +147,16 @@ class IKPool:
         self._closed = False
         self._watchdog = threading.Thread(target=self._watch, name="ik-watchdog", daemon=True)
         self._watchdog.start()
+
+    def _new_executor(self) -> ProcessPoolExecutor:
+        ctx = multiprocessing.get_context("forkserver")
+        # Workers fork from a server that has imported the core once, so each starts in ~10 ms.
+        # "__main__" too: a worker otherwise re-imports the main script (the node's, with rclpy)
+        # by itself; imported once in the server, the workers inherit it.
+        ctx.set_forkserver_preload(["__main__", "kinematics_node.core", "kinematics_node.ik_pool"])
+        return ProcessPoolExecutor(
+            self.workers, mp_context=ctx, initializer=_init_worker, initargs=(self._niceness,)
+        )
 
     def warm_up(self) -> None:
         """Start every worker process now (about a second, for the first import of the core in
@@ -171,7 +176,16 @@ class IKPool:
             self._pending[job_id] = on_done
             heapq.heappush(self._deadlines, (job.deadline + self._grace, job_id))
             self._wake.notify()
-        future = self._executor.submit(solve_job, job)
+        try:
+            future = self._executor.submit(solve_job, job)
+        except BrokenProcessPool:  # a worker died (killed, out of memory): start a new pool
+            self._executor.shutdown(wait=False, cancel_futures=True)
+            self._executor = self._new_executor()
+            try:
+                future = self._executor.submit(solve_job, job)
+            except Exception as exc:  # noqa: BLE001 - every job must be answered
+                self._finish(job_id, _failed(f"no IK worker could be started: {exc!r}"))
+                return
         future.add_done_callback(lambda f: self._finish(job_id, _outcome_of(f)))
 
     def _finish(self, job_id: int, outcome: IKOutcome) -> None:
@@ -222,7 +236,9 @@ def _outcome_of(future: Future[IKOutcome]) -> IKOutcome:
         return _timed_out("the job was cancelled")
     exc = future.exception()
     if exc is not None:
-        return IKOutcome(
-            None, False, float("nan"), float("nan"), 0, f"IK worker failed: {exc!r}"
-        )
+        return _failed(f"IK worker failed: {exc!r}")
     return future.result()
+
+
+def _failed(reason: str) -> IKOutcome:
+    return IKOutcome(None, False, float("nan"), float("nan"), 0, reason)

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import pickle
+import signal
 import threading
 import time
 from pathlib import Path
@@ -115,3 +117,22 @@ def test_shutdown_answers_pending_jobs_and_stops_busy_workers():
     assert "shutting down" in a.outcome.message
     with pytest.raises(RuntimeError, match="shut down"):
         p.submit(job(UR5E, unreachable, 0.1), Answers())
+
+
+def test_a_killed_worker_fails_its_job_and_the_next_job_gets_a_new_pool():
+    p = IKPool(1, grace=0.01)
+    p.warm_up()
+    unreachable = np.eye(4)
+    unreachable[:3, 3] = [5.0, 0.0, 0.0]
+    a = Answers()
+    p.submit(job(UR5E, unreachable, 5.0), a)
+    time.sleep(0.3)
+    for pid in list(p._executor._processes):  # as the OOM killer would
+        os.kill(pid, signal.SIGKILL)
+    assert a.done.wait(3), "the killed worker's job was never answered"
+    assert not a.outcome.success and "failed" in a.outcome.message
+    b = Answers()
+    q = np.array([0.3, -1.0, 1.2, -0.5, 0.8, 0.1])
+    p.submit(job(UR5E, UR5E.fk(q), 2.0), b)
+    assert b.done.wait(10) and b.outcome.success, b.outcome
+    p.shutdown()
