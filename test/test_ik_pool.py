@@ -18,6 +18,8 @@ from kinematics_node.ik_pool import IKJob, IKOutcome, IKPool, solve_job
 ROBOTS = Path(__file__).resolve().parents[1] / "config" / "robots"
 UR5E = SerialChain.from_urdf(ROBOTS / "ur5e.urdf")
 PLANAR = SerialChain.from_urdf(ROBOTS / "planar3r.urdf")
+UNREACHABLE = np.eye(4)
+UNREACHABLE[:3, 3] = [5.0, 0.0, 0.0]  # the UR5e reaches < 1 m: a search uses its whole timeout
 
 
 def job(chain, T, timeout, deadline=None, **options):
@@ -71,11 +73,9 @@ def test_a_job_past_its_deadline_is_answered_at_once_without_a_solve(pool):
 
 
 def test_queued_jobs_are_answered_by_deadline_plus_grace_when_every_worker_is_busy(pool):
-    unreachable = np.eye(4)
-    unreachable[:3, 3] = [5.0, 0.0, 0.0]
     busy = [Answers() for _ in range(2)]
     for b in busy:  # both workers busy for 2 s
-        pool.submit(job(UR5E, unreachable, 2.0), b)
+        pool.submit(job(UR5E, UNREACHABLE, 2.0), b)
     late = Answers()
     t0 = time.monotonic()
     pool.submit(job(UR5E, UR5E.fk(np.zeros(6)), 0.05), late)
@@ -94,39 +94,35 @@ def test_queued_jobs_are_answered_by_deadline_plus_grace_when_every_worker_is_bu
 def test_time_in_the_queue_counts_against_the_timeout():
     """A job whose deadline is 60 ms away solves with those 60 ms, not with its 1.5 s timeout:
     an unreachable target is answered by the deadline (+ slack for a busy machine)."""
-    unreachable = np.eye(4)
-    unreachable[:3, 3] = [5.0, 0.0, 0.0]
     t0 = time.monotonic()
-    outcome = solve_job(job(UR5E, unreachable, 1.5, deadline=t0 + 0.06))
+    outcome = solve_job(job(UR5E, UNREACHABLE, 1.5, deadline=t0 + 0.06))
     assert not outcome.success and outcome.q is not None
     assert time.monotonic() - t0 < 0.06 + 0.5
 
 
-def test_shutdown_answers_pending_jobs_and_stops_busy_workers():
+def one_busy_worker(seconds: float) -> tuple[IKPool, Answers]:
+    """A pool of one worker, busy with an unreachable target for `seconds`."""
     p = IKPool(1, grace=0.01)
     p.warm_up()
-    unreachable = np.eye(4)
-    unreachable[:3, 3] = [5.0, 0.0, 0.0]
     a = Answers()
-    p.submit(job(UR5E, unreachable, 30.0), a)
-    time.sleep(0.2)
+    p.submit(job(UR5E, UNREACHABLE, seconds), a)
+    time.sleep(0.3)
+    return p, a
+
+
+def test_shutdown_answers_pending_jobs_and_stops_busy_workers():
+    p, a = one_busy_worker(30.0)
     t0 = time.monotonic()
     p.shutdown()
     assert time.monotonic() - t0 < 5.0  # did not wait out the 30 s solve
     assert a.done.wait(1) and a.calls == 1
     assert "shutting down" in a.outcome.message
     with pytest.raises(RuntimeError, match="shut down"):
-        p.submit(job(UR5E, unreachable, 0.1), Answers())
+        p.submit(job(UR5E, UNREACHABLE, 0.1), Answers())
 
 
 def test_a_killed_worker_fails_its_job_and_the_next_job_gets_a_new_pool():
-    p = IKPool(1, grace=0.01)
-    p.warm_up()
-    unreachable = np.eye(4)
-    unreachable[:3, 3] = [5.0, 0.0, 0.0]
-    a = Answers()
-    p.submit(job(UR5E, unreachable, 5.0), a)
-    time.sleep(0.3)
+    p, a = one_busy_worker(5.0)
     for pid in list(p._executor._processes):  # as the OOM killer would
         os.kill(pid, signal.SIGKILL)
     assert a.done.wait(3), "the killed worker's job was never answered"
