@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -48,6 +49,13 @@ def check_transform(value: Any, name: str = "transform") -> NDArray[np.float64]:
     The rotation is accepted when ||RᵀR − I|| ≤ 1e-6 and det R > 0; tighter data is common, looser
     data almost always means a bug (e.g. a scaled or transposed matrix).
     """
+    if (
+        isinstance(value, np.ndarray)
+        and value.shape == (4, 4)
+        and value.dtype == np.float64
+        and _clean_transform(value.tolist())
+    ):
+        return value  # the common case, one clean transform: checked on floats (~3 µs, not ~20)
     T = as_float_array(value, name)
     check_trailing_shape(T, (4, 4), name)
     check_finite(T, name)
@@ -62,3 +70,27 @@ def check_transform(value: Any, name: str = "transform") -> NDArray[np.float64]:
             f"{name} rotation block is not a rotation matrix (max |RᵀR − I| = {float(np.max(err)):.3g})"
         )
     return T
+
+
+def _clean_transform(T: list[list[float]]) -> bool:
+    """True if T (4 × 4 lists) passes every test of `check_transform`; False means "let the
+    array path decide" (it raises with the reason)."""
+    for row in T:
+        for x in row:
+            if not (-math.inf < x < math.inf):
+                return False
+    a, b, c, d = T[3]
+    if abs(a) > 1e-9 or abs(b) > 1e-9 or abs(c) > 1e-9 or abs(d - 1.0) > 1e-9:
+        return False
+    cols = [(T[0][i], T[1][i], T[2][i]) for i in range(3)]
+    for i in range(3):
+        u = cols[i]
+        for j in range(i, 3):
+            v = cols[j]
+            if abs(u[0] * v[0] + u[1] * v[1] + u[2] * v[2] - (1.0 if i == j else 0.0)) > 1e-6:
+                return False
+    u, v, w = cols
+    det = (u[1] * v[2] - u[2] * v[1]) * w[0] + (u[2] * v[0] - u[0] * v[2]) * w[1] + (
+        u[0] * v[1] - u[1] * v[0]
+    ) * w[2]
+    return det > 0

@@ -62,6 +62,13 @@ def rotate_about(k: Vec, r: Vec, theta: float, x: Vec) -> Vec:
     return (r[0] + y[0], r[1] + y[1], r[2] + y[2])
 
 
+def perpendicular(a: Vec) -> Vec:
+    """A unit vector normal to the unit vector a (the same choice as `closed_form._perpendicular`)."""
+    x = cross(a, (1.0, 0.0, 0.0) if abs(a[0]) < 0.9 else (0.0, 1.0, 0.0))
+    n = norm(x)
+    return (x[0] / n, x[1] / n, x[2] / n)
+
+
 def _project(k: Vec, p: Vec) -> Vec:
     kp = dot(k, p)
     return (p[0] - k[0] * kp, p[1] - k[1] * kp, p[2] - k[2] * kp)

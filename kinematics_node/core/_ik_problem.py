@@ -60,6 +60,7 @@ class IKProblem:
         axis_tol: None, or (6,) per-axis bounds (inf where the weight is 0).
         pos_mask, ori_mask: (3,) which position / rotation components count in the errors.
         m: rows of the error, 6 or 3. spare: redundant degrees of freedom, max(n − m, 0).
+        all_weighted: every component of the pose counts (no zero weight, no infinite bound).
     """
 
     chain: KinematicChain
@@ -79,6 +80,7 @@ class IKProblem:
     ori_mask: NDArray[np.bool_]
     m: int
     spare: int
+    all_weighted: bool
 
     @classmethod
     def build(cls, chain: KinematicChain, opts: IKOptions) -> IKProblem:
@@ -127,6 +129,7 @@ class IKProblem:
             ori_mask=w[:3] > 0,
             m=m,
             spare=max(chain.dof - m, 0),
+            all_weighted=bool(np.all(w > 0)),
         )
 
     def evaluate_batch(

@@ -31,7 +31,8 @@ from .model import ChainSpec, Frame, SolverModel, readonly
 
 if TYPE_CHECKING:
     from .closed_form import ClosedFormBatchResult, ClosedFormResult
-    from .ik import IKBatchResult, IKOptions, IKResult
+    from .ik_options import IKOptions
+    from .ik_result import IKBatchResult, IKResult
 
 FloatArray = NDArray[np.float64]
 _FRAMES = ("space", "body", "world")

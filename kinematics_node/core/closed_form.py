@@ -36,7 +36,9 @@ Units: lengths [m], angles [rad]. Frames: targets are tip poses in the base fram
 from __future__ import annotations
 
 import math
+import time
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -47,7 +49,7 @@ from . import _closed_form_vector as vector
 from . import subproblems as sp
 from ._checks import as_float_array, check_finite
 from .exceptions import InvalidInputError, NoClosedFormError
-from .ik import IKResult, check_seed, default_seed
+from .ik_result import IKResult, check_seed, default_seed
 from .model import TWO_PI, KinematicChain, readonly
 
 FloatArray = NDArray[np.float64]
@@ -287,6 +289,18 @@ def _transform_points(T: FloatArray, x: FloatArray) -> FloatArray:
     )
 
 
+def _lane(g: vector.Geometry, k: int) -> scalar.Geometry:
+    """Lane k of a vectorised geometry as the scalar solvers' tuples of floats."""
+
+    def t(a: FloatArray) -> scalar.Vec:
+        return (float(a[0]), float(a[1]), float(a[2]))
+
+    return scalar.Geometry(
+        [t(v) for v in g.w[k]], [t(v) for v in g.r[k]], t(g.c[k]), t(g.b[k]),
+        t(g.h[k]), t(g.x[k]), t(g.s[k]), g.scale,
+    )  # fmt: skip
+
+
 class _Solver:
     """The detected structure of one chain and everything precomputed for it (immutable)."""
 
@@ -307,17 +321,7 @@ class _Solver:
         self.scale = float(max(1e-3, np.abs(r).max(), np.abs(M[:3, 3]).max()))
         self.keep = [i for i in range(chain.dof) if i != held]
         self.geometry = _geometry(structure, w[None], r[None], self.scale) if held is None else None
-        self.scalar_geometry = None
-        if self.geometry is not None:
-            g0 = self.geometry
-
-            def t(a: FloatArray) -> scalar.Vec:
-                return (float(a[0]), float(a[1]), float(a[2]))
-
-            self.scalar_geometry = scalar.Geometry(
-                [t(v) for v in g0.w[0]], [t(v) for v in g0.r[0]], t(g0.c[0]), t(g0.b[0]),
-                t(g0.h[0]), t(g0.x[0]), t(g0.s[0]), self.scale,
-            )  # fmt: skip
+        self.scalar_geometry = None if self.geometry is None else _lane(self.geometry, 0)
         self.lower = [float(x) for x in chain.lower]
         self.upper = [float(x) for x in chain.upper]
         self.info = self.family()
@@ -326,6 +330,73 @@ class _Solver:
         self.default_seed = default_seed(chain)
         self.all_finite = bool(np.all(np.isfinite(self.lower_arr) & np.isfinite(self.upper_arr)))
         self.lo_wide, self.hi_wide = self.lower_arr - 1e-10, self.upper_arr + 1e-10
+        self.held_moves = None if held is None else self._held_moves()
+
+    def _held_moves(self) -> dict[str, list[bool]] | None:
+        """For a 7R arm: which parts of the held geometry move with the held joint.
+
+        Holding joint j at θ moves the axes after j by E = e^{[S_j]θ}; every derived point and
+        direction either moves with them or stays (it may also lie on axis j and do both). Which
+        one is found once here, at probe values, so that `held_scalar_geometry` can build the
+        geometry for any θ from the one at θ = 0 with a few float operations instead of NumPy
+        (a tenth of the time for one target). None if some part does neither (never seen; the
+        NumPy route is then used)."""
+        probe = np.array([0.0, 1.1, -2.3])
+        g, E = self.held_geometry(probe)
+        R, t = E[:, :3, :3], E[:, :3, 3]
+
+        def moves(a: FloatArray, point: bool) -> bool | None:
+            """a (3, 3): the part at the probe values; moved with E, fixed, or neither (None)."""
+            moved = np.einsum("kij,j->ki", R, a[0]) + (t if point else 0.0)
+            if np.allclose(a, a[0], atol=1e-12, rtol=0):
+                return False
+            if np.allclose(a, moved, atol=1e-12, rtol=0):
+                return True
+            return None
+
+        out: dict[str, list[bool]] = {}
+        parts = {"w": (g.w, False), "r": (g.r, True)}
+        for name, (arr, point) in parts.items():
+            flags = [moves(arr[:, i], point) for i in range(6)]
+            if any(f is None for f in flags):
+                return None
+            out[name] = [bool(f) for f in flags]
+        for name, arr, point in (("c", g.c, True), ("b", g.b, True), ("h", g.h, False)):
+            f = moves(arr, point)
+            if f is None:
+                return None
+            out[name] = [f]
+        self._held_base = _lane(g, 0)
+        return out
+
+    def held_scalar_geometry(self, theta: float) -> tuple[scalar.Geometry, list[list[float]]]:
+        """`held_geometry` of one value θ as the scalar solvers' geometry, and E⁻¹ (4 × 4 lists),
+        by moving the parts that move with the held joint (see `_held_moves`)."""
+        j = self.held
+        assert j is not None and self.held_moves is not None
+        k = (float(self.w_all[j, 0]), float(self.w_all[j, 1]), float(self.w_all[j, 2]))
+        o = (float(self.r_all[j, 0]), float(self.r_all[j, 1]), float(self.r_all[j, 2]))
+        m, g0 = self.held_moves, self._held_base
+
+        def d(v: scalar.Vec, move: bool) -> scalar.Vec:
+            return scalar.rotate(k, theta, v) if move else v
+
+        def pt(v: scalar.Vec, move: bool) -> scalar.Vec:
+            return scalar.rotate_about(k, o, theta, v) if move else v
+
+        w = [d(v, f) for v, f in zip(g0.w, m["w"], strict=True)]
+        r = [pt(v, f) for v, f in zip(g0.r, m["r"], strict=True)]
+        h = d(g0.h, m["h"][0])
+        x = scalar.perpendicular(h if self.structure.kind == "three_parallel" else w[5])
+        g = scalar.Geometry(w, r, pt(g0.c, m["c"][0]), pt(g0.b, m["b"][0]), h, x, g0.s, self.scale)
+        # E⁻¹ = e^{−[S_j]θ}: columns R(k, −θ) eᵢ, translation o − R o.
+        cols = [
+            scalar.rotate(k, -theta, e) for e in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+        ]
+        Ro = scalar.rotate(k, -theta, o)
+        E_inv = [[cols[0][i], cols[1][i], cols[2][i], o[i] - Ro[i]] for i in range(3)]
+        E_inv.append([0.0, 0.0, 0.0, 1.0])
+        return g, E_inv
 
     def lo_eff(self, seed: FloatArray) -> FloatArray:
         """Lower bounds for the equivalents: the limit, or seed − π for an unbounded side."""
@@ -416,6 +487,11 @@ def _why_not(chain: KinematicChain) -> str:
         + f" (tolerances {DISTANCE_TOLERANCE:g} m, {ANGLE_TOLERANCE:g} rad), and no three "
         "consecutive parallel axes are followed by two that meet"
     )
+
+
+def no_closed_form_reason(chain: KinematicChain) -> str:
+    """Why `chain` has no closed-form family, in a sentence ("" if it has one)."""
+    return "" if _solver(chain) is not None else _why_not(chain)
 
 
 def detect(chain: KinematicChain) -> _Solver | None:
@@ -511,6 +587,31 @@ def _refine(
     return Q
 
 
+def _fk_check(
+    solver: _Solver, Q: FloatArray, T_t: FloatArray, fix: Callable[[FloatArray], FloatArray]
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Candidates Q (k, n) checked against their targets T_t (k, 4, 4) by forward kinematics:
+    near misses refined (kept only where that helps; `fix` maps refined rows back into the
+    candidates' range), and the position [m] and rotation [rad] errors."""
+    chain = solver.chain
+    Q = Q.copy()
+    ep, er = _pose_errors(chain.fk(Q), T_t)
+    redo = (
+        ((ep > _REFINE_ABOVE * solver.scale) | (er > _REFINE_ABOVE))
+        & (ep < _REFINE_BELOW * solver.scale)
+        & (er < _REFINE_BELOW)
+    )
+    if redo.any():
+        Qr = fix(_refine(chain, Q[redo], T_t[redo], solver.held))
+        ep_r, er_r = _pose_errors(chain.fk(Qr), T_t[redo])
+        better = np.maximum(ep_r / solver.scale, er_r) < np.maximum(
+            ep[redo] / solver.scale, er[redo]
+        )
+        sel = np.flatnonzero(redo)[better]
+        Q[sel], ep[sel], er[sel] = Qr[better], ep_r[better], er_r[better]
+    return Q, ep, er
+
+
 @dataclass
 class _Outcome:
     """Internal result of `_solve_arrays` (CSR layout, like ClosedFormBatchResult)."""
@@ -529,22 +630,14 @@ class _Outcome:
         return self.solutions[self.offsets[i] : self.offsets[i + 1]]
 
 
-def _solve_arrays(
-    solver: _Solver,
-    T: FloatArray,
-    seeds: FloatArray,
-    held: FloatArray | None,
-    tol: float,
-    use_limits: bool = True,
-) -> _Outcome:
-    """Every solution for N targets T (N, 4, 4), sorted per target by distance to its seed (N, n).
-
-    `held` (7R arms): (K,) values of the held joint swept for every target, or (N, K) per target.
-    Without `use_limits` solutions are returned in (−π, π] whatever the limits.
-    """
-    chain = solver.chain
+def _branches(
+    solver: _Solver, T: FloatArray, seeds: FloatArray, held: FloatArray | None
+) -> tuple[FloatArray, BoolArray, IntArray, FloatArray | None, vector.Trace]:
+    """The 8 branches of every lane, unchecked: Q (L, 8, n) with angles in (−π, π], ok (L, 8) where
+    every subproblem had a solution, the target of each lane, the held value of each lane (None
+    for a 6R arm), and the trace. A 6R arm has one lane per target; a 7R arm one per (target,
+    held value): `held` (K,) values for every target or (N, K) per target, lane i·K + k."""
     st = solver.structure
-    n = chain.dof
     N = T.shape[0]
     if solver.held is None:
         g = solver.geometry
@@ -555,7 +648,7 @@ def _solve_arrays(
     else:
         assert held is not None
         K = held.shape[-1]
-        owner_lane = np.repeat(np.arange(N), K)  # lane i·K + k: target i, held value k
+        owner_lane = np.repeat(np.arange(N), K)
         if held.ndim == 1:  # shared values: the geometry of K lanes, tiled over the targets
             gK, EK = solver.held_geometry(held)
             g = _tile_lanes(gK, N)
@@ -574,13 +667,32 @@ def _solve_arrays(
     Q6, ok = _solve_6r(st, g, G[:, :3, :3], G[:, :3, 3], dflt, trace)
     if st.reversed:
         Q6 = -Q6[..., ::-1]
-    L = Q6.shape[0]
     if held_lane is not None:
         assert solver.held is not None
         Q = _insert(Q6, solver.held, held_lane)
     else:
         Q = Q6
-    Q = _wrap(Q)
+    return _wrap(Q), ok, owner_lane, held_lane, trace
+
+
+def _solve_arrays(
+    solver: _Solver,
+    T: FloatArray,
+    seeds: FloatArray,
+    held: FloatArray | None,
+    tol: float,
+    use_limits: bool = True,
+) -> _Outcome:
+    """Every solution for N targets T (N, 4, 4), sorted per target by distance to its seed (N, n).
+
+    `held` (7R arms): (K,) values of the held joint swept for every target, or (N, K) per target.
+    Without `use_limits` solutions are returned in (−π, π] whatever the limits.
+    """
+    chain = solver.chain
+    n = chain.dof
+    N = T.shape[0]
+    Q, ok, owner_lane, held_lane, trace = _branches(solver, T, seeds, held)
+    L = Q.shape[0]
     free = np.zeros((L, 8), dtype=bool)
     free_codes = np.full((L, 8), -1)
     for code, (_, f) in enumerate(trace.frees):
@@ -592,22 +704,7 @@ def _solve_arrays(
     idx = np.flatnonzero(ok.reshape(-1))
     acc = np.zeros(L * 8, dtype=bool)
     if idx.size:
-        Qc = flat_Q[idx]
-        Tt = T[flat_owner[idx]]
-        ep, er = _pose_errors(chain.fk(Qc), Tt)
-        redo = (
-            ((ep > _REFINE_ABOVE * solver.scale) | (er > _REFINE_ABOVE))
-            & (ep < _REFINE_BELOW * solver.scale)
-            & (er < _REFINE_BELOW)
-        )
-        if redo.any():
-            Qr = _wrap(_refine(chain, Qc[redo], Tt[redo], solver.held))
-            ep_r, er_r = _pose_errors(chain.fk(Qr), Tt[redo])
-            better = np.maximum(ep_r / solver.scale, er_r) < np.maximum(
-                ep[redo] / solver.scale, er[redo]
-            )
-            sel = np.flatnonzero(redo)[better]
-            Qc[sel], ep[sel], er[sel] = Qr[better], ep_r[better], er_r[better]
+        Qc, ep, er = _fk_check(solver, flat_Q[idx], T[flat_owner[idx]], _wrap)
         flat_Q[idx] = Qc
         acc[idx] = (ep <= tol) & (er <= tol)
     acc2 = acc.reshape(L, 8)
@@ -668,6 +765,52 @@ _STAGE_ORDER = {
 }
 
 
+def _scalar_candidates(
+    solver: _Solver, T: list[list[float]], seed: list[float], held_value: float | None
+) -> tuple[list[scalar.Candidate], scalar.Stages]:
+    """The (≤ 8) candidate solutions of one target by the scalar solvers: full configurations with
+    angles in (−π, π] (a 7R arm's held joint at `held_value`), unchecked, with the reasons of the
+    angles the target left free (taken from `seed`), and the stages the branches passed."""
+    st = solver.structure
+    Ta = np.array(T)
+    if held_value is None:
+        g = solver.scalar_geometry
+        assert g is not None
+        G = Ta @ solver.M_inv
+        d = seed
+    elif solver.held_moves is not None:
+        g, E_inv = solver.held_scalar_geometry(held_value)
+        G = Ta @ solver.M_inv @ np.array(E_inv)  # the 6R arm left has home pose e^{[S_j]θ} M
+        d = [seed[i] for i in solver.keep]
+    else:
+        gv, E = solver.held_geometry(np.array([held_value]))
+        g = _lane(gv, 0)
+        G = Ta @ solver.M_inv @ _inverse(E)[0]
+        d = [seed[i] for i in solver.keep]
+    if st.reversed:  # the structure read from the tip: G⁻¹ = e^{−[S₆]q₆} ⋯ e^{−[S₁]q₁}
+        G = _inverse(G[None])[0]
+        d = [-x for x in reversed(d)]
+    Gl = G.tolist()
+    R: scalar.Mat = (
+        (Gl[0][0], Gl[0][1], Gl[0][2]), (Gl[1][0], Gl[1][1], Gl[1][2]), (Gl[2][0], Gl[2][1], Gl[2][2])
+    )  # fmt: skip
+    p: scalar.Vec = (Gl[0][3], Gl[1][3], Gl[2][3])
+    case = st.kind if st.kind == "three_parallel" else st.case
+    stages = scalar.Stages(_STAGE_ORDER[case])
+    if st.kind == "three_parallel":
+        raw = scalar.three_parallel(g, R, p, d, stages)
+    else:
+        raw = scalar.spherical(st.case, g, R, p, d, stages)
+    out: list[scalar.Candidate] = []
+    for q6, why in raw:
+        q = [-x for x in reversed(q6)] if st.reversed else q6
+        q = [x - TWO_PI * math.ceil((x - math.pi) * _INVTWO_PI) for x in q]  # into (−π, π]
+        if held_value is not None:
+            q.insert(solver.held or 0, held_value)
+        out.append((q, why))
+    return out, stages
+
+
 def _solve_single(
     solver: _Solver, T: list[list[float]], seed: list[float], tol: float
 ) -> tuple[FloatArray, tuple[float, float], str, str]:
@@ -680,28 +823,12 @@ def _solve_single(
         solutions (k, n), the (position, rotation) error of the first, the singular reasons ("" if
         regular), why the set is empty ("" if not).
     """
-    st, g, chain = solver.structure, solver.scalar_geometry, solver.chain
-    assert g is not None
-    Ta = np.array(T)
-    # G = T M⁻¹, or G⁻¹ = M T⁻¹ for a structure read from the tip.
-    G = (solver.M_arr @ _inverse(Ta[None])[0] if st.reversed else Ta @ solver.M_inv).tolist()
-    R: scalar.Mat = (
-        (G[0][0], G[0][1], G[0][2]), (G[1][0], G[1][1], G[1][2]), (G[2][0], G[2][1], G[2][2])
-    )  # fmt: skip
-    p: scalar.Vec = (G[0][3], G[1][3], G[2][3])
-    d = [-x for x in reversed(seed)] if st.reversed else seed
-    case = st.kind if st.kind == "three_parallel" else st.case
-    stages = scalar.Stages(_STAGE_ORDER[case])
-    if st.kind == "three_parallel":
-        cands = scalar.three_parallel(g, R, p, d, stages)
-    else:
-        cands = scalar.spherical(st.case, g, R, p, d, stages)
+    chain = solver.chain
+    cands, stages = _scalar_candidates(solver, T, seed, None)
     accepted: list[list[float]] = []
     errors: list[tuple[float, float]] = []
     whys: set[str] = set()
-    for q6, why in cands:
-        q = [-x for x in reversed(q6)] if st.reversed else q6
-        q = [x - TWO_PI * math.ceil((x - math.pi) * _INVTWO_PI) for x in q]  # into (−π, π]
+    for q, why in cands:
         ep, er = _pose_errors_list(chain.fk(q).tolist(), T)
         if (
             (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
@@ -1161,14 +1288,242 @@ def solve_all_batch(
     )
 
 
+# ---------------------------------------------------------------------- the nearest solution (`ik`)
+@dataclass(frozen=True)
+class Nearest:
+    """What `ik` takes from the closed form for one target.
+
+    Attributes:
+        solutions: configurations (n,) within the limits that reproduce the target to the
+            tolerances, nearest the seed first (weighted distance), pairwise more than the
+            separation apart; at most the number asked for.
+        errors: (position [m], rotation angle [rad]) of each.
+        complete: the solutions are every one there is (a 6R arm); False for a 7R arm, whose held
+            joint was tried at the seed's value only.
+        reason: why there are none ("" otherwise).
+    """
+
+    solutions: list[FloatArray]
+    errors: list[tuple[float, float]]
+    complete: bool
+    reason: str
+
+
+def _nearest_turn(
+    q: list[float], seed: list[float], lo: list[float], hi: list[float]
+) -> list[float] | None:
+    """The whole-turn equivalent of q (angles in (−π, π]) within the limits nearest the seed, joint
+    by joint (each joint's term of the distance is independent); None if a joint has none.
+    Unbounded sides are seed ± π, as in `_within_limits`."""
+    out = []
+    for x, s, a, b in zip(q, seed, lo, hi, strict=True):
+        lo_j = a if a > -math.inf else s - math.pi
+        hi_j = b if b < math.inf else s + math.pi
+        k_lo = math.ceil((lo_j - 1e-10 - x) * _INVTWO_PI)
+        k_hi = math.floor((hi_j + 1e-10 - x) * _INVTWO_PI)
+        if k_lo > k_hi:
+            return None
+        k = min(max(round((s - x) * _INVTWO_PI), k_lo), k_hi)
+        out.append(min(max(x + TWO_PI * k, lo_j), hi_j))
+    return out
+
+
+def nearest(
+    chain: KinematicChain,
+    T_target: FloatArray,
+    q_seed: FloatArray,
+    count: int,
+    position_tolerance: float,
+    orientation_tolerance: float,
+    joint_weights: FloatArray,
+    separation: float,
+    deadline: float,
+    sweep: bool = True,
+) -> Nearest | None:
+    """The `count` solutions nearest `q_seed` of one target, in closed form; None if the chain has
+    no closed-form family. For `ik`: its inputs are already checked (T_target a rigid (4, 4)
+    transform, q_seed (n,) within the limits).
+
+    Candidates are ranked by the weighted distance Σ wⱼ (qⱼ − q_seedⱼ)² of their nearest whole-turn
+    equivalent within the limits, and checked by forward kinematics in that order (near misses
+    refined, as in `solve_all`) until `count` pass, so one call usually runs one FK. A 7R arm holds
+    its held joint at the seed's value first; if that gives no solution and `sweep`, at the values
+    of an even grid over its limits (`DEFAULT_HELD_SAMPLES` of them), nearest the seed's value
+    first, until one does or `deadline` (`time.perf_counter`) passes.
+    """
+    solver = _solver(chain)
+    if solver is None:
+        return None
+    Tl = T_target.tolist()
+    seed = q_seed.tolist()
+    w = joint_weights.tolist()
+    tols = (position_tolerance, orientation_tolerance)
+    if solver.held is None:
+        sols, reason = _nearest_at(solver, Tl, T_target, seed, None, count, tols, w, separation)
+        return Nearest([s for s, _ in sols], [e for _, e in sols], True, reason)
+    j = solver.held
+    found, first_reason = _nearest_at(solver, Tl, T_target, seed, seed[j], 1, tols, w, separation)
+    tried = 1
+    if not found and sweep:
+        grid = np.linspace(solver.lower_arr[j], solver.upper_arr[j], DEFAULT_HELD_SAMPLES)
+        if not np.isfinite(grid).all():
+            grid = seed[j] + np.linspace(-math.pi, math.pi, DEFAULT_HELD_SAMPLES, endpoint=False)
+        for value in grid[np.argsort(np.abs(grid - seed[j]), kind="stable")].tolist():
+            if time.perf_counter() > deadline:
+                break
+            found, _ = _nearest_at(solver, Tl, T_target, seed, value, 1, tols, w, separation)
+            tried += 1
+            if found:
+                break
+    if found:
+        return Nearest([found[0][0]], [found[0][1]], False, "")
+    more = f", and at {tried - 1} more values" if tried > 1 else ""
+    why = f"{first_reason} (with {chain.joint_names[j]} held at the seed's value{more})"
+    return Nearest([], [], False, why)
+
+
+def _nearest_at(
+    solver: _Solver,
+    Tl: list[list[float]],
+    T_target: FloatArray,
+    seed: list[float],
+    held_value: float | None,
+    count: int,
+    tols: tuple[float, float],
+    w: list[float],
+    separation: float,
+) -> tuple[list[tuple[FloatArray, tuple[float, float]]], str]:
+    """`nearest` for one value of the held joint (None for a 6R arm): the solutions with their
+    (position, rotation) errors, and why there are none ("" if there are)."""
+    chain = solver.chain
+    cands, stages = _scalar_candidates(solver, Tl, seed, held_value)
+    ranked: list[tuple[float, list[float]]] = []
+    for q, _ in cands:
+        qn = _nearest_turn(q, seed, solver.lower, solver.upper)
+        if qn is not None:
+            ranked.append(
+                (sum(wj * (a - b) ** 2 for wj, a, b in zip(w, qn, seed, strict=True)), qn)
+            )
+    ranked.sort(key=lambda item: item[0])
+    found: list[tuple[FloatArray, tuple[float, float]]] = []
+    for _, q in ranked:
+        if any(np.abs(np.asarray(q) - f).max() <= separation for f, _ in found):
+            continue  # the same solution as one already taken (branches may coincide)
+        ep, er = _pose_errors_list(chain.fk(q).tolist(), Tl)
+        if (
+            (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
+            and ep < _REFINE_BELOW * solver.scale
+            and er < _REFINE_BELOW
+        ):
+            qr = np.clip(
+                _refine(chain, np.array([q]), T_target[None], solver.held)[0],
+                solver.lower_arr, solver.upper_arr,
+            )  # fmt: skip
+            ep_r, er_r = _pose_errors_list(chain.fk(qr).tolist(), Tl)
+            if max(ep_r / solver.scale, er_r) < max(ep / solver.scale, er):
+                q, ep, er = qr.tolist(), ep_r, er_r
+        if ep > tols[0] or er > tols[1]:
+            continue
+        found.append((np.array(q), (ep, er)))
+        if len(found) >= count:
+            break
+    if found:
+        return found, ""
+    if stages.first_dead() is not None:
+        return found, _empty_reason(stages.first_dead(), 0)
+    if len(ranked) < len(cands):
+        return found, _empty_reason(None, len(cands) - len(ranked))
+    return found, "no closed-form candidate reproduced the target to the tolerances"
+
+
+
+@dataclass(frozen=True)
+class NearestBatch:
+    """What `ik_batch` takes from the closed form for N targets: `q` (N, n) the solution nearest
+    each seed where `found` (N,), else the seed; position [m] and rotation [rad] errors (inf where
+    not found)."""
+
+    q: FloatArray
+    found: BoolArray
+    position_error: FloatArray
+    orientation_error: FloatArray
+
+
+def nearest_batch(
+    chain: KinematicChain,
+    T_targets: FloatArray,
+    q_seeds: FloatArray,
+    position_tolerance: float,
+    orientation_tolerance: float,
+    joint_weights: FloatArray,
+    held: FloatArray | None = None,
+) -> NearestBatch | None:
+    """`nearest` (one solution) for N targets, vectorised over targets; None without a family.
+
+    Inputs are checked by `ik_batch`: T_targets (N, 4, 4) rigid, q_seeds (N, n) within the limits.
+    A 7R arm holds its held joint at each seed's value, or at `held` (N, K) values per target.
+    """
+    solver = _solver(chain)
+    if solver is None:
+        return None
+    N, n = q_seeds.shape
+    if solver.held is not None and held is None:
+        held = q_seeds[:, solver.held : solver.held + 1]
+    Q, ok, owner_lane, _, _ = _branches(solver, T_targets, q_seeds, held)
+    Qf = Q.reshape(-1, n)
+    owner = np.repeat(owner_lane, 8)
+    # The whole-turn equivalent within the limits nearest the seed, joint by joint (`_nearest_turn`).
+    S = q_seeds[owner]
+    lo = np.where(np.isfinite(solver.lower_arr), solver.lower_arr, S - math.pi)
+    hi = np.where(np.isfinite(solver.upper_arr), solver.upper_arr, S + math.pi)
+    k_lo = np.ceil((lo - 1e-10 - Qf) * _INVTWO_PI)
+    k_hi = np.floor((hi + 1e-10 - Qf) * _INVTWO_PI)
+    k = np.clip(np.round((S - Qf) * _INVTWO_PI), k_lo, k_hi)
+    cand = np.flatnonzero(ok.reshape(-1) & (k_lo <= k_hi).all(axis=1))
+    Qc = np.clip(Qf[cand] + TWO_PI * k[cand], lo[cand], hi[cand])
+    own = owner[cand]
+    Qc, ep, er = _fk_check(
+        solver, Qc, T_targets[own], lambda A: np.clip(A, solver.lower_arr, solver.upper_arr)
+    )
+    acc = (ep <= position_tolerance) & (er <= orientation_tolerance)
+    Qc, own, ep, er = Qc[acc], own[acc], ep[acc], er[acc]
+    dist = (((Qc - q_seeds[own]) ** 2) * joint_weights).sum(axis=1)
+    order = np.lexsort((dist, own))
+    first = order[np.r_[True, own[order][1:] != own[order][:-1]]] if order.size else order
+    q = q_seeds.copy()
+    found = np.zeros(N, dtype=bool)
+    pos, ori = np.full(N, np.inf), np.full(N, np.inf)
+    t = own[first]
+    q[t], found[t], pos[t], ori[t] = Qc[first], True, ep[first], er[first]
+    return NearestBatch(q, found, pos, ori)
+
+
+def held_grid(chain: KinematicChain, q_seeds: FloatArray) -> FloatArray:
+    """(N, K) values of a 7R arm's held joint for a sweep: `DEFAULT_HELD_SAMPLES` evenly over its
+    limits (continuous: around each seed), the same for every target."""
+    solver = _require(chain)
+    assert solver.held is not None
+    j = solver.held
+    grid = np.linspace(solver.lower_arr[j], solver.upper_arr[j], DEFAULT_HELD_SAMPLES)
+    if not np.isfinite(grid).all():
+        ring = np.linspace(-math.pi, math.pi, DEFAULT_HELD_SAMPLES, endpoint=False)
+        return q_seeds[:, j : j + 1] + ring
+    return np.tile(grid, (q_seeds.shape[0], 1))
+
 __all__ = [
     "ANGLE_TOLERANCE",
     "DEFAULT_HELD_SAMPLES",
     "DISTANCE_TOLERANCE",
+    "Nearest",
+    "NearestBatch",
     "ClosedFormBatchResult",
     "ClosedFormFamily",
     "ClosedFormResult",
     "family_of",
+    "held_grid",
+    "nearest",
+    "nearest_batch",
+    "no_closed_form_reason",
     "solve_all",
     "solve_all_batch",
 ]

@@ -42,17 +42,26 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._ik_batch import BatchOutcome, BatchSolver
 from ._ik_problem import IKProblem
-from ._ik_single import SingleSolver
+from ._ik_single import SingleOutcome, SingleSolver
+from .closed_form import (
+    Nearest,
+    family_of,
+    held_grid,
+    nearest,
+    nearest_batch,
+    no_closed_form_reason,
+)
 from .exceptions import InvalidInputError
 from .ik_options import IKOptions
-from .model import KinematicChain, middle_of_limits, readonly
+from .ik_result import IKBatchResult, IKResult, check_seed, default_seed
+from .model import KinematicChain, readonly
 
 FloatArray = NDArray[np.float64]
 # Below this many targets `ik_batch` solves them one by one with the scalar solver: the lock-step
@@ -60,81 +69,9 @@ FloatArray = NDArray[np.float64]
 # (measured on Panda and UR5: 1.4 vs 0.44 ms per target at N = 10, about even at N = 50–64,
 # 0.2 vs 0.5 ms at N = 200).
 SCALAR_BATCH_BELOW = 48
-
-
-@dataclass(frozen=True)
-class IKResult:
-    """Outcome of one `SerialChain.ik` call. Arrays are read-only.
-
-    Attributes:
-        q: (n,) the solution; on failure the best configuration found (smallest weighted
-            residual). Always finite and within the limits.
-        success: whether `q` meets both tolerances (or every per-axis bound, if given).
-        position_error: ‖p_target − p(q)‖ [m]; components freed by a zero weight or an infinite
-            axis tolerance are excluded.
-        orientation_error: rotation angle of R(q)ᵀ R_target [rad] (0 when position_only); if a
-            rotation component is freed, the norm of the remaining rotation-vector components.
-        iterations: Levenberg–Marquardt iterations over all attempts.
-        restarts: random restarts used (attempts − 1).
-        solutions: distinct solutions found, closest to the seed first (q is solutions[0] on
-            success); empty on failure.
-        message: human-readable summary, e.g. why the search failed.
-    """
-
-    q: FloatArray
-    success: bool
-    position_error: float
-    orientation_error: float
-    iterations: int
-    restarts: int = 0
-    solutions: tuple[FloatArray, ...] = field(default=())
-    message: str = ""
-
-
-@dataclass(frozen=True)
-class IKBatchResult:
-    """Outcome of `SerialChain.ik_batch` for N targets: `IKResult`'s fields with a leading N axis.
-
-    Attributes:
-        q: (N, n) solutions, or best configurations where success is False.
-        success: (N,) bool.
-        position_error: (N,) [m]. orientation_error: (N,) [rad].
-        iterations: (N,) LM iterations spent on each target. restarts: (N,) restarts per target.
-        message: one summary line for the batch.
-    """
-
-    q: FloatArray
-    success: NDArray[np.bool_]
-    position_error: FloatArray
-    orientation_error: FloatArray
-    iterations: NDArray[np.int64]
-    restarts: NDArray[np.int64]
-    message: str = ""
-
-
-# ---------------------------------------------------------------------- boundary helpers
-def default_seed(chain: KinematicChain) -> FloatArray:
-    """Middle of the joint limits; 0 for continuous joints (clipped into half-bounded limits)."""
-    return middle_of_limits(chain.lower, chain.upper)
-
-
-def check_seed(
-    chain: KinematicChain, q_seed: ArrayLike | None, name: str, batch: int | None
-) -> FloatArray:
-    """The seed rules of `ik` (and `ik_all`): `default_seed` when None, else validated as shape
-    (n,) or, for a `batch` of N, (N, n), and clamped into the limits.
-
-    Raises:
-        InvalidInputError: wrong shape or a non-finite value, naming `name`.
-    """
-    if q_seed is None:
-        s = default_seed(chain)
-        return s if batch is None else np.tile(s, (batch, 1))
-    q = chain.check_q(q_seed, name)
-    want = (chain.dof,) if batch is None else (batch, chain.dof)
-    if q.shape != want:
-        raise InvalidInputError(f"{name} must have shape {want}, got shape {q.shape}")
-    return np.clip(q, chain.lower, chain.upper)  # a seed outside the limits is clamped
+# On a 7R arm, "auto" gives the numeric search this share of the time left after the closed form
+# with the held joint at the seed's value, and the closed form's sweep of the held joint the rest.
+NUMERIC_SHARE_7R = 0.5
 
 
 def _options(options: IKOptions | None) -> IKOptions:
@@ -176,8 +113,46 @@ def solve(
         )
     seed = check_seed(chain, q_seed, "q_seed", None)
     start = time.perf_counter()
-    deadline = start + opts.timeout
-    out = SingleSolver(IKProblem.build(chain, opts), T, seed).run(deadline)
+    problem = IKProblem.build(chain, opts)
+    closed = _ClosedForm.of(problem)
+    return _solve_one(problem, closed, T, seed, start, start + opts.timeout)
+
+
+def _solve_one(
+    problem: IKProblem,
+    closed: _ClosedForm,
+    T: FloatArray,
+    seed: FloatArray,
+    start: float,
+    deadline: float,
+) -> IKResult:
+    """One target by the solvers `problem.opts.method` names, within `deadline`."""
+    opts = problem.opts
+    if closed.blocker or opts.method == "numeric":
+        return _numeric_result(SingleSolver(problem, T, seed).run(deadline), opts, start, "")
+    # A 6R arm's closed form is exhaustive; a 7R arm's tries its held joint at the seed's value
+    # (about a 6R solve), then the numeric search gets half the time, then the closed form sweeps
+    # the held joint, then the numeric search gets the rest ("auto": the closed form finds what
+    # the search misses, and the search is usually quicker than a sweep).
+    sweep = opts.method == "closed_form" or not closed.held
+    found = closed.nearest(T, seed, deadline, sweep)
+    if found.solutions or opts.method == "closed_form":
+        return _closed_form_result(found, problem, T, seed, start)
+    prefix = f"closed form: {found.reason}; numeric search: "
+    if not closed.held:
+        return _numeric_result(SingleSolver(problem, T, seed).run(deadline), opts, start, prefix)
+    out = SingleSolver(problem, T, seed).run(start + NUMERIC_SHARE_7R * (deadline - start))
+    if out.success:
+        return _numeric_result(out, opts, start, "")
+    found = closed.nearest(T, seed, deadline, True)
+    if found.solutions:
+        return _closed_form_result(found, problem, T, seed, start)
+    prefix = f"closed form: {found.reason}; numeric search: "
+    rest = SingleSolver(problem, T, seed).run(deadline)
+    return _numeric_result(rest if rest.success else out, opts, start, prefix)
+
+
+def _numeric_result(out: SingleOutcome, opts: IKOptions, start: float, prefix: str) -> IKResult:
     elapsed_ms = (time.perf_counter() - start) * 1e3
     solutions = tuple(readonly(s) for s in out.solutions)
     if out.success:
@@ -200,6 +175,89 @@ def solve(
         iterations=out.iterations,
         restarts=out.restarts,
         solutions=solutions,
+        message=prefix + msg,
+    )
+
+
+@dataclass(frozen=True)
+class _ClosedForm:
+    """The closed form as an IK solver for one problem (`closed_form.nearest`).
+
+    It applies to chains with a closed-form family when the whole pose is asked for: not
+    position-only and no freed component (zero weight or infinite axis bound), since a freed
+    component leaves infinitely many solutions. A 6R arm's closed form finds every solution, so it
+    answers any mode and number of solutions; a 7R arm's one solution in "speed" mode. Finite axis
+    bounds are met by requiring the position and rotation errors within the smallest bound of
+    each (the solutions are exact to ~1e-12 anyway). `blocker` says why it does not apply ("" if
+    it does).
+    """
+
+    problem: IKProblem
+    blocker: str
+    held: bool
+    tolerances: tuple[float, float]
+
+    @classmethod
+    def of(cls, problem: IKProblem) -> _ClosedForm:
+        opts = problem.opts
+        tols = (opts.position_tolerance, opts.orientation_tolerance)
+        if problem.axis_tol is not None:
+            tols = (float(problem.axis_tol[3:].min()), float(problem.axis_tol[:3].min()))
+        held = False
+        if problem.position_only:
+            blocker = "position_only leaves infinitely many solutions"
+        elif not problem.all_weighted:
+            blocker = "a freed pose component leaves infinitely many solutions"
+        else:
+            family = family_of(problem.chain)
+            if family is None:
+                blocker = no_closed_form_reason(problem.chain)
+            elif family.held_joint is not None and (
+                opts.mode != "speed" or opts.num_solutions != 1
+            ):
+                blocker = (
+                    "on a 7R arm it gives one solution in mode 'speed' (chain.ik_all sweeps the "
+                    "held joint for sets)"
+                )
+            else:
+                blocker, held = "", family.held_joint is not None
+        return cls(problem, blocker, held, tols)
+
+    def nearest(self, T: FloatArray, seed: FloatArray, deadline: float, sweep: bool) -> Nearest:
+        p = self.problem
+        found = nearest(
+            p.chain, T, seed, p.opts.num_solutions, *self.tolerances, p.joint_weights,
+            p.opts.solution_separation, deadline, sweep,
+        )  # fmt: skip
+        assert found is not None  # the family was found in `of`
+        return found
+
+
+def _closed_form_result(
+    found: Nearest, problem: IKProblem, T: FloatArray, seed: FloatArray, start: float
+) -> IKResult:
+    opts = problem.opts
+    elapsed_ms = (time.perf_counter() - start) * 1e3
+    k = len(found.solutions)
+    if not k:  # method "closed_form" only
+        E, _, pos, ori, _, _ = problem.evaluate_batch(seed[None], T[None, :3, :3], T[None, :3, 3])
+        return IKResult(
+            q=readonly(seed), success=False, position_error=float(pos[0]),
+            orientation_error=float(ori[0]), iterations=0, restarts=0,
+            message=f"no solution in closed form: {found.reason}",
+        )  # fmt: skip
+    msg = f"found {k} solution{'s' if k > 1 else ''} in closed form in {elapsed_ms:.3f} ms"
+    if k < opts.num_solutions:
+        msg += f" ({opts.num_solutions} requested; the arm has no more within the limits)"
+    ep, er = found.errors[0]
+    return IKResult(
+        q=readonly(found.solutions[0]),
+        success=True,
+        position_error=ep,
+        orientation_error=er,
+        iterations=0,
+        restarts=0,
+        solutions=tuple(readonly(s) for s in found.solutions),
         message=msg,
     )
 
@@ -239,13 +297,18 @@ def solve_batch(
     start = time.perf_counter()
     budget = opts.batch_timeout if opts.batch_timeout is not None else opts.timeout * max(N, 1)
     problem = IKProblem.build(chain, opts)
+    closed = _ClosedForm.of(problem)
+    if closed.blocker and opts.method == "closed_form":
+        raise InvalidInputError(f"IKOptions.method='closed_form' does not apply: {closed.blocker}")
     if N < SCALAR_BATCH_BELOW:
-        out = _solve_each(problem, T, seeds, start + budget)
+        out, n_closed = _solve_each(problem, closed, T, seeds, start + budget)
     else:
-        out = BatchSolver(problem, T, seeds).run(start + budget)
+        out, n_closed = _solve_vectorised(problem, closed, T, seeds, start, start + budget)
     elapsed_ms = (time.perf_counter() - start) * 1e3
     n_ok = int(out.success.sum())
     msg = f"{n_ok}/{N} targets solved in {elapsed_ms:.1f} ms"
+    if n_closed:
+        msg += f", {n_closed} in closed form"
     if n_ok < N:
         msg += f" ({out.stop_reason})"
     return IKBatchResult(
@@ -260,16 +323,17 @@ def solve_batch(
 
 
 def _solve_each(
-    problem: IKProblem, T: FloatArray, seeds: FloatArray, deadline: float
-) -> BatchOutcome:
-    """Small batches: the scalar solver per target, each with `opts.timeout` but never past the
-    batch's deadline. Results equal those of `ik` on each target whenever neither budget binds."""
+    problem: IKProblem, closed: _ClosedForm, T: FloatArray, seeds: FloatArray, deadline: float
+) -> tuple[BatchOutcome, int]:
+    """Small batches: `ik` per target, each with `opts.timeout` but never past the batch's
+    deadline. Results equal those of `ik` on each target whenever neither budget binds."""
     outs = []
     for T_k, seed_k in zip(T, seeds, strict=True):
-        own = min(time.perf_counter() + problem.opts.timeout, deadline)
-        outs.append(SingleSolver(problem, T_k, seed_k).run(own))
-    failed = [o.stop_reason for o in outs if not o.success]
-    return BatchOutcome(
+        now = time.perf_counter()
+        own = min(now + problem.opts.timeout, deadline)
+        outs.append(_solve_one(problem, closed, T_k, seed_k, now, own))
+    failed = [o.message for o in outs if not o.success]
+    outcome = BatchOutcome(
         q=np.array([o.q for o in outs]).reshape(len(outs), len(problem.lower)),
         success=np.array([o.success for o in outs], dtype=bool),
         position_error=np.array([o.position_error for o in outs], dtype=np.float64),
@@ -278,6 +342,92 @@ def _solve_each(
         restarts=np.array([o.restarts for o in outs], dtype=np.int64),
         stop_reason=failed[0] if failed else "done",
     )
+    return outcome, sum(1 for o in outs if o.success and "closed form" in o.message)
+
+
+def _solve_vectorised(
+    problem: IKProblem,
+    closed: _ClosedForm,
+    T: FloatArray,
+    seeds: FloatArray,
+    start: float,
+    deadline: float,
+) -> tuple[BatchOutcome, int]:
+    """Large batches, vectorised over the targets, in the order of `_solve_one`: the closed form
+    (a 7R arm's held joint at each seed's value), the numeric search on the targets left (a 7R
+    arm: half the time left), a 7R arm's sweep of the held joint on those still left, the numeric
+    search again. Returns the outcome and how many targets the closed form solved."""
+    opts = problem.opts
+    if closed.blocker or opts.method == "numeric":
+        return BatchSolver(problem, T, seeds).run(deadline), 0
+    chain, w = problem.chain, problem.joint_weights
+    first = nearest_batch(chain, T, seeds, *closed.tolerances, w)
+    assert first is not None  # the family was found in _ClosedForm.of
+    N = T.shape[0]
+    out = BatchOutcome(
+        q=first.q.copy(),
+        success=first.found.copy(),
+        position_error=first.position_error.copy(),
+        orientation_error=first.orientation_error.copy(),
+        iterations=np.zeros(N, dtype=np.int64),
+        restarts=np.zeros(N, dtype=np.int64),
+        stop_reason="done",
+    )
+    n_closed = int(first.found.sum())
+    numeric = opts.method == "auto"
+    if numeric and not closed.held:
+        _numeric_on(problem, T, seeds, out, deadline)
+        return out, n_closed
+    if numeric:
+        now = time.perf_counter()
+        _numeric_on(problem, T, seeds, out, now + NUMERIC_SHARE_7R * (deadline - now))
+    left = np.flatnonzero(~out.success)
+    if closed.held and left.size and time.perf_counter() < deadline:
+        sweep = nearest_batch(
+            chain, T[left], seeds[left], *closed.tolerances, w, held_grid(chain, seeds[left])
+        )
+        assert sweep is not None
+        hit = left[sweep.found]
+        out.q[hit] = sweep.q[sweep.found]
+        out.position_error[hit] = sweep.position_error[sweep.found]
+        out.orientation_error[hit] = sweep.orientation_error[sweep.found]
+        out.success[hit] = True
+        n_closed += hit.size
+    if numeric:
+        _numeric_on(problem, T, seeds, out, deadline)
+    if not out.success.all() and out.stop_reason == "done":
+        out.stop_reason = "no solution in closed form"
+    return out, n_closed
+
+
+def _numeric_on(
+    problem: IKProblem, T: FloatArray, seeds: FloatArray, out: BatchOutcome, deadline: float
+) -> None:
+    """The numeric search on the targets `out` has not solved, written into `out` (a failure
+    keeps the best configuration found)."""
+    left = np.flatnonzero(~out.success)
+    if not left.size:
+        return
+    if left.size >= SCALAR_BATCH_BELOW:
+        part = BatchSolver(problem, T[left], seeds[left]).run(deadline)
+    else:
+        runs = [SingleSolver(problem, T[i], seeds[i]).run(deadline) for i in left]
+        part = BatchOutcome(
+            q=np.array([r.q for r in runs]),
+            success=np.array([r.success for r in runs], dtype=bool),
+            position_error=np.array([r.position_error for r in runs]),
+            orientation_error=np.array([r.orientation_error for r in runs]),
+            iterations=np.array([r.iterations for r in runs], dtype=np.int64),
+            restarts=np.array([r.restarts for r in runs], dtype=np.int64),
+            stop_reason=next((r.stop_reason for r in runs if not r.success), "done"),
+        )
+    out.q[left] = part.q
+    out.success[left] = part.success
+    out.position_error[left] = part.position_error
+    out.orientation_error[left] = part.orientation_error
+    out.iterations[left] += part.iterations
+    out.restarts[left] += part.restarts
+    out.stop_reason = part.stop_reason
 
 
 __all__: Sequence[str] = [

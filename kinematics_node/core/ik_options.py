@@ -1,4 +1,4 @@
-"""`IKOptions`: the settings of the numeric IK solver, validated on construction.
+"""`IKOptions`: the settings of the IK solvers, validated on construction.
 
 Kept apart from `ik` so that the IK problem (`_ik_problem`), which both solvers build from a
 chain and these options, sits below the entry points that use it.
@@ -18,6 +18,8 @@ from .exceptions import InvalidInputError
 FloatArray = NDArray[np.float64]
 Mode = Literal["speed", "distance"]
 _MODES = ("speed", "distance")
+Method = Literal["auto", "closed_form", "numeric"]
+_METHODS = ("auto", "closed_form", "numeric")
 
 
 def _is_real(x: object) -> bool:
@@ -62,6 +64,11 @@ class IKOptions:
             [rad or m] (continuous joints compared modulo 2π); > 0.
         batch_timeout: time budget of a whole `ik_batch` call [s]; None means `timeout` × N.
         rng_seed: seed of the random restarts (None: fresh entropy each call).
+        method: "auto" (default) uses the closed form (docs/closed_form.md) where the chain has a
+            family and the whole pose is asked for (no position_only, no freed component), and the
+            numeric search otherwise or when the closed form finds nothing; "closed_form" uses
+            only the closed form (an error where it does not apply); "numeric" only the
+            Levenberg–Marquardt search.
     """
 
     position_tolerance: float = 1e-5
@@ -78,6 +85,7 @@ class IKOptions:
     solution_separation: float = 1e-2
     batch_timeout: float | None = None
     rng_seed: int | None = None
+    method: Method = "auto"
 
     def __post_init__(self) -> None:
         for name in (
@@ -111,6 +119,10 @@ class IKOptions:
         if not _is_int(self.num_solutions) or self.num_solutions < 1:
             raise InvalidInputError(
                 f"IKOptions.num_solutions must be an int ≥ 1, got {self.num_solutions!r}"
+            )
+        if self.method not in _METHODS:
+            raise InvalidInputError(
+                f"IKOptions.method must be one of {_METHODS}, got {self.method!r}"
             )
         if self.mode not in _MODES:
             raise InvalidInputError(f"IKOptions.mode must be one of {_MODES}, got {self.mode!r}")
