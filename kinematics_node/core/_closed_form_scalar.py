@@ -57,9 +57,17 @@ def rotate(k: Vec, theta: float, x: Vec) -> Vec:
 
 
 def rotate_about(k: Vec, r: Vec, theta: float, x: Vec) -> Vec:
-    """r + R(k, θ)(x − r)."""
-    y = rotate(k, theta, (x[0] - r[0], x[1] - r[1], x[2] - r[2]))
-    return (r[0] + y[0], r[1] + y[1], r[2] + y[2])
+    """r + R(k, θ)(x − r) (written out: the hot loop)."""
+    c, s = cos(theta), sin(theta)
+    k0, k1, k2 = k
+    r0, r1, r2 = r
+    x0, x1, x2 = x[0] - r0, x[1] - r1, x[2] - r2
+    f = (k0 * x0 + k1 * x1 + k2 * x2) * (1.0 - c)
+    return (
+        r0 + x0 * c + (k1 * x2 - k2 * x1) * s + k0 * f,
+        r1 + x1 * c + (k2 * x0 - k0 * x2) * s + k1 * f,
+        r2 + x2 * c + (k0 * x1 - k1 * x0) * s + k2 * f,
+    )
 
 
 def perpendicular(a: Vec) -> Vec:
@@ -90,11 +98,20 @@ def solve_trig(
 
 
 def sp1(k: Vec, p: Vec, q: Vec, default: float, eps: float) -> tuple[float, bool]:
-    """θ with R(k, θ) p = q (see `subproblems.sp1`): θ, free."""
-    pp, qp = _project(k, p), _project(k, q)
-    if norm(pp) <= eps or norm(qp) <= eps:
+    """θ with R(k, θ) p = q (see `subproblems.sp1`): θ, free. (Written out: the hot loop;
+    ‖x‖ ≤ ε is tested as ‖x‖² ≤ ε².)"""
+    k0, k1, k2 = k
+    p0, p1, p2 = p
+    q0, q1, q2 = q
+    kp = k0 * p0 + k1 * p1 + k2 * p2
+    kq = k0 * q0 + k1 * q1 + k2 * q2
+    a0, a1, a2 = p0 - k0 * kp, p1 - k1 * kp, p2 - k2 * kp  # p projected onto the plane ⟂ k
+    b0, b1, b2 = q0 - k0 * kq, q1 - k1 * kq, q2 - k2 * kq
+    e2 = eps * eps
+    if a0 * a0 + a1 * a1 + a2 * a2 <= e2 or b0 * b0 + b1 * b1 + b2 * b2 <= e2:
         return default, True
-    return atan2(dot(k, cross(pp, qp)), dot(pp, qp)), False
+    y = k0 * (a1 * b2 - a2 * b1) + k1 * (a2 * b0 - a0 * b2) + k2 * (a0 * b1 - a1 * b0)
+    return atan2(y, a0 * b0 + a1 * b1 + a2 * b2), False
 
 
 def sp2(

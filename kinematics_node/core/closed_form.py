@@ -828,7 +828,7 @@ def _solve_single(
     accepted: list[list[float]] = []
     errors: list[tuple[float, float]] = []
     whys: set[str] = set()
-    for q, why in cands:
+    for q, why in cands:  # one scalar FK each: ~7 µs, where a batched FK of 7 costs ~90 µs
         ep, er = _pose_errors_list(chain.fk(q).tolist(), T)
         if (
             (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
@@ -1317,6 +1317,10 @@ def _nearest_turn(
     Unbounded sides are seed ± π, as in `_within_limits`."""
     out = []
     for x, s, a, b in zip(q, seed, lo, hi, strict=True):
+        y = x + TWO_PI * round((s - x) * _INVTWO_PI)  # nearest the seed; usually within limits
+        if a <= y <= b:
+            out.append(y)
+            continue
         lo_j = a if a > -math.inf else s - math.pi
         hi_j = b if b < math.inf else s + math.pi
         k_lo = math.ceil((lo_j - 1e-10 - x) * _INVTWO_PI)
@@ -1436,7 +1440,6 @@ def _nearest_at(
     return found, "no closed-form candidate reproduced the target to the tolerances"
 
 
-
 @dataclass(frozen=True)
 class NearestBatch:
     """What `ik_batch` takes from the closed form for N targets: `q` (N, n) the solution nearest
@@ -1509,6 +1512,7 @@ def held_grid(chain: KinematicChain, q_seeds: FloatArray) -> FloatArray:
         ring = np.linspace(-math.pi, math.pi, DEFAULT_HELD_SAMPLES, endpoint=False)
         return q_seeds[:, j : j + 1] + ring
     return np.tile(grid, (q_seeds.shape[0], 1))
+
 
 __all__ = [
     "ANGLE_TOLERANCE",
