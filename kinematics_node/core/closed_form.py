@@ -1362,6 +1362,8 @@ def nearest(
     seed = q_seed.tolist()
     w = joint_weights.tolist()
     tols = (position_tolerance, orientation_tolerance)
+    if solver.held is None and count > 1:
+        return _nearest_of_all(solver, Tl, seed, count, tols, joint_weights, separation)
     if solver.held is None:
         sols, reason = _nearest_at(solver, Tl, T_target, seed, None, count, tols, w, separation)
         return Nearest([s for s, _ in sols], [e for _, e in sols], True, reason)
@@ -1384,6 +1386,36 @@ def nearest(
     more = f", and at {tried - 1} more values" if tried > 1 else ""
     why = f"{first_reason} (with {chain.joint_names[j]} held at the seed's value{more})"
     return Nearest([], [], False, why)
+
+
+def _nearest_of_all(
+    solver: _Solver,
+    Tl: list[list[float]],
+    seed: list[float],
+    count: int,
+    tols: tuple[float, float],
+    joint_weights: FloatArray,
+    separation: float,
+) -> Nearest:
+    """`nearest` for several solutions of a 6R arm: from the whole set of `solve_all` (every
+    whole-turn equivalent too, which the nearest-turn ranking of `_nearest_at` leaves out),
+    ranked by the weighted distance, taken greedily when more than `separation` from those taken."""
+    chain = solver.chain
+    sols, _, _, reason = _solve_single(solver, Tl, seed, min(tols[0], tols[1], 1e-3))
+    if not sols.shape[0]:
+        return Nearest([], [], True, reason)
+    cost = ((sols - np.asarray(seed)) ** 2 * joint_weights).sum(axis=1)
+    taken: list[FloatArray] = []
+    errors: list[tuple[float, float]] = []
+    for i in np.argsort(cost, kind="stable"):
+        q = sols[i]
+        if any(np.abs(q - t).max() <= separation for t in taken):
+            continue
+        taken.append(q)
+        errors.append(_pose_errors_list(chain.fk(q).tolist(), Tl))
+        if len(taken) >= count:
+            break
+    return Nearest(taken, errors, True, "")
 
 
 def _nearest_at(

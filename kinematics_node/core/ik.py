@@ -1,4 +1,18 @@
-"""Inverse kinematics: damped least squares (Levenberg–Marquardt) with random restarts.
+"""Inverse kinematics: the closed form where the arm has one, else (or when it finds nothing)
+damped least squares (Levenberg–Marquardt) with random restarts.
+
+Solvers (`IKOptions.method`, default "auto"):
+
+* closed form (`closed_form.nearest`, docs/closed_form.md): for arms whose screw axes form a
+  known family, when the whole pose is asked for. A 6R arm's candidates (at most 8 branches, each
+  at its whole-turn equivalent within the limits nearest the seed) are ranked by distance to the
+  seed and checked by FK in that order, so the answer is the solution nearest the seed, exactly,
+  in about a tenth of a millisecond. A 7R arm holds one joint: at the seed's value first; if that
+  fails, the numeric search below gets half the time left, then the closed form sweeps the held
+  joint, then the search gets the rest. A target the closed form cannot reach goes to the search
+  (its message starts with the closed form's reason), so near-misses within loose tolerances are
+  still found.
+* numeric, below.
 
 Problem: find joint values q within the limits such that T_base_tip(q) = T_target.
 

@@ -45,6 +45,8 @@ class IKOptions:
         max_iterations: Levenberg–Marquardt iterations per attempt (int ≥ 1).
         mode: "speed" returns the first solution; "distance" keeps restarting until the time
             budget (or `max_restarts`) is used up and returns the solution closest to the seed.
+            (A 6R arm's closed form ranks its whole solution set, so it returns the nearest at
+            once in both modes.)
         num_solutions: number of distinct solutions to collect (int ≥ 1), returned in
             `IKResult.solutions` sorted by distance to the seed.
         position_only: ignore the orientation of the target (only the position must match).
