@@ -324,6 +324,7 @@ _IK_OPTION_NAMES = {  # IKOptions field → the option that sets it (library nam
     "IKOptions.timeout": "--timeout",
     "IKOptions.axis_tolerances": "--axis-tolerances",
     "IKOptions.mode": "--mode",
+    "IKOptions.method='closed_form'": "--method closed_form",
     "IKOptions.position_only": "--position-only",
     "IKOptions": "IK options",
 }
@@ -366,6 +367,7 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
             position_only=args.position_only,
             axis_tolerances=axis_tolerances,
             mode=args.mode,
+            method=args.method,
             rng_seed=0,
         )
     except KinematicsError as exc:
@@ -600,6 +602,13 @@ def build_parser() -> argparse.ArgumentParser:
                 choices=("speed", "distance"),
                 default="speed",
                 help="speed: first solution; distance: closest to the seed within the timeout",
+            )
+            p.add_argument(
+                "--method",
+                choices=("auto", "closed_form", "numeric"),
+                default="auto",
+                help="auto: the closed form where the arm has one (see --all), else the numeric "
+                "search; closed_form or numeric: only that one",
             )
             ik_defaults = IKOptions()  # one source of the IK defaults: the library's
             p.add_argument(

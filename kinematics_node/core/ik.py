@@ -87,6 +87,8 @@ SCALAR_BATCH_BELOW = 48
 # On a 7R arm, "auto" gives the numeric search this share of the time left after the closed form
 # with the held joint at the seed's value, and the closed form's sweep of the held joint the rest.
 NUMERIC_SHARE_7R = 0.5
+# `ik_batch` sweeps a 7R arm's held joint for this many targets at a time between deadline checks.
+SWEEP_CHUNK = 8
 
 
 def _options(options: IKOptions | None) -> IKOptions:
@@ -419,12 +421,15 @@ def _solve_vectorised(
         now = time.perf_counter()
         _numeric_on(problem, T, seeds, out, now + NUMERIC_SHARE_7R * (deadline - now))
     left = np.flatnonzero(~out.success)
-    if closed.held and left.size and time.perf_counter() < deadline:
+    # The sweep costs ~1 ms per target (36 held values); in chunks, so the deadline holds.
+    for part in np.array_split(left, -(-left.size // SWEEP_CHUNK)) if closed.held else []:
+        if time.perf_counter() >= deadline:
+            break
         sweep = nearest_batch(
-            chain, T[left], seeds[left], *closed.tolerances, w, held_grid(chain, seeds[left])
+            chain, T[part], seeds[part], *closed.tolerances, w, held_grid(chain, seeds[part])
         )
         assert sweep is not None
-        hit = left[sweep.found]
+        hit = part[sweep.found]
         out.q[hit] = sweep.q[sweep.found]
         out.position_error[hit] = sweep.position_error[sweep.found]
         out.orientation_error[hit] = sweep.orientation_error[sweep.found]
