@@ -422,7 +422,8 @@ def _solve_vectorised(
         _numeric_on(problem, T, seeds, out, now + NUMERIC_SHARE_7R * (deadline - now))
     left = np.flatnonzero(~out.success)
     # The sweep costs ~1 ms per target (36 held values); in chunks, so the deadline holds.
-    for part in np.array_split(left, -(-left.size // SWEEP_CHUNK)) if closed.held else []:
+    chunks = np.array_split(left, -(-left.size // SWEEP_CHUNK)) if closed.held and left.size else []
+    for part in chunks:
         if time.perf_counter() >= deadline:
             break
         sweep = nearest_batch(
