@@ -12,6 +12,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from kin_testing import check_nearest_solutions
 from scipy.spatial.transform import Rotation
 from service_testing import Clock, chain_of, check_message, fake_tf, js
 
@@ -70,23 +71,6 @@ def _check_layout(ros, chain, resp):
     assert list(resp.solutions[0].position) == list(resp.solution.position)
 
 
-def _check_nearest_of(Q, every, seed, atol=1e-9):
-    """Q is the len(Q) solutions of `every` nearest `seed`, each once, nearest first (solutions at
-    the same distance, e.g. whole turns of one joint either way, may come in either order)."""
-    matched = []
-    for q in Q:
-        diff = np.max(np.abs(every - q), axis=1)
-        i = int(np.argmin(diff))
-        assert diff[i] <= atol, f"{q} is not one of ik_all's solutions"
-        matched.append(i)
-    assert len(set(matched)) == len(matched)
-    d = np.linalg.norm(Q - seed, axis=1)
-    assert np.all(np.diff(d) >= -1e-9)  # nearest the seed first
-    rest = np.delete(every, matched, axis=0)
-    if len(rest):
-        assert d.max() <= np.linalg.norm(rest - seed, axis=1).min() + 1e-9
-
-
 def _separated(Q, separation=1e-2) -> bool:
     return all(
         np.max(np.abs(Q[i] - Q[j])) > separation
@@ -119,7 +103,7 @@ def test_closed_form_arm_returns_the_ik_all_set_nearest_the_seed_first(ros, ur5,
     every = np.array(chain.ik_all(T, q_seed=SEED).solutions)
     assert len(every) > 7  # a UR5 with ±2π limits: many solutions per pose
     assert len(Q) == min(n, len(every))
-    _check_nearest_of(Q, every, SEED)
+    check_nearest_solutions(Q, every, SEED)
     pos, ori = _errors(chain, Q, T)
     assert np.all(pos <= 1e-9) and np.all(ori <= 1e-9)
     assert resp.position_error == pytest.approx(pos[0], abs=1e-12)
@@ -180,7 +164,7 @@ def test_tolerances_tighter_than_the_closed_forms_keep_only_the_solutions_that_m
     Q = _solutions(resp)
     pos, ori = _errors(chain, Q, T)
     assert np.all(pos <= 1e-11) and np.all(ori <= 1e-11)
-    _check_nearest_of(Q, every[tight], SEED)
+    check_nearest_solutions(Q, every[tight], SEED)
     assert len(Q) == tight.sum()
     assert resp.complete is False  # exact solutions were left out for round-off
     # the default tolerances (1e-5 m, 1e-4 rad) keep them all
@@ -215,7 +199,7 @@ def test_a_7r_arm_sweeps_the_held_joint_and_is_not_complete(ros, panda_path):
     Q = _solutions(resp)
     every = np.array(chain.ik_all(T, q_seed=q + 0.05).solutions)
     assert 1 < len(Q) == min(50, len(every))
-    _check_nearest_of(Q, every, q + 0.05)
+    check_nearest_solutions(Q, every, q + 0.05)
     pos, ori = _errors(chain, Q, T)
     assert np.all(pos <= 1e-9) and np.all(ori <= 1e-9)
     assert resp.complete is False  # solutions between the swept held values are not listed
