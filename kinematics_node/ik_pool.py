@@ -73,7 +73,12 @@ class IKJob:
 @dataclass(frozen=True)
 class IKOutcome:
     """A worker's answer. `q` is None when no solve ran (timed out in the queue, worker failure);
-    then `message` says why. Errors are [m] and [rad]."""
+    then `message` says why. Errors are [m] and [rad].
+
+    `solutions` holds, on success, up to `options.num_solutions` distinct solutions nearest the
+    seed first, `q` first (empty on failure). `complete` says they are provably every solution
+    within the limits (closed form of a 6R arm, a target that is not singular, none left out).
+    """
 
     q: FloatArray | None
     success: bool
@@ -81,6 +86,8 @@ class IKOutcome:
     orientation_error: float
     iterations: int
     message: str
+    solutions: tuple[FloatArray, ...] = ()
+    complete: bool = False
 
 
 # ---------------------------------------------------------------------- worker process side
@@ -105,16 +112,86 @@ def solve_job(job: IKJob) -> IKOutcome:
         if len(_chains) >= _CHAINS_KEPT:
             _chains.pop(next(iter(_chains)))
         _chains[job.chain_key] = chain
-        left = job.deadline - time.monotonic()
+    if job.options.num_solutions > 1 and _closed_form_applies(chain, job.options):
+        outcome = _closed_form_set(chain, job)
+        if outcome is not None:
+            return outcome
+    left = job.deadline - time.monotonic()
     result = chain.ik(job.T_base_target, job.q_seed, replace(job.options, timeout=max(left, 1e-4)))
+    q = np.asarray(result.q, dtype=np.float64)
+    solutions: tuple[FloatArray, ...] = ()
+    if result.success:
+        found = [np.array(s, dtype=np.float64) for s in result.solutions]
+        # q first, whatever the solver put in `solutions` (with one solution asked it may be empty)
+        found = [q.copy()] + [s for s in found if not np.array_equal(s, q)]
+        solutions = tuple(found[: job.options.num_solutions])
     return IKOutcome(
-        q=np.asarray(result.q, dtype=np.float64),
+        q=q,
         success=bool(result.success),
         position_error=float(result.position_error),
         orientation_error=float(result.orientation_error),
         iterations=int(result.iterations),
         message=str(getattr(result, "message", "") or ""),
+        solutions=solutions,
     )
+
+
+#: What `SerialChain.ik_all` guarantees every solution reproduces the target to [m, rad].
+CLOSED_FORM_TOLERANCE = 1e-9
+
+
+def _closed_form_applies(chain: SerialChain, options: IKOptions) -> bool:
+    """The closed form gives the set when the chain has a family and the whole pose is asked for
+    with the two scalar tolerances (per-axis bounds, weights or position_only leave a continuum
+    of solutions, which only the numeric search can sample)."""
+    return (
+        chain.ik_family is not None
+        and not options.position_only
+        and options.axis_tolerances is None
+        and options.weights is None
+    )
+
+
+def _closed_form_set(chain: SerialChain, job: IKJob) -> IKOutcome | None:
+    """Up to `options.num_solutions` solutions from `chain.ik_all`, nearest the seed first, that
+    meet the job's tolerances; None when there is none (the numeric search then gets its chance:
+    a configuration within looser tolerances may exist where no exact one does)."""
+    opts = job.options
+    result = chain.ik_all(job.T_base_target, q_seed=job.q_seed)
+    if not result.solutions:
+        return None
+    Q = np.array(result.solutions, dtype=np.float64)  # (K, n), nearest the seed first
+    dropped = False
+    if min(opts.position_tolerance, opts.orientation_tolerance) < CLOSED_FORM_TOLERANCE:
+        # tighter than what ik_all checked: keep the solutions that meet the job's tolerances
+        pos, ori = _pose_errors(chain.fk(Q), job.T_base_target)
+        keep = (pos <= opts.position_tolerance) & (ori <= opts.orientation_tolerance)
+        dropped = not bool(np.all(keep))
+        Q = Q[keep]
+        if Q.shape[0] == 0:
+            return None
+    n_all = Q.shape[0]
+    Q = Q[: opts.num_solutions]
+    pos, ori = _pose_errors(chain.fk(Q[:1]), job.T_base_target)
+    complete = not (dropped or n_all > Q.shape[0] or result.singular or result.held_values.size > 0)
+    return IKOutcome(
+        q=Q[0].copy(),
+        success=True,
+        position_error=float(pos[0]),
+        orientation_error=float(ori[0]),
+        iterations=0,
+        message=str(result.message),
+        solutions=tuple(Q.copy()),
+        complete=complete,
+    )
+
+
+def _pose_errors(T: FloatArray, T_target: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Position error [m] and rotation angle of R(q)ᵀ R_target [rad] of poses T (K, 4, 4). The
+    angle comes from ‖R − R_target‖_F = 2√2 sin(θ/2), accurate near 0 (unlike arccos)."""
+    pos = np.linalg.norm(T[:, :3, 3] - T_target[:3, 3], axis=-1)
+    chord = np.linalg.norm(T[:, :3, :3] - T_target[:3, :3], axis=(-2, -1)) / (2.0 * np.sqrt(2.0))
+    return pos, 2.0 * np.arcsin(np.minimum(chord, 1.0))
 
 
 def _timed_out(reason: str) -> IKOutcome:

@@ -38,6 +38,7 @@ from msg_adapters import (
     fill_jacobian_fields,
     header,
     joint_state_from_q,
+    joint_states_from_qs,
     matrix_from_pose,
     pose_stamped_from_matrix,
     q_from_joint_state,
@@ -461,7 +462,17 @@ class KinematicsService:
         response.position_error = _finite_or(outcome.position_error, -1.0)
         response.orientation_error = _finite_or(outcome.orientation_error, -1.0)
         response.iterations = int(min(max(outcome.iterations, 0), 2**32 - 1))
-        if outcome.success:
+        response.solutions = []
+        response.complete = False
+        if outcome.success and outcome.q is not None:  # (a success always carries its q)
+            # `solution` first, then the others the worker found (at most num_solutions in all)
+            rest = [s for s in outcome.solutions if not np.array_equal(s, outcome.q)]
+            solutions = np.array([outcome.q, *rest][: options.num_solutions], dtype=np.float64)
+            _require_finite(solutions, "IK solution")
+            response.solutions = joint_states_from_qs(
+                self._types, pending.joint_names, solutions, pending.stamp
+            )
+            response.complete = bool(outcome.complete) and len(rest) + 1 <= options.num_solutions
             return None
         tolerances = (
             f"per-axis bounds {list(options.axis_tolerances)}"
@@ -624,6 +635,26 @@ def _request_value(request: Any, field: str, default: float, unit: str) -> float
     return value if value > 0 else float(default)
 
 
+#: Largest ComputeIK.max_solutions accepted: more than any closed form gives (a UR with ±2π
+#: limits has up to 512), and a bound on the size of the answer.
+MAX_SOLUTIONS = 10_000
+
+
+def _max_solutions(request: Any) -> int:
+    """ComputeIK.max_solutions as a count ≥ 1 (0 and 1 both mean one solution)."""
+    value = request.max_solutions
+    try:
+        count = None if isinstance(value, bool) or int(value) != value else int(value)
+    except (TypeError, ValueError, OverflowError):
+        count = None
+    if count is None or not 0 <= count <= MAX_SOLUTIONS:
+        raise InvalidInputError(
+            f"max_solutions must be an integer from 0 to {MAX_SOLUTIONS} (0 or 1: one solution), "
+            f"got {value}"
+        )
+    return max(count, 1)
+
+
 def _ik_options(request: Any, params: Mapping[str, Any]) -> IKOptions:
     """IKOptions from the request, falling back to the node's parameters for zero fields."""
     wanted: dict[str, Any] = {
@@ -637,6 +668,10 @@ def _ik_options(request: Any, params: Mapping[str, Any]) -> IKOptions:
         "max_restarts": int(params["ik.max_restarts"]),
         "position_only": bool(request.position_only),
     }
+    wanted_solutions = _max_solutions(request)
+    if wanted_solutions > 1:  # the solutions nearest the seed that the timeout lets it find
+        wanted["mode"] = "distance"
+        wanted["num_solutions"] = wanted_solutions
     bounds = [float(x) for x in request.axis_tolerances]
     if bounds:
         wanted["axis_tolerances"] = tuple(bounds)  # IKOptions validates and names the problem

@@ -29,6 +29,7 @@ from .jacobian import (
 from .joint_state import (
     JointStateSample,
     joint_state_from_q,
+    joint_states_from_qs,
     positions_by_name,
     q_from_joint_state,
     sample_from_joint_state,
@@ -48,6 +49,7 @@ __all__ = [
     "header",
     "jacobian_from_fields",
     "joint_state_from_q",
+    "joint_states_from_qs",
     "matrix_from_pose",
     "matrix_from_transform",
     "pose_from_matrix",

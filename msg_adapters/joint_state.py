@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from kinematics_node.core.exceptions import InvalidInputError
 
+from .stamps import header
 from .types import MessageTypes
 
 FloatArray = NDArray[np.float64]
@@ -147,3 +148,29 @@ def joint_state_from_q(
         velocity=velocity,
         effort=[],
     )
+
+
+def joint_states_from_qs(
+    types: MessageTypes,
+    joint_names: Sequence[str],
+    qs: ArrayLike,
+    stamp: Any,
+    frame_id: str = "",
+) -> list[Any]:
+    """One sensor_msgs/JointState per row of `qs` (K, n): `name` = joint_names, `position` = the
+    row, velocity and effort empty, and a header of its own (a copy of the builtin_interfaces/Time
+    `stamp`, `frame_id`) in each; no rows (an empty sequence) give [].
+
+    Raises:
+        InvalidInputError: a row's length differs from len(joint_names).
+    """
+    rows = np.asarray(qs, dtype=np.float64)
+    if rows.size == 0:
+        return []
+    if rows.ndim != 2:
+        raise InvalidInputError(
+            f"qs must be a (K, n) array of joint vectors, got shape {rows.shape}"
+        )
+    return [
+        joint_state_from_q(types, joint_names, row, header(types, stamp, frame_id)) for row in rows
+    ]

@@ -34,6 +34,28 @@ def random_q(chain, rng, n=None):
     return rng.uniform(lo, hi, size=size)
 
 
+def check_nearest_solutions(Q, every, seed, atol=1e-9):
+    """Q (k, n) is the k solutions of `every` (K, n) nearest `seed`, each once, nearest first.
+    Solutions at the same distance (whole turns of a joint either way) may come in either order,
+    and a target read back from a message may reorder such ties, so rows are matched, not indexed.
+    """
+    Q, every = np.asarray(Q, dtype=float), np.asarray(every, dtype=float)
+    matched = []
+    for q in Q:
+        diff = np.max(np.abs(every - q), axis=1)
+        i = int(np.argmin(diff))
+        assert diff[i] <= atol, f"{q} is not one of the expected solutions"
+        matched.append(i)
+    assert len(set(matched)) == len(matched), "a solution is returned twice"
+    d = np.linalg.norm(Q - seed, axis=1)
+    assert np.all(np.diff(d) >= -1e-9), "not sorted nearest the seed first"
+    rest = np.delete(every, matched, axis=0)
+    if len(rest):
+        assert d.max() <= np.linalg.norm(rest - seed, axis=1).min() + 1e-9, (
+            "a nearer one is left out"
+        )
+
+
 class PinocchioOracle:
     """Pinocchio (an oracle nobody here wrote) for one description, in our joint order and our
     conventions: Jacobian rows (ω, v), poses in Pinocchio's world (the URDF root).

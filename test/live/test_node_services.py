@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped
-from kin_testing import PinocchioOracle
+from kin_testing import PinocchioOracle, check_nearest_solutions
 from kinematics_service.srv import ComputeFK, ComputeIK, ComputeJacobian
 from live_node import ROBOTS, UR5E_JOINTS, ur5e_description, wait_until
 from test_node_topics import Stream, joint_state
@@ -122,6 +122,32 @@ def test_ik_solves_a_reachable_target_in_the_base_and_in_a_link_frame(node, clie
     np.testing.assert_allclose(CHAIN.fk(np.array(resp.solution.position)), T, atol=1e-4)
 
 
+def test_ik_returns_several_solutions_of_a_ur5e_target_from_the_closed_form(node, client):
+    """max_solutions over DDS: the answer is the nearest of the closed-form set (the core's
+    ik_all in this process is the oracle), each solution reproduces the target by FK, and only
+    the whole set is marked complete."""
+    q_goal = np.array([0.5, -1.0, 1.1, -0.4, 0.9, -0.3])
+    seed = q_goal + 0.1
+    T = CHAIN.fk(q_goal)
+    assert CHAIN.ik_family == "three_parallel"
+    every = np.array(CHAIN.ik_all(T, q_seed=seed).solutions)
+    assert len(every) > 8
+    # timeout: room for each worker's first detection of the family (~50 ms) on a busy machine
+    for n, complete in ((8, False), (10000, True)):
+        req = ik_request(T, timeout=2.0, max_solutions=n, seed=joint_state(UR5E_JOINTS, seed))
+        resp = client.call(ComputeIK, "compute_ik", req)
+        assert resp.success, resp.message
+        assert resp.complete is complete
+        Q = np.array([s.position for s in resp.solutions])
+        assert Q.shape == (min(n, len(every)), CHAIN.dof)
+        assert all(list(s.name) == list(CHAIN.joint_names) for s in resp.solutions)
+        assert list(resp.solutions[0].position) == list(resp.solution.position)
+        check_nearest_solutions(Q, every, seed)
+        for q in Q:
+            np.testing.assert_allclose(CHAIN.fk(q), T, atol=1e-9)
+    assert np.min(np.max(np.abs(Q - q_goal), axis=1)) <= 1e-8  # the whole set holds q_goal
+
+
 def _bad_fk(**f):
     req = fk_request(f.get("names", UR5E_JOINTS), f.get("positions", Q), f.get("tip_link", ""))
     return req
@@ -144,6 +170,7 @@ BAD = [
     (ComputeIK, "compute_ik", lambda: _ik(seed=joint_state(["bogus_joint"], [0.0])), "'bogus_joint'"),
     (ComputeIK, "compute_ik", lambda: _ik(tip_link="nope"), "'nope'"),
     (ComputeIK, "compute_ik", lambda: _ik(axis_tolerances=[0.1, 0.2]), "axis_tolerances"),
+    (ComputeIK, "compute_ik", lambda: _ik(max_solutions=10001), "max_solutions"),
     # not a robot link, and no tf2_ros to look it up (the PyPI ROS 2 has none)
     (ComputeIK, "compute_ik", lambda: _ik(frame_id="map"), "tf2_ros"),
 ]

@@ -69,3 +69,26 @@ def test_joint_state_round_trip_cdr_and_rclpy_types(ros):
 def test_float_sequences_accept_array_d_as_rclpy_does(ros):
     msg = ros.new("sensor_msgs/msg/JointState", name=["j1"], position=array.array("d", [0.5]))
     assert ma.q_from_joint_state(msg, ["j1"])[0] == 0.5
+
+
+def test_joint_states_from_qs_one_message_per_row_each_with_its_own_header(ros):
+    Q = np.array([[0.1, -0.2, 0.3], [1.0, 2.0, -3.0]])
+    stamp = ros.new("builtin_interfaces/msg/Time", sec=7, nanosec=8)
+    msgs = ma.joint_states_from_qs(ros.types, JOINTS, Q, stamp, "base")
+    assert len(msgs) == 2
+    for msg, q in zip(msgs, Q, strict=True):
+        assert ros.rclpy_type_problems(msg) == []
+        back = ros.roundtrip(msg)
+        np.testing.assert_array_equal(ma.q_from_joint_state(back, JOINTS), q)
+        assert list(back.velocity) == [] and list(back.effort) == []
+        assert (back.header.stamp.sec, back.header.stamp.nanosec, back.header.frame_id) == (
+            7,
+            8,
+            "base",
+        )
+    assert msgs[0].header is not msgs[1].header and msgs[0].header.stamp is not stamp
+    assert ma.joint_states_from_qs(ros.types, JOINTS, [], stamp) == []
+    with pytest.raises(InvalidInputError, match="3 joint names but 2 positions"):
+        ma.joint_states_from_qs(ros.types, JOINTS, [[0.0, 1.0]], stamp)
+    with pytest.raises(InvalidInputError, match=r"\(K, n\)"):
+        ma.joint_states_from_qs(ros.types, JOINTS, [0.0, 1.0, 2.0], stamp)
