@@ -1389,9 +1389,7 @@ def nearest(
     found, first_reason = _nearest_at(solver, Tl, T_target, seed, seed[j], 1, tols, w, separation)
     tried = 1
     if not found and sweep:
-        grid = np.linspace(solver.lower_arr[j], solver.upper_arr[j], DEFAULT_HELD_SAMPLES)
-        if not np.isfinite(grid).all():
-            grid = seed[j] + np.linspace(-math.pi, math.pi, DEFAULT_HELD_SAMPLES, endpoint=False)
+        grid = held_grid(chain, q_seed[None])[0]
         for value in grid[np.argsort(np.abs(grid - seed[j]), kind="stable")].tolist():
             if time.perf_counter() > deadline:
                 break
