@@ -7,8 +7,9 @@ Solvers (`IKOptions.method`, default "auto"):
   known family, when the whole pose is asked for. A 6R arm's candidates (at most 8 branches, each
   at its whole-turn equivalent within the limits nearest the seed) are ranked by distance to the
   seed and checked by FK in that order, so the answer is the solution nearest the seed, exactly,
-  in about a tenth of a millisecond. A 7R arm holds one joint: at the seed's value first; if that
-  fails, the numeric search below gets half the time left, then the closed form sweeps the held
+  in about a tenth of a millisecond. A 7R arm holds one joint at a few values (the seed's, then
+  spread over its range); if none gives a solution, the numeric search below gets half the time
+  left, then the closed form sweeps the held
   joint, then the search gets the rest. A target the closed form cannot reach goes to the search
   (its message starts with the closed form's reason), so near-misses within loose tolerances are
   still found.
@@ -66,9 +67,10 @@ from ._ik_batch import BatchOutcome, BatchSolver
 from ._ik_problem import IKProblem
 from ._ik_single import SingleOutcome, SingleSolver
 from .closed_form import (
+    DEFAULT_HELD_SAMPLES,
     Nearest,
     family_of,
-    held_grid,
+    held_order,
     nearest,
     nearest_batch,
     no_closed_form_reason,
@@ -85,8 +87,12 @@ FloatArray = NDArray[np.float64]
 # 0.2 vs 0.5 ms at N = 200).
 SCALAR_BATCH_BELOW = 48
 # On a 7R arm, "auto" gives the numeric search this share of the time left after the closed form
-# with the held joint at the seed's value, and the closed form's sweep of the held joint the rest.
+# at `HELD_FIRST_TRIES` values of the held joint, and the closed form's sweep of it the rest.
 NUMERIC_SHARE_7R = 0.5
+# "auto" first tries a 7R arm's held joint at this many values (`closed_form.held_order`: the
+# seed's, then spread over the range). Each try costs about a 6R solve (~60 µs); on Panda, where a
+# value of joint 7 reaches ~37 % of random targets, 4 tries answer ~80 % of them.
+HELD_FIRST_TRIES = 4
 # `ik_batch` sweeps a 7R arm's held joint for this many targets at a time between deadline checks.
 SWEEP_CHUNK = 8
 
@@ -170,12 +176,12 @@ def _solve_one(
     opts = problem.opts
     if closed.blocker or opts.method == "numeric":
         return _numeric_result(SingleSolver(problem, T, seed).run(deadline), opts, start, "")
-    # A 6R arm's closed form is exhaustive; a 7R arm's tries its held joint at the seed's value
-    # (about a 6R solve), then the numeric search gets half the time, then the closed form sweeps
+    # A 6R arm's closed form is exhaustive; a 7R arm's tries its held joint at a few values
+    # (each about a 6R solve), then the numeric search gets half the time, then the closed form sweeps
     # the held joint, then the numeric search gets the rest ("auto": the closed form finds what
     # the search misses, and the search is usually quicker than a sweep).
-    sweep = opts.method == "closed_form" or not closed.held
-    found = closed.nearest(T, seed, deadline, sweep)
+    tries = 1 + DEFAULT_HELD_SAMPLES if opts.method == "closed_form" else HELD_FIRST_TRIES
+    found = closed.nearest(T, seed, deadline, tries)
     if found.solutions or opts.method == "closed_form":
         return _closed_form_result(found, problem, T, seed, start)
     prefix = f"closed form: {found.reason}; numeric search: "
@@ -184,7 +190,7 @@ def _solve_one(
     out = SingleSolver(problem, T, seed).run(start + NUMERIC_SHARE_7R * (deadline - start))
     if out.success:
         return _numeric_result(out, opts, start, "")
-    found = closed.nearest(T, seed, deadline, True)
+    found = closed.nearest(T, seed, deadline, 1 + DEFAULT_HELD_SAMPLES)
     if found.solutions:
         return _closed_form_result(found, problem, T, seed, start)
     prefix = f"closed form: {found.reason}; numeric search: "
@@ -263,11 +269,11 @@ class _ClosedForm:
                 blocker, held = "", family.held_joint is not None
         return cls(problem, blocker, held, tols)
 
-    def nearest(self, T: FloatArray, seed: FloatArray, deadline: float, sweep: bool) -> Nearest:
+    def nearest(self, T: FloatArray, seed: FloatArray, deadline: float, tries: int) -> Nearest:
         p = self.problem
         found = nearest(
             p.chain, T, seed, p.opts.num_solutions, *self.tolerances, p.joint_weights,
-            p.opts.solution_separation, deadline, sweep,
+            p.opts.solution_separation, deadline, tries,
         )  # fmt: skip
         assert found is not None  # the family was found in `of`
         return found
@@ -393,14 +399,15 @@ def _solve_vectorised(
     deadline: float,
 ) -> tuple[BatchOutcome, int]:
     """Large batches, vectorised over the targets, in the order of `_solve_one`: the closed form
-    (a 7R arm's held joint at each seed's value), the numeric search on the targets left (a 7R
+    (a 7R arm's held joint at `HELD_FIRST_TRIES` values per target), the numeric search on the targets left (a 7R
     arm: half the time left), a 7R arm's sweep of the held joint on those still left, the numeric
     search again. Returns the outcome and how many targets the closed form solved."""
     opts = problem.opts
     if closed.blocker or opts.method == "numeric":
         return BatchSolver(problem, T, seeds).run(deadline), 0
     chain, w = problem.chain, problem.joint_weights
-    first = nearest_batch(chain, T, seeds, *closed.tolerances, w)
+    held = held_order(chain, seeds, HELD_FIRST_TRIES) if closed.held else None
+    first = nearest_batch(chain, T, seeds, *closed.tolerances, w, held)
     assert first is not None  # the family was found in _ClosedForm.of
     N = T.shape[0]
     out = BatchOutcome(
@@ -427,7 +434,12 @@ def _solve_vectorised(
         if time.perf_counter() >= deadline:
             break
         sweep = nearest_batch(
-            chain, T[part], seeds[part], *closed.tolerances, w, held_grid(chain, seeds[part])
+            chain,
+            T[part],
+            seeds[part],
+            *closed.tolerances,
+            w,
+            held_order(chain, seeds[part], 1 + DEFAULT_HELD_SAMPLES),
         )
         assert sweep is not None
         hit = part[sweep.found]
