@@ -13,7 +13,8 @@ Targets are FK of configurations drawn uniformly within the joint limits (contin
   targets is checked by FK;
 * batch: best of `--repeat` runs of one `ik_all_batch` call on `--batch` targets (7R arms: at
   most 1000, as each sweeps 36 held values), in targets/s and solutions/s;
-* peers on the same targets (`--peer-targets`): our numeric `chain.ik` (TRAC-IK protocol options)
+* peers on the same targets (`--peer-targets`): our `chain.ik` (TRAC-IK protocol options), as
+  used ("auto": the closed form, then the numeric search) and with the numeric search alone,
   and roboticstoolbox-python's `ik_LM` (C++; the bench extra), each returning one solution.
   Ratios are peer median / our closed-form median (> 1: the closed form is faster).
 
@@ -30,6 +31,7 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -130,9 +132,11 @@ def main(argv: list[str] | None = None) -> int:
         peers: dict[str, object] = {}
         Tp = T[: args.peer_targets]
         opts = IKOptions(position_tolerance=TOL, orientation_tolerance=TOL, timeout=0.005)
-        peers["ours numeric ik"] = run_solver(
-            chain, lambda Tk, c=chain, o=opts: np.asarray(c.ik(Tk, options=o).q), Tp
-        )
+        for label, method in (("ours ik (auto)", "auto"), ("ours ik (numeric)", "numeric")):
+            o = replace(opts, method=method)
+            peers[label] = run_solver(
+                chain, lambda Tk, c=chain, o=o: np.asarray(c.ik(Tk, options=o).q), Tp
+            )
         rtb = peer_rtb(chain)
         peers["rtb ik_LM"] = rtb if isinstance(rtb, str) else run_solver(chain, rtb, Tp)
         row["peers"] = peers
