@@ -370,7 +370,36 @@ class _Solver:
                 return None
             out[name] = [f]
         self._held_base = _lane(g, 0)
+        self._held_base_vec = g  # lane 0 is θ = 0
         return out
+
+    def held_lanes(self, theta: FloatArray) -> tuple[vector.Geometry, FloatArray]:
+        """`held_geometry` (K lanes for K values θ), by moving the parts that move with the held
+        joint (`_held_moves`) instead of deriving every point again: a few einsums."""
+        if self.held_moves is None:
+            return self.held_geometry(theta)
+        j = self.held
+        assert j is not None
+        E = _exp_rotation(self.w_all[j], self.r_all[j], theta)
+        R, t = E[:, :3, :3], E[:, :3, 3]
+        g0, m = self._held_base_vec, self.held_moves
+        K = theta.shape[0]
+
+        def d(a: FloatArray, move: bool) -> FloatArray:  # a direction (3,) → (K, 3)
+            return np.einsum("kij,j->ki", R, a) if move else np.broadcast_to(a, (K, 3)).copy()
+
+        def pt(a: FloatArray, move: bool) -> FloatArray:  # a point (3,) → (K, 3)
+            return d(a, move) + (t if move else 0.0)
+
+        w = np.stack([d(g0.w[0, i], m["w"][i]) for i in range(6)], axis=1)
+        r = np.stack([pt(g0.r[0, i], m["r"][i]) for i in range(6)], axis=1)
+        h = d(g0.h[0], m["h"][0])
+        x = _perpendicular(h if self.structure.kind == "three_parallel" else w[:, 5])
+        s = np.broadcast_to(g0.s[0], (K, 3)).copy()
+        g = vector.Geometry(
+            w, r, pt(g0.c[0], m["c"][0]), pt(g0.b[0], m["b"][0]), h, x, s, self.scale
+        )
+        return g, E
 
     def held_scalar_geometry(self, theta: float) -> tuple[scalar.Geometry, list[list[float]]]:
         """`held_geometry` of one value θ as the scalar solvers' geometry, and E⁻¹ (4 × 4 lists),
@@ -653,13 +682,13 @@ def _branches(
         K = held.shape[-1]
         owner_lane = np.repeat(np.arange(N), K)
         if held.ndim == 1:  # shared values: the geometry of K lanes, tiled over the targets
-            gK, EK = solver.held_geometry(held)
+            gK, EK = solver.held_lanes(held)
             g = _tile_lanes(gK, N)
             E = np.tile(EK, (N, 1, 1))
             held_lane = np.tile(held, N)
         else:
             held_lane = held.reshape(-1)
-            g, E = solver.held_geometry(held_lane)
+            g, E = solver.held_lanes(held_lane)
         # G = T M⁻¹ e^{−[S_j]θ}: the 6R arm left has home pose e^{[S_j]θ} M.
         G = T[owner_lane] @ solver.M_inv @ _inverse(E)
     dflt = seeds[owner_lane][:, solver.keep]

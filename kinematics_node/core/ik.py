@@ -399,15 +399,15 @@ def _solve_vectorised(
     deadline: float,
 ) -> tuple[BatchOutcome, int]:
     """Large batches, vectorised over the targets, in the order of `_solve_one`: the closed form
-    (a 7R arm's held joint at `HELD_FIRST_TRIES` values per target), the numeric search on the targets left (a 7R
-    arm: half the time left), a 7R arm's sweep of the held joint on those still left, the numeric
-    search again. Returns the outcome and how many targets the closed form solved."""
+    (a 7R arm's held joint at `HELD_FIRST_TRIES` values, each value on the targets the earlier
+    ones left), the numeric search on the targets left (a 7R arm: half the time left), a 7R arm's
+    sweep of the held joint on those still left, the numeric search again. Returns the outcome
+    and how many targets the closed form solved."""
     opts = problem.opts
     if closed.blocker or opts.method == "numeric":
         return BatchSolver(problem, T, seeds).run(deadline), 0
     chain, w = problem.chain, problem.joint_weights
-    held = held_order(chain, seeds, HELD_FIRST_TRIES) if closed.held else None
-    first = nearest_batch(chain, T, seeds, *closed.tolerances, w, held)
+    first = nearest_batch(chain, T, seeds, *closed.tolerances, w)  # 7R: the seeds' held values
     assert first is not None  # the family was found in _ClosedForm.of
     N = T.shape[0]
     out = BatchOutcome(
@@ -419,7 +419,12 @@ def _solve_vectorised(
         restarts=np.zeros(N, dtype=np.int64),
         stop_reason="done",
     )
-    n_closed = int(first.found.sum())
+    if closed.held:  # the next held values, each on the targets still without a solution
+        order = held_order(chain, seeds, HELD_FIRST_TRIES)
+        for k in range(1, HELD_FIRST_TRIES):
+            left = np.flatnonzero(~out.success)
+            _take(out, chain, T, seeds, closed, w, left, order[left, k : k + 1])
+    n_closed = int(out.success.sum())
     numeric = opts.method == "auto"
     if numeric and not closed.held:
         _numeric_on(problem, T, seeds, out, deadline)
@@ -433,26 +438,37 @@ def _solve_vectorised(
     for part in chunks:
         if time.perf_counter() >= deadline:
             break
-        sweep = nearest_batch(
-            chain,
-            T[part],
-            seeds[part],
-            *closed.tolerances,
-            w,
-            held_order(chain, seeds[part], 1 + DEFAULT_HELD_SAMPLES),
-        )
-        assert sweep is not None
-        hit = part[sweep.found]
-        out.q[hit] = sweep.q[sweep.found]
-        out.position_error[hit] = sweep.position_error[sweep.found]
-        out.orientation_error[hit] = sweep.orientation_error[sweep.found]
-        out.success[hit] = True
-        n_closed += hit.size
+        sweep = held_order(chain, seeds[part], 1 + DEFAULT_HELD_SAMPLES)
+        n_closed += _take(out, chain, T, seeds, closed, w, part, sweep)
     if numeric:
         _numeric_on(problem, T, seeds, out, deadline)
     if not out.success.all() and out.stop_reason == "done":
         out.stop_reason = "no solution in closed form"
     return out, n_closed
+
+
+def _take(
+    out: BatchOutcome,
+    chain: KinematicChain,
+    T: FloatArray,
+    seeds: FloatArray,
+    closed: _ClosedForm,
+    w: FloatArray,
+    idx: NDArray[np.int64],
+    held: FloatArray,
+) -> int:
+    """The closed form on targets `idx` of a 7R arm with its held joint at `held` (len(idx), K)
+    values, written into `out` where it finds a solution; how many it found."""
+    if not idx.size:
+        return 0
+    got = nearest_batch(chain, T[idx], seeds[idx], *closed.tolerances, w, held)
+    assert got is not None
+    hit = idx[got.found]
+    out.q[hit] = got.q[got.found]
+    out.position_error[hit] = got.position_error[got.found]
+    out.orientation_error[hit] = got.orientation_error[got.found]
+    out.success[hit] = True
+    return int(hit.size)
 
 
 def _numeric_on(
