@@ -534,6 +534,8 @@ class IKPool:
             for w in ended:
                 self._bury_locked(w)
             self._dispatch_locked(time.monotonic())
+            outbox, self._outbox = self._outbox, []
+        _deliver(outbox)  # now, not on the next turn: an answer is due as soon as it is known
         for w in ended:
             _discard(w)
 
