@@ -283,8 +283,9 @@ class IKPool:
                 self._missing += count - len(started)
                 self._retry_at = time.monotonic() + RESTART_BACKOFF
                 rejected = [w for w in started if not self._adopt_locked(w)]
-                self._thread = threading.Thread(target=self._run, name="ik-pool", daemon=True)
-                self._thread.start()
+                if not self._closed:
+                    self._thread = threading.Thread(target=self._run, name="ik-pool", daemon=True)
+                    self._thread.start()
             for w in rejected:
                 _stop(w)
             if error is not None:
@@ -300,9 +301,8 @@ class IKPool:
             self._stats.submitted += 1
             heapq.heappush(self._queue, (job.deadline, next(self._order), _Open(job, on_done)))
             self._dispatch_locked(time.monotonic())
-            wake = bool(self._outbox) or self._next_wake_locked() < self._wake_at
-        if wake:
-            self._poke()
+            if self._outbox or self._next_wake_locked() < self._wake_at:
+                self._poke_locked()
 
     def stats(self) -> IKPoolStats:
         """A copy of the pool's counts so far."""
@@ -328,17 +328,20 @@ class IKPool:
                 o.answered = True
             outbox, self._outbox = self._outbox, []
             workers = list(self._all)
+            self._poke_locked()
         for w in workers:  # SIGTERM: a worker stops within its current numpy call
             w.process.terminate()
-        self._poke()
         thread = self._thread
-        if thread is not None and thread is not threading.current_thread():
+        joined = thread is None or thread is not threading.current_thread()
+        if thread is not None and joined:
             thread.join()
         for w in workers:
             _stop(w)
-        if thread is None or thread is not threading.current_thread():
-            os.close(self._wake_r)
-            os.close(self._wake_w)
+        if joined:  # (not from on_done in the pool's thread, which still reads the pipe)
+            with self._lock:  # where _poke_locked writes: no write can reach a reused fd
+                os.close(self._wake_r)
+                os.close(self._wake_w)
+                self._wake_w = -1
         _deliver(outbox)
         _deliver([(o, _timed_out("the node is shutting down")) for o in open_jobs])
 
@@ -465,11 +468,14 @@ class IKPool:
         return t
 
     # ------------------------------------------------------------------ the pool's thread
-    def _poke(self) -> None:
+    def _poke_locked(self) -> None:
+        """Wake the pool's thread (a byte on its wake-up pipe)."""
+        if self._wake_w < 0:
+            return  # closed by shutdown
         try:
             os.write(self._wake_w, b"\0")
-        except (BlockingIOError, OSError):
-            pass  # full (the thread has bytes to read anyway) or closed (shut down)
+        except BlockingIOError:
+            pass  # full: the thread has bytes to read anyway
 
     def _run(self) -> None:
         while True:
