@@ -2,40 +2,58 @@
 
 Why processes: the node's pose path must keep up with 1 kHz joint_states, and a Python thread that
 runs IK in the same process holds the GIL away from it (measured in ../shared/ROS2_FROM_PYPI.md:
-69 % of messages answered instead of 100 %). So IK runs in a `concurrent.futures` process pool
-whose workers run at the lowest CPU priority (nice 19), so the pose path keeps its core whenever
-it has work, and the solves share what is left. (Measured with benchmarks/node_benchmark.py, 4 IK
-clients at 500 Hz joint_states: nice 10 let the workers delay joint_states by up to 14 ms at
-the node; nice 19 kept that under 10 ms and every IK answer in time. SCHED_IDLE did as well for
-the poses but starved some reachable solves.)
+69 % of messages answered instead of 100 %). So IK runs in worker processes at the lowest CPU
+priority (nice 19), so the pose path keeps its core whenever it has work, and the solves share
+what is left. (Measured with benchmarks/node_benchmark.py, 4 IK clients at 500 Hz joint_states:
+nice 10 let the workers delay joint_states by up to 14 ms at the node; nice 19 kept that under
+10 ms and every IK answer in time. SCHED_IDLE did as well for the poses but starved some reachable
+solves.)
+
+Mechanics, chosen to cost the node's process (and its GIL) as little as possible: each worker is a
+process forked from a fork server that has imported the core, joined to the node by one duplex
+pipe. `submit` sends a job (a compact pickle) straight from the caller's thread to an idle worker;
+when every worker is busy the job waits in a queue in the node, ordered by deadline. One thread,
+the only one the pool adds to the node, waits on every worker's pipe and exit sentinel: it takes
+each answer, calls `on_done`, sends the next queued job to the worker that answered, answers
+overdue jobs, and replaces workers that die or hang. (`concurrent.futures.ProcessPoolExecutor`
+needed a feeder and a management thread, pickled through a shared queue and sent the chain with
+every job: about twice the node-side CPU per job.)
 
 Deadlines: a job carries the monotonic time by which it must be answered (request arrival +
 timeout; `time.monotonic` is the system-wide CLOCK_MONOTONIC, the same in every process). A worker
-solves with the time left, so time spent waiting in the queue counts against the timeout, and a
-job whose deadline has passed before a worker takes it is answered at once as timed out. A
-watchdog thread answers, as timed out, any job still running `grace` seconds after its deadline
-(all workers busy, a worker died). So `on_done` is called exactly once per job, by its
-deadline + grace at the latest, from a pool thread: the caller hands the result to its own thread.
+solves with the time left, less a few ms (`ANSWER_MARGIN`) for its answer to reach the node, so
+time spent waiting in the queue counts against the timeout, and a queued job whose deadline comes
+before a worker is free is answered as timed out without being sent. A job still running `grace`
+seconds after its deadline (a starved or stopped worker) is answered as timed out then; the
+worker's own answer, when it comes, is dropped. A worker that dies (killed, out of memory) has its
+job answered as failed and is replaced; one that has not answered `HUNG_AFTER` seconds after its
+job's deadline is killed and replaced. So `on_done` is called exactly once per job, by its
+deadline + grace at the latest, from the pool's thread (for jobs still open at `shutdown`, from
+the thread calling it): the caller hands the result to its own thread.
 
-Models: a job names its chain by a key and carries the pickled chain (a few kB); each worker keeps
-the chains it has seen, so a model reload is atomic per job: a job is solved on the model it was
-submitted with, never on half of one.
+Models: a job names its chain by a key and carries the pickled chain (a few kB). The chain goes
+down a worker's pipe only the first time that worker sees the key; each worker keeps the chains of
+the last `_CHAINS_KEPT` keys it used (the pool tracks which, and says which one to forget). So a
+model reload is atomic per job: a job is solved on the model it was submitted with, never on half
+of one.
 """
 
 from __future__ import annotations
 
 import heapq
 import itertools
+import logging
+import math
 import multiprocessing
 import os
 import pickle
 import signal
 import threading
 import time
+from collections import OrderedDict
 from collections.abc import Callable
-from concurrent.futures import Future, ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, replace
+from multiprocessing.connection import Connection, wait
 from typing import Any
 
 import numpy as np
@@ -47,6 +65,17 @@ FloatArray = NDArray[np.float64]
 
 #: Solves shorter than this are not started: the answer could not arrive in time anyway [s].
 MIN_SOLVE_TIME = 5e-4
+#: A worker solves until this long before its job's deadline (at most `ANSWER_SHARE` of the time
+#: left), so that its answer reaches the node by the deadline: niced workers on a busy machine
+#: answer late by a few ms (measured: 1.3 ms median, 9-10 ms p99 at 500 Hz + 4 IK clients) [s].
+ANSWER_MARGIN = 0.005
+ANSWER_SHARE = 0.1
+#: A worker that has not answered this long after its job's deadline is killed and replaced [s].
+HUNG_AFTER = 5.0
+#: After a failed start of a worker process, the next attempt waits this long [s].
+RESTART_BACKOFF = 1.0
+
+_log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -198,7 +227,78 @@ def _timed_out(reason: str) -> IKOutcome:
     return IKOutcome(None, False, float("nan"), float("nan"), 0, f"timeout: {reason}")
 
 
+def _failed(reason: str) -> IKOutcome:
+    return IKOutcome(None, False, float("nan"), float("nan"), 0, reason)
+
+
+def _serve(conn: Connection, niceness: int) -> None:
+    """A worker process: answer each job that arrives on `conn` with its `IKOutcome`, until the
+    pool closes the pipe. A message is (job without its chain blob, the blob when this worker has
+    not seen the job's key yet, else None, a key whose blob to forget or None)."""
+    _init_worker(niceness)
+    blobs: dict[Any, bytes] = {}  # the pool tracks this worker's keys, and says which to forget
+    while True:
+        try:
+            message = conn.recv_bytes()
+        except (EOFError, OSError):
+            return  # the pool (or the node) is gone
+        try:
+            job, blob, forget = pickle.loads(message)
+            if forget is not None:
+                blobs.pop(forget, None)
+            if blob is not None:
+                blobs[job.chain_key] = blob
+            outcome = solve_job(replace(job, chain_blob=blobs[job.chain_key]))
+        except Exception as exc:  # noqa: BLE001 - every job must be answered
+            outcome = _failed(f"IK worker failed: {exc!r}")
+        try:
+            answer = pickle.dumps(outcome, pickle.HIGHEST_PROTOCOL)
+        except Exception as exc:  # noqa: BLE001
+            answer = pickle.dumps(_failed(f"IK worker failed: {exc!r}"), pickle.HIGHEST_PROTOCOL)
+        try:
+            conn.send_bytes(answer)
+        except OSError:
+            return
+
+
 # ---------------------------------------------------------------------- caller side
+@dataclass
+class IKPoolStats:
+    """Counts since the pool was made (`IKPool.stats`)."""
+
+    submitted: int = 0  #: jobs submitted
+    sent: int = 0  #: jobs sent to a worker
+    chain_blobs_sent: int = 0  #: of those, sent with their chain (the worker's first of its key)
+    expired_in_queue: int = 0  #: answered as timed out while queued, never sent
+    overdue: int = 0  #: answered as timed out at deadline + grace while a worker still ran them
+    late_outcomes: int = 0  #: workers' answers that came after their job was answered (dropped)
+    workers_started: int = 0  #: worker processes started, replacements included
+    workers_lost: int = 0  #: worker processes that died or were killed as hung
+
+
+class _Open:
+    """A submitted job and whom to tell; `answered` flips once, under the pool's lock, and the one
+    who flips it calls `on_done` (after releasing the lock)."""
+
+    __slots__ = ("job", "on_done", "answered")
+
+    def __init__(self, job: IKJob, on_done: Callable[[IKOutcome], None]) -> None:
+        self.job, self.on_done, self.answered = job, on_done, False
+
+
+class _Worker:
+    """A worker process, the node's end of its pipe, the job it is solving (None: idle) and the
+    chain keys it holds, least recently used first."""
+
+    __slots__ = ("process", "conn", "open", "keys", "killed")
+
+    def __init__(self, process: Any, conn: Connection) -> None:
+        self.process, self.conn = process, conn
+        self.open: _Open | None = None
+        self.keys: OrderedDict[Any, None] = OrderedDict()
+        self.killed = False
+
+
 class IKPool:
     """Runs `IKJob`s in `workers` processes at CPU priority `nice` and calls back by each deadline.
 
@@ -206,7 +306,11 @@ class IKPool:
         workers: number of processes (solves that run at once; more jobs wait in a queue).
         niceness: added to the workers' nice value (0 = same priority as the caller; 19 = run
             only on what normal-priority work leaves, at about 1.5 % of a contended core).
-        grace: how long after a job's deadline the watchdog answers it as timed out [s].
+        grace: how long after a job's deadline a job still running is answered as timed out [s].
+
+    Locking: `_lock` guards every field below that `submit` and the pool's thread share; neither
+    calls `on_done` while holding it. Only the pool's thread reads the workers' pipes; a worker's
+    pipe is written only while the worker is idle, under the lock.
     """
 
     def __init__(self, workers: int, niceness: int = 19, grace: float = 0.01) -> None:
@@ -214,108 +318,379 @@ class IKPool:
             raise ValueError(f"workers must be >= 1, got {workers}")
         self.workers = workers
         self._niceness = niceness
-        self._executor = self._new_executor()
         self._grace = grace
         self._lock = threading.Lock()
-        self._wake = threading.Condition(self._lock)
-        self._pending: dict[int, Callable[[IKOutcome], None]] = {}
-        self._deadlines: list[tuple[float, int]] = []  # heap of (deadline + grace, job id)
-        self._ids = itertools.count()
+        self._start_lock = threading.Lock()  # one warm_up at a time
+        self._thread: threading.Thread | None = None
         self._closed = False
-        self._watchdog = threading.Thread(target=self._watch, name="ik-watchdog", daemon=True)
-        self._watchdog.start()
+        self._all: list[_Worker] = []
+        self._idle: list[_Worker] = []  # a stack: the last to answer is the next to solve
+        self._queue: list[tuple[float, int, _Open]] = []  # heap of (deadline, order, job)
+        self._order = itertools.count()
+        self._outbox: list[tuple[_Open, IKOutcome]] = []  # decided answers, for the thread to give
+        self._missing = workers  # worker processes to start
+        self._retry_at = 0.0
+        self._wake_at = math.inf  # when the thread wakes up by itself
+        self._owner: dict[Any, _Worker] = {}  # pipe or exit sentinel -> its worker
+        self._stats = IKPoolStats()
+        self._wake_r, self._wake_w = os.pipe()  # a byte written here wakes the thread
+        os.set_blocking(self._wake_r, False)
+        os.set_blocking(self._wake_w, False)
 
-    def _new_executor(self) -> ProcessPoolExecutor:
-        ctx = multiprocessing.get_context("forkserver")
-        # Workers fork from a server that has imported the core once, so each starts in ~10 ms.
-        # "__main__" too: a worker otherwise re-imports the main script (the node's, with rclpy)
-        # by itself; imported once in the server, the workers inherit it.
-        ctx.set_forkserver_preload(["__main__", "kinematics_node.core", "kinematics_node.ik_pool"])
-        return ProcessPoolExecutor(
-            self.workers, mp_context=ctx, initializer=_init_worker, initargs=(self._niceness,)
-        )
-
+    # ------------------------------------------------------------------ public
     def warm_up(self) -> None:
-        """Start every worker process now (about a second, for the first import of the core in
-        the fork server): `submit` starts missing workers itself, but blocks its caller meanwhile.
-        The executor starts a process for each job submitted while none is idle, so `workers`
-        jobs submitted at once start them all."""
-        futures = [self._executor.submit(time.sleep, 0.1) for _ in range(self.workers)]
-        for f in futures:
-            f.result()
+        """Start every worker process and the pool's thread now (about a second, for the first
+        import of the core in the fork server). `submit` does it itself when it was not done,
+        but blocks its caller meanwhile."""
+        with self._start_lock:
+            if self._thread is not None:
+                return
+            with self._lock:
+                if self._closed:
+                    raise RuntimeError("the IK pool is shut down")
+                count, self._missing = self._missing, 0
+            started: list[_Worker] = []
+            error: BaseException | None = None
+            try:
+                for _ in range(count):
+                    started.append(_start_worker(self._niceness))
+            except Exception as exc:  # noqa: BLE001 - the thread retries; the caller hears of it
+                error = exc
+            with self._lock:
+                self._missing += count - len(started)
+                self._retry_at = time.monotonic() + RESTART_BACKOFF
+                rejected = [w for w in started if not self._adopt_locked(w)]
+                if not self._closed:
+                    self._thread = threading.Thread(target=self._run, name="ik-pool", daemon=True)
+                    self._thread.start()
+            for w in rejected:
+                _stop(w)
+            if error is not None:
+                raise error
 
     def submit(self, job: IKJob, on_done: Callable[[IKOutcome], None]) -> None:
         """Queue `job`; `on_done(outcome)` follows exactly once, by `job.deadline + grace`."""
+        if self._thread is None:
+            self.warm_up()
         with self._lock:
             if self._closed:
                 raise RuntimeError("the IK pool is shut down")
-            job_id = next(self._ids)
-            self._pending[job_id] = on_done
-            heapq.heappush(self._deadlines, (job.deadline + self._grace, job_id))
-            self._wake.notify()
-        try:
-            future = self._executor.submit(solve_job, job)
-        except BrokenProcessPool:  # a worker died (killed, out of memory): start a new pool
-            self._executor.shutdown(wait=False, cancel_futures=True)
-            self._executor = self._new_executor()
-            try:
-                future = self._executor.submit(solve_job, job)
-            except Exception as exc:  # noqa: BLE001 - every job must be answered
-                self._finish(job_id, _failed(f"no IK worker could be started: {exc!r}"))
-                return
-        future.add_done_callback(lambda f: self._finish(job_id, _outcome_of(f)))
+            self._stats.submitted += 1
+            heapq.heappush(self._queue, (job.deadline, next(self._order), _Open(job, on_done)))
+            self._dispatch_locked(time.monotonic())
+            if self._outbox or self._next_wake_locked() < self._wake_at:
+                self._poke_locked()
 
-    def _finish(self, job_id: int, outcome: IKOutcome) -> None:
+    def stats(self) -> IKPoolStats:
+        """A copy of the pool's counts so far."""
         with self._lock:
-            on_done = self._pending.pop(job_id, None)
-        if on_done is not None:
-            on_done(outcome)
+            return replace(self._stats)
 
-    def _watch(self) -> None:
-        while True:
-            expired = []
-            with self._lock:
-                while not self._closed:
-                    now = time.monotonic()
-                    while self._deadlines and (
-                        self._deadlines[0][0] <= now or self._deadlines[0][1] not in self._pending
-                    ):
-                        _, job_id = heapq.heappop(self._deadlines)
-                        if job_id in self._pending:
-                            expired.append(self._pending.pop(job_id))
-                    if expired:
-                        break
-                    wait = self._deadlines[0][0] - now if self._deadlines else None
-                    self._wake.wait(wait)
-                if self._closed and not expired:
-                    return
-            for on_done in expired:
-                on_done(_timed_out("no IK worker answered before the deadline"))
+    def worker_pids(self) -> list[int]:
+        """Process ids of the live workers."""
+        with self._lock:
+            return [w.process.pid for w in self._all]
 
     def shutdown(self) -> None:
-        """Stop the workers (running solves are abandoned) and answer every pending job."""
+        """Stop the workers (running solves are abandoned), answer every open job as timed out
+        and join the pool's thread. Further `submit`s raise RuntimeError."""
         with self._lock:
+            if self._closed:
+                return
             self._closed = True
-            pending = list(self._pending.values())
-            self._pending.clear()
-            self._wake.notify()
-        # Abandon running solves: stopping must not wait for them (up to their timeouts). The
-        # executor has no public way to stop busy workers before Python 3.14's terminate_workers.
-        for process in list((getattr(self._executor, "_processes", None) or {}).values()):
-            process.terminate()
-        self._executor.shutdown(wait=True, cancel_futures=True)  # returns once they are gone
-        for on_done in pending:
-            on_done(_timed_out("the node is shutting down"))
+            open_jobs = [o for _, _, o in self._queue]
+            self._queue.clear()
+            open_jobs += [w.open for w in self._all if w.open is not None and not w.open.answered]
+            for o in open_jobs:
+                o.answered = True
+            outbox, self._outbox = self._outbox, []
+            workers = list(self._all)
+            self._poke_locked()
+        for w in workers:  # SIGTERM: a worker stops within its current numpy call
+            w.process.terminate()
+        thread = self._thread
+        joined = thread is None or thread is not threading.current_thread()
+        if thread is not None and joined:
+            thread.join()
+        for w in workers:
+            _stop(w)
+        if joined:  # (not from on_done in the pool's thread, which still reads the pipe)
+            with self._lock:  # where _poke_locked writes: no write can reach a reused fd
+                os.close(self._wake_r)
+                os.close(self._wake_w)
+                self._wake_w = -1
+        _deliver(outbox)
+        _deliver([(o, _timed_out("the node is shutting down")) for o in open_jobs])
+
+    # ------------------------------------------------------------------ under the lock
+    def _dispatch_locked(self, now: float) -> None:
+        """Send queued jobs to idle workers, earliest deadline first; answer those whose deadline
+        is too close to start a solve."""
+        while self._queue and (self._idle or self._queue[0][0] - MIN_SOLVE_TIME <= now):
+            item = heapq.heappop(self._queue)
+            deadline, _, o = item
+            if deadline - MIN_SOLVE_TIME <= now:
+                self._stats.expired_in_queue += 1
+                self._settle_locked(o, _timed_out("no IK worker was free before the deadline"))
+                continue
+            worker = self._idle.pop()
+            if not self._send_locked(worker, o):
+                heapq.heappush(self._queue, item)  # that worker is gone: try another
+
+    def _send_locked(self, w: _Worker, o: _Open) -> bool:
+        """Send `o` to the idle worker `w`; False when `w`'s pipe is broken (it died)."""
+        job = o.job
+        key = job.chain_key
+        known = key in w.keys
+        forget = None
+        if not known and len(w.keys) >= _CHAINS_KEPT:
+            forget = next(iter(w.keys))
+        try:
+            sent = replace(job, chain_blob=b"", deadline=_solve_until(job.deadline, time.monotonic()))
+            message = pickle.dumps(
+                (sent, None if known else job.chain_blob, forget), pickle.HIGHEST_PROTOCOL
+            )
+        except Exception as exc:  # noqa: BLE001 - every job must be answered
+            self._settle_locked(o, _failed(f"the IK job cannot be sent to a worker: {exc!r}"))
+            self._idle.append(w)
+            return True
+        try:
+            w.conn.send_bytes(message)
+        except OSError:
+            return False  # not idle any more; the thread sees its pipe's end and replaces it
+        if known:
+            w.keys.move_to_end(key)
+        else:
+            if forget is not None:
+                del w.keys[forget]
+            w.keys[key] = None
+            self._stats.chain_blobs_sent += 1
+        w.open = o
+        self._stats.sent += 1
+        return True
+
+    def _settle_locked(self, o: _Open, outcome: IKOutcome) -> None:
+        """Decide `o`'s answer; the thread (or `shutdown`) calls `on_done` after the lock."""
+        if not o.answered:
+            o.answered = True
+            self._outbox.append((o, outcome))
+
+    def _answered_locked(self, w: _Worker, outcome: IKOutcome) -> None:
+        o, w.open = w.open, None
+        if o is None:
+            return  # nothing was asked: ignore
+        if o.answered:
+            self._stats.late_outcomes += 1
+        self._settle_locked(o, outcome)
+        if w in self._all and not w.killed:
+            self._idle.append(w)
+
+    def _adopt_locked(self, w: _Worker) -> bool:
+        if self._closed:
+            return False
+        self._all.append(w)
+        self._idle.append(w)
+        self._stats.workers_started += 1
+        self._watch_locked()
+        self._dispatch_locked(time.monotonic())
+        return True
+
+    def _bury_locked(self, w: _Worker) -> None:
+        """`w` died (or was killed): answer its job as failed and have it replaced."""
+        if w not in self._all:
+            return
+        self._all.remove(w)
+        if w in self._idle:
+            self._idle.remove(w)
+        o, w.open = w.open, None
+        if o is not None:
+            code = w.process.exitcode
+            how = f"exit code {code}" if code is not None else "its pipe closed"
+            self._settle_locked(o, _failed(f"IK worker failed: its process ended ({how})"))
+        self._stats.workers_lost += 1
+        self._missing += 1
+        self._watch_locked()
+
+    def _watch_locked(self) -> None:
+        owner: dict[Any, _Worker] = {}
+        for w in self._all:
+            owner[w.conn] = w
+            owner[w.process.sentinel] = w
+        self._owner = owner
+
+    def _overdue_locked(self, now: float) -> list[_Worker]:
+        """Answer running jobs past deadline + grace; return the workers to kill as hung."""
+        hung = []
+        for w in self._all:
+            o = w.open
+            if o is None or w.killed:
+                continue
+            if not o.answered and o.job.deadline + self._grace <= now:
+                self._stats.overdue += 1
+                self._settle_locked(o, _timed_out("no IK worker answered before the deadline"))
+            if o.job.deadline + HUNG_AFTER <= now:
+                w.killed = True
+                hung.append(w)
+        return hung
+
+    def _next_wake_locked(self) -> float:
+        """When the thread must act next by itself (math.inf: only when a worker answers)."""
+        t = self._queue[0][0] - MIN_SOLVE_TIME if self._queue else math.inf
+        for w in self._all:
+            o = w.open
+            if o is not None and not w.killed:
+                t = min(t, o.job.deadline + (HUNG_AFTER if o.answered else self._grace))
+        if self._missing:
+            t = min(t, self._retry_at)
+        return t
+
+    # ------------------------------------------------------------------ the pool's thread
+    def _poke_locked(self) -> None:
+        """Wake the pool's thread (a byte on its wake-up pipe)."""
+        if self._wake_w < 0:
+            return  # closed by shutdown
+        try:
+            os.write(self._wake_w, b"\0")
+        except BlockingIOError:
+            pass  # full: the thread has bytes to read anyway
+
+    def _run(self) -> None:
+        while True:
+            try:
+                if not self._step():
+                    return
+            except Exception:  # a bug here must not leave every later job unanswered
+                _log.exception("IK pool thread")
+                time.sleep(0.01)
+
+    def _step(self) -> bool:
+        """One turn of the pool's thread; False once the pool is shut down."""
+        with self._lock:
+            if self._closed:
+                return False
+            now = time.monotonic()
+            self._dispatch_locked(now)  # expires queued jobs whose deadline is too close
+            hung = self._overdue_locked(now)
+            outbox, self._outbox = self._outbox, []
+            restart = self._missing > 0 and self._retry_at <= now
+            self._wake_at = wake_at = self._next_wake_locked()
+            watched = [self._wake_r, *self._owner]
+        for w in hung:
+            _log.warning("IK worker %d is %.1f s past its job's deadline: killing it",
+                         w.process.pid, HUNG_AFTER)
+            w.process.kill()  # its sentinel wakes this thread, which replaces it
+        _deliver(outbox)
+        if restart:
+            self._restart_missing()
+        if outbox or restart:
+            return True  # time went by: look again before waiting
+        timeout = None if wake_at == math.inf else max(0.0, wake_at - time.monotonic())
+        self._take(wait(watched, timeout))
+        return True
+
+    def _take(self, ready: list[Any]) -> None:
+        """Read what `wait` found ready: answers, ended workers, wake-up bytes."""
+        answers: list[tuple[_Worker, IKOutcome]] = []
+        ended: list[_Worker] = []
+        for obj in ready:
+            if obj == self._wake_r:
+                try:
+                    while os.read(self._wake_r, 4096):
+                        pass
+                except (BlockingIOError, OSError):
+                    pass
+                continue
+            w = self._owner.get(obj)
+            if w is None:
+                continue
+            if obj is w.conn:
+                try:
+                    message = w.conn.recv_bytes()
+                except (EOFError, OSError):
+                    ended.append(w)
+                    continue
+                try:
+                    answers.append((w, pickle.loads(message)))
+                except Exception as exc:  # noqa: BLE001
+                    answers.append((w, _failed(f"unreadable answer from an IK worker: {exc!r}")))
+            else:
+                ended.append(w)
+        if not answers and not ended:
+            return
+        with self._lock:
+            for w, outcome in answers:
+                self._answered_locked(w, outcome)
+            for w in ended:
+                self._bury_locked(w)
+            self._dispatch_locked(time.monotonic())
+            outbox, self._outbox = self._outbox, []
+        _deliver(outbox)  # now, not on the next turn: an answer is due as soon as it is known
+        for w in ended:
+            _discard(w)
+
+    def _restart_missing(self) -> None:
+        """Start the missing workers (from this thread: a fork from the fork server takes a few
+        ms; after a failure the next attempt waits RESTART_BACKOFF)."""
+        while True:
+            with self._lock:
+                if self._closed or not self._missing:
+                    return
+                self._missing -= 1
+            try:
+                w = _start_worker(self._niceness)
+            except Exception:
+                _log.exception("cannot start an IK worker; trying again in %g s", RESTART_BACKOFF)
+                with self._lock:
+                    self._missing += 1
+                    self._retry_at = time.monotonic() + RESTART_BACKOFF
+                return
+            with self._lock:
+                adopted = self._adopt_locked(w)
+            if not adopted:
+                _stop(w)
 
 
-def _outcome_of(future: Future[IKOutcome]) -> IKOutcome:
-    if future.cancelled():
-        return _timed_out("the job was cancelled")
-    exc = future.exception()
-    if exc is not None:
-        return _failed(f"IK worker failed: {exc!r}")
-    return future.result()
+def _solve_until(deadline: float, now: float) -> float:
+    """The deadline a worker solves to: `ANSWER_MARGIN` before the job's, or less when little
+    time is left (a 2 ms timeout still gets 1.8 ms of solve)."""
+    return deadline - min(ANSWER_MARGIN, ANSWER_SHARE * max(deadline - now, 0.0))
 
 
-def _failed(reason: str) -> IKOutcome:
-    return IKOutcome(None, False, float("nan"), float("nan"), 0, reason)
+def _start_worker(niceness: int) -> _Worker:
+    ctx = multiprocessing.get_context("forkserver")
+    # Workers fork from a server that has imported the core once, so each starts in ~10 ms.
+    # "__main__" too: a worker otherwise re-imports the main script (the node's, with rclpy)
+    # by itself; imported once in the server, the workers inherit it.
+    ctx.set_forkserver_preload(["__main__", "kinematics_node.core", "kinematics_node.ik_pool"])
+    ours, theirs = ctx.Pipe(duplex=True)
+    process = ctx.Process(target=_serve, args=(theirs, niceness), name="ik-worker", daemon=True)
+    try:
+        process.start()
+    finally:
+        theirs.close()  # the worker has its own copy: the pool sees EOF when the worker ends
+    return _Worker(process, ours)
+
+
+def _stop(w: _Worker) -> None:
+    """End `w`'s process (if still running) and close the node's end of its pipe."""
+    w.process.terminate()
+    w.process.join(1.0)
+    if w.process.exitcode is None:
+        w.process.kill()
+        w.process.join(1.0)
+    w.conn.close()
+
+
+def _discard(w: _Worker) -> None:
+    """Forget an ended worker without waiting for it: the fork server reaps it."""
+    if w.process.exitcode is None:
+        w.process.kill()
+    w.conn.close()
+
+
+def _deliver(answers: list[tuple[_Open, IKOutcome]]) -> None:
+    for o, outcome in answers:
+        try:
+            o.on_done(outcome)
+        except Exception:
+            _log.exception("an IK job's on_done raised")

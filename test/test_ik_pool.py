@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from kinematics_node import ik_pool
 from kinematics_node.core import IKOptions, SerialChain
 from kinematics_node.ik_pool import IKJob, IKOutcome, IKPool, solve_job
 
@@ -20,13 +21,15 @@ UR5E = SerialChain.from_urdf(ROBOTS / "ur5e.urdf")
 PLANAR = SerialChain.from_urdf(ROBOTS / "planar3r.urdf")
 UNREACHABLE = np.eye(4)
 UNREACHABLE[:3, 3] = [5.0, 0.0, 0.0]  # the UR5e reaches < 1 m: a search uses its whole timeout
+Q = np.array([0.3, -1.0, 1.2, -0.5, 0.8, 0.1])
+REACHABLE = UR5E.fk(Q)
 
 
-def job(chain, T, timeout, deadline=None, **options):
+def job(chain, T, timeout, deadline=None, key=None, **options):
     blob = pickle.dumps(chain)
     opts = IKOptions(timeout=timeout, max_restarts=10**5, **options)
     end = time.monotonic() + timeout if deadline is None else deadline
-    return IKJob(hash(blob), blob, T, None, opts, end)
+    return IKJob(hash(blob) if key is None else key, blob, T, None, opts, end)
 
 
 class Answers:
@@ -51,14 +54,13 @@ def pool():
 
 
 def test_solves_in_a_worker_and_chains_with_equal_names_stay_apart(pool):
-    q = np.array([0.3, -1.0, 1.2, -0.5, 0.8, 0.1])
     a, b = Answers(), Answers()
-    pool.submit(job(UR5E, UR5E.fk(q), 1.0), a)
+    pool.submit(job(UR5E, REACHABLE, 1.0), a)
     T_planar = PLANAR.fk(np.array([0.2, 0.4, -0.3]))
     pool.submit(job(PLANAR, T_planar, 1.0, position_only=True), b)
     assert a.done.wait(5) and b.done.wait(5)
     assert a.outcome.success and b.outcome.success
-    np.testing.assert_allclose(UR5E.fk(a.outcome.q), UR5E.fk(q), atol=1e-5)
+    np.testing.assert_allclose(UR5E.fk(a.outcome.q), REACHABLE, atol=1e-5)
     np.testing.assert_allclose(PLANAR.fk(b.outcome.q)[:3, 3], T_planar[:3, 3], atol=1e-5)
 
 
@@ -72,23 +74,79 @@ def test_a_job_past_its_deadline_is_answered_at_once_without_a_solve(pool):
     assert a.at - t0 < 0.5
 
 
-def test_queued_jobs_are_answered_by_deadline_plus_grace_when_every_worker_is_busy(pool):
+def test_a_queued_job_that_expires_is_answered_by_its_deadline_and_never_sent(pool):
     busy = [Answers() for _ in range(2)]
     for b in busy:  # both workers busy for 2 s
         pool.submit(job(UR5E, UNREACHABLE, 2.0), b)
+    before = pool.stats()
     late = Answers()
     t0 = time.monotonic()
     pool.submit(job(UR5E, UR5E.fk(np.zeros(6)), 0.05), late)
     assert late.done.wait(2)
-    assert not late.outcome.success and "timeout" in late.outcome.message
-    # by deadline + grace (+ slack for a busy machine), not when a worker frees up at 2 s
+    assert not late.outcome.success and late.outcome.q is None
+    assert "timeout" in late.outcome.message
+    # by its deadline (+ slack for a busy machine), not when a worker frees up at 2 s
     assert late.at - t0 <= 0.05 + 0.01 + 0.8, late.at - t0
     for b in busy:
         assert b.done.wait(5)
         assert not b.outcome.success
         assert b.outcome.q is not None  # solved (unsuccessfully) in a worker
     time.sleep(0.1)
-    assert late.calls == 1  # the worker's own answer, arriving later, is dropped
+    after = pool.stats()
+    assert late.calls == 1
+    assert after.expired_in_queue - before.expired_in_queue == 1
+    assert after.sent == before.sent  # the freed workers were not handed the expired job
+
+
+def test_queued_jobs_go_to_a_free_worker_earliest_deadline_first():
+    p, busy = one_busy_worker(0.5)
+    later, sooner = Answers(), Answers()
+    p.submit(job(UR5E, REACHABLE, 4.0), later)
+    p.submit(job(UR5E, REACHABLE, 3.0), sooner)
+    assert later.done.wait(10) and sooner.done.wait(10)
+    assert later.outcome.success and sooner.outcome.success
+    assert sooner.at < later.at  # submitted second, solved first
+    assert p.stats().sent == 3
+    p.shutdown()
+
+
+def test_the_chain_goes_to_each_worker_once_per_key():
+    p = IKPool(2, grace=0.01)
+    p.warm_up()
+    try:
+        for _ in range(3):  # two at once: both workers solve, each gets the chain once
+            pair = [Answers(), Answers()]
+            for a in pair:
+                p.submit(job(UR5E, REACHABLE, 2.0), a)
+            for a in pair:
+                assert a.done.wait(10) and a.outcome.success, a.outcome
+        stats = p.stats()
+        assert (stats.sent, stats.chain_blobs_sent) == (6, 2)
+    finally:
+        p.shutdown()
+
+
+def test_a_worker_keeps_the_chains_of_its_last_keys_and_is_told_which_to_forget():
+    """One worker, keys 0..K (K = the number kept): after 0..K-1 twice, K evicts 0, which must
+    then be sent again. Every job succeeds: pool and worker agree on what the worker holds."""
+    kept = ik_pool._CHAINS_KEPT
+    p = IKPool(1, grace=0.01)
+    p.warm_up()
+
+    def solve(key):
+        a = Answers()
+        p.submit(job(UR5E, REACHABLE, 2.0, key=("ur5e", key)), a)
+        assert a.done.wait(10) and a.outcome.success, a.outcome
+        return p.stats().chain_blobs_sent
+
+    try:
+        assert [solve(k) for k in range(kept)] == list(range(1, kept + 1))
+        assert [solve(k) for k in range(kept)] == [kept] * kept  # all held
+        assert solve(kept) == kept + 1  # a new key: sent, and the oldest (0) forgotten
+        assert solve(1) == kept + 1  # still held
+        assert solve(0) == kept + 2  # forgotten, so sent again
+    finally:
+        p.shutdown()
 
 
 def test_time_in_the_queue_counts_against_the_timeout():
@@ -110,6 +168,14 @@ def one_busy_worker(seconds: float) -> tuple[IKPool, Answers]:
     return p, a
 
 
+def alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
 def test_shutdown_answers_pending_jobs_and_stops_busy_workers():
     p, a = one_busy_worker(30.0)
     t0 = time.monotonic()
@@ -121,14 +187,93 @@ def test_shutdown_answers_pending_jobs_and_stops_busy_workers():
         p.submit(job(UR5E, UNREACHABLE, 0.1), Answers())
 
 
-def test_a_killed_worker_fails_its_job_and_the_next_job_gets_a_new_pool():
+def test_shutdown_with_jobs_running_and_queued_answers_each_once_and_leaves_nothing_behind():
+    threads = set(threading.enumerate())
+    p = IKPool(2, grace=0.01)
+    p.warm_up()
+    pids = p.worker_pids()
+    running = [Answers() for _ in range(2)]
+    for a in running:
+        p.submit(job(UR5E, UNREACHABLE, 30.0), a)
+    queued = [Answers() for _ in range(3)]
+    for a in queued:
+        p.submit(job(UR5E, REACHABLE, 30.0), a)
+    time.sleep(0.3)
+    assert p.stats().sent == 2
+    t0 = time.monotonic()
+    p.shutdown()
+    assert time.monotonic() - t0 < 5.0
+    time.sleep(0.2)  # room for a second, wrong, call
+    for a in running + queued:
+        assert a.calls == 1 and "shutting down" in a.outcome.message, a.outcome
+    assert len(pids) == 2 and not any(alive(pid) for pid in pids)
+    assert set(threading.enumerate()) <= threads  # the pool's thread is joined
+    p.shutdown()  # a second shutdown does nothing
+    assert all(a.calls == 1 for a in running + queued)
+
+
+def test_a_killed_worker_fails_its_job_and_is_replaced():
     p, a = one_busy_worker(5.0)
-    for pid in list(p._executor._processes):  # as the OOM killer would
-        os.kill(pid, signal.SIGKILL)
+    [pid] = p.worker_pids()
+    os.kill(pid, signal.SIGKILL)  # as the OOM killer would
     assert a.done.wait(3), "the killed worker's job was never answered"
     assert not a.outcome.success and "failed" in a.outcome.message
     b = Answers()
-    q = np.array([0.3, -1.0, 1.2, -0.5, 0.8, 0.1])
-    p.submit(job(UR5E, UR5E.fk(q), 2.0), b)
+    p.submit(job(UR5E, REACHABLE, 2.0), b)
     assert b.done.wait(10) and b.outcome.success, b.outcome
+    [new_pid] = p.worker_pids()
+    assert new_pid != pid
+    stats = p.stats()
+    assert (stats.workers_lost, stats.workers_started) == (1, 2)
+    assert stats.chain_blobs_sent == 2  # the new worker had to be sent the chain
     p.shutdown()
+
+
+def test_a_running_job_past_deadline_plus_grace_is_answered_and_the_worker_kept():
+    """A stopped worker (as a starved one would be) gets a job: the pool answers it by deadline
+    + grace; the worker's own answer, once it runs again, is dropped, and it solves the next."""
+    p = IKPool(1, grace=0.01)
+    p.warm_up()
+    [pid] = p.worker_pids()
+    os.kill(pid, signal.SIGSTOP)
+    try:
+        a = Answers()
+        t0 = time.monotonic()
+        p.submit(job(UR5E, REACHABLE, 0.1), a)
+        assert a.done.wait(2)
+        assert "timeout" in a.outcome.message and a.outcome.q is None
+        assert a.at - t0 <= 0.1 + 0.01 + 0.8, a.at - t0
+        assert p.stats().overdue == 1
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    b = Answers()
+    p.submit(job(UR5E, REACHABLE, 2.0), b)
+    assert b.done.wait(10) and b.outcome.success, b.outcome
+    assert a.calls == 1
+    assert p.stats().late_outcomes == 1
+    assert p.worker_pids() == [pid]
+    p.shutdown()
+
+
+def test_a_worker_that_never_answers_is_killed_and_replaced(monkeypatch):
+    monkeypatch.setattr(ik_pool, "HUNG_AFTER", 0.3)
+    p = IKPool(1, grace=0.01)
+    p.warm_up()
+    [pid] = p.worker_pids()
+    os.kill(pid, signal.SIGSTOP)
+    a = Answers()
+    p.submit(job(UR5E, REACHABLE, 0.1), a)
+    assert a.done.wait(2) and "timeout" in a.outcome.message
+    b = Answers()
+    p.submit(job(UR5E, REACHABLE, 5.0), b)  # queued until the hung worker is replaced
+    assert b.done.wait(10) and b.outcome.success, b.outcome
+    assert p.worker_pids() != [pid] and not alive(pid)
+    assert p.stats().workers_lost == 1
+    p.shutdown()
+
+
+def test_a_worker_solves_until_a_margin_before_the_deadline_that_short_timeouts_keep_small():
+    margin = ik_pool.ANSWER_MARGIN
+    assert ik_pool._solve_until(10.0, 10.0 - 1.0) == pytest.approx(10.0 - margin)
+    assert ik_pool._solve_until(10.0, 10.0 - 0.002) == pytest.approx(10.0 - 0.002 * 0.1)
+    assert ik_pool._solve_until(10.0, 10.5) == 10.0  # already past: nothing taken off
