@@ -134,9 +134,9 @@ def solve(
         raise InvalidInputError(
             f"T_target must have shape (4, 4) (use ik_batch for many), got {T.shape}"
         )
+    start = time.perf_counter()  # before `_prepared`: a chain's first call detects its family
     problem, closed, default = _prepared(chain, opts)
     seed = default if q_seed is None else check_seed(chain, q_seed, "q_seed", None)
-    start = time.perf_counter()
     if closed.blocker and opts.method == "closed_form":
         raise InvalidInputError(f"IKOptions.method='closed_form' does not apply: {closed.blocker}")
     return _solve_one(problem, closed, T, seed, start, start + opts.timeout)
