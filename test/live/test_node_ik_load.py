@@ -37,6 +37,12 @@ def test_ik_timeouts_hold_with_four_clients_at_once(client, start_node):
     def run(k: int) -> None:
         cli = nodes[k].create_client(ComputeIK, "compute_ik")
         assert cli.wait_for_service(timeout_sec=10.0)
+        # One untimed call first: a new client's first answer can take ~1 s more while discovery
+        # completes (seen with either IK pool, on all four clients' first calls at once).
+        first = cli.call_async(ik_request(CHAIN.fk(np.zeros(6)), timeout=timeout))
+        settled = threading.Event()
+        first.add_done_callback(lambda _: settled.set())
+        assert settled.wait(10.0), "no answer to a first IK call within 10 s"
         rng = np.random.default_rng(k)
         for i in range(6):
             unreachable = (i + k) % 3 == 0
