@@ -22,7 +22,6 @@ from __future__ import annotations
 import hashlib
 import logging
 import math
-import pickle
 import time
 from collections import deque
 from collections.abc import Callable, Mapping
@@ -53,7 +52,7 @@ from .core.analysis import conditioning
 from .core.exceptions import InvalidInputError, KinematicsError, RobotDescriptionError
 from .core.model import Frame
 from .ee_state import EndEffectorState, JointStateTracker, compute_ee_state
-from .ik_pool import IKJob, IKOutcome, solve_job
+from .ik_pool import IKJob, IKOutcome, chain_blob, solve_job
 from .parameters import defaults, validate_parameters
 from .robot_model import RobotModel
 
@@ -231,6 +230,7 @@ class KinematicsService:
             self._chain_index = []
             return
         chain = model.chain
+        self._blob(chain)  # the default chain's IK blob now, with the model load, not at a request
         # One tracker for every moving joint of the robot: the chain's joints are required (a bad
         # value rejects the sample); the others only serve requests that name some joints.
         names = list(chain.joint_names) + [
@@ -437,14 +437,20 @@ class KinematicsService:
             math.isfinite(current.get(j, math.nan)) for j in chain.joint_names
         ):
             q_seed = self._q(model, chain, seed, current, "seed")
-        cached = self._chain_blobs.get((chain.base_link, chain.tip_link))
-        if cached is None:
-            blob = pickle.dumps(chain, pickle.HIGHEST_PROTOCOL)
-            cached = (hashlib.blake2b(blob, digest_size=16).digest(), blob)  # key: the content
-            self._chain_blobs[(chain.base_link, chain.tip_link)] = cached
-        key, blob = cached
+        key, blob = self._blob(chain)
         job = IKJob(key, blob, T_base_target, q_seed, options, arrival + options.timeout)
         return PendingIK(job, chain.joint_names, request.target.header.stamp, options, note)
+
+    def _blob(self, chain: SerialChain) -> tuple[bytes, bytes]:
+        """(key, blob) of `chain` for IK jobs, made once per chain of the model. The blob carries
+        the closed-form family (`ik_pool.chain_blob`), detected here once (20–100 ms) rather than
+        in every worker inside a job's time; the key is a digest of the content."""
+        cached = self._chain_blobs.get((chain.base_link, chain.tip_link))
+        if cached is None:
+            blob = chain_blob(chain)
+            cached = (hashlib.blake2b(blob, digest_size=16).digest(), blob)
+            self._chain_blobs[(chain.base_link, chain.tip_link)] = cached
+        return cached
 
     def _finish_ik(self, pending: PendingIK, outcome: IKOutcome, response: Any) -> str | None:
         options = pending.options

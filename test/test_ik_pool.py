@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import pickle
 import signal
 import threading
 import time
@@ -14,7 +13,7 @@ import pytest
 
 from kinematics_node import ik_pool
 from kinematics_node.core import IKOptions, SerialChain
-from kinematics_node.ik_pool import IKJob, IKOutcome, IKPool, solve_job
+from kinematics_node.ik_pool import IKJob, IKOutcome, IKPool, chain_blob, solve_job
 
 ROBOTS = Path(__file__).resolve().parents[1] / "config" / "robots"
 UR5E = SerialChain.from_urdf(ROBOTS / "ur5e.urdf")
@@ -26,7 +25,7 @@ REACHABLE = UR5E.fk(Q)
 
 
 def job(chain, T, timeout, deadline=None, key=None, **options):
-    blob = pickle.dumps(chain)
+    blob = chain_blob(chain)
     opts = IKOptions(timeout=timeout, max_restarts=10**5, **options)
     end = time.monotonic() + timeout if deadline is None else deadline
     return IKJob(hash(blob) if key is None else key, blob, T, None, opts, end)

@@ -1109,6 +1109,45 @@ def _solver(chain: KinematicChain) -> _Solver | None:
         return solver
 
 
+#: What `export_family` gives: the structure found and the held joint, or None (no family).
+ExportedFamily = tuple[str, str, bool, int | None] | None
+
+
+def export_family(chain: KinematicChain) -> ExportedFamily:
+    """The chain's detected family (detecting it if needed) as a small picklable value, for a
+    process that will solve IK on a copy of the same chain (`import_family` there skips the
+    20–100 ms detection: the node's IK workers)."""
+    solver = _solver(chain)
+    if solver is None:
+        return None
+    st = solver.structure
+    return (st.kind, st.case, st.reversed, solver.held)
+
+
+def import_family(chain: KinematicChain, exported: ExportedFamily) -> None:
+    """Install what `export_family` gave for an equal chain (same screw axes, home pose and
+    limits: e.g. an unpickled copy) without detecting it again. A chain whose family is already
+    known keeps it.
+
+    Raises:
+        InvalidInputError: `exported` is not a value `export_family` gives for this chain's size.
+    """
+    if chain in _SOLVERS:
+        return
+    if exported is None:
+        _SOLVERS[chain] = None
+        return
+    try:
+        kind, case, rev, held = exported
+        ok = kind in ("three_parallel", "spherical_wrist") and case in _CASE_LABEL
+        ok = ok and (held is None if chain.dof == 6 else held in range(chain.dof))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise InvalidInputError(f"not an exported closed-form family of this chain: {exported!r}")
+    _SOLVERS[chain] = _Solver(chain, _Structure(kind, case, bool(rev)), held)
+
+
 def family_of(chain: KinematicChain) -> ClosedFormFamily | None:
     """The closed-form family of `chain` with its details, or None where none applies."""
     solver = _solver(chain)
@@ -1641,13 +1680,16 @@ __all__ = [
     "ANGLE_TOLERANCE",
     "DEFAULT_HELD_SAMPLES",
     "DISTANCE_TOLERANCE",
+    "ExportedFamily",
     "Nearest",
     "NearestBatch",
     "ClosedFormBatchResult",
     "ClosedFormFamily",
     "ClosedFormResult",
+    "export_family",
     "family_of",
     "held_order",
+    "import_family",
     "nearest",
     "nearest_batch",
     "no_closed_form_reason",

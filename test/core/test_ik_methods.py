@@ -245,3 +245,37 @@ def test_batch_with_unreachable_targets_reports_them_unsolved_without_nan():
     assert res.success[keep].all()
     for k in np.flatnonzero(res.success):
         assert reproduces(chain, res.q[k], T[k], 1e-5)
+
+
+# ---------------------------------------------------------------------- the family across processes
+@pytest.mark.parametrize("name", ["ur5", "iiwa14"])
+def test_an_exported_family_is_installed_on_a_copy_without_detecting_it(name, monkeypatch):
+    """What the node's IK workers do: the family detected in the node travels with the pickled
+    chain, and the worker's copy uses it (detection would take 20–100 ms inside a job)."""
+    import pickle
+
+    from kinematics_node.core import closed_form
+
+    chain = chain_of(name)
+    exported = closed_form.export_family(chain)
+    clone = pickle.loads(pickle.dumps(chain))
+
+    def no_detection(_chain):
+        raise AssertionError("detect() ran on the copy")
+
+    monkeypatch.setattr(closed_form, "detect", no_detection)
+    closed_form.import_family(clone, exported)
+    assert closed_form.family_of(clone) == closed_form.family_of(chain)
+    T = chain.fk(random_q(chain, np.random.default_rng(21)))
+    a, b = chain.ik(T), clone.ik(T)
+    assert b.success and "closed form" in b.message
+    np.testing.assert_array_equal(a.q, b.q)
+
+
+def test_importing_a_family_that_does_not_fit_is_refused():
+    from kinematics_node.core import closed_form
+
+    chain = chain_of("ur5")
+    for bad in [("three_parallel", "", False, 3), ("nonsense", "", False, None), (1, 2)]:
+        with pytest.raises(InvalidInputError, match="not an exported closed-form family"):
+            closed_form.import_family(SerialChain.from_poe(chain.S, chain.M), bad)
