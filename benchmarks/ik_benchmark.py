@@ -43,6 +43,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from kinematics_node.core import IKOptions, SerialChain, so3  # noqa: E402
+from kinematics_node.core.model import middle_of_limits  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _pinocchio import chain_setup  # noqa: E402
@@ -111,7 +112,10 @@ def run_solver(
 
 # ---------------------------------------------------------------------- peers
 def random_q(chain: SerialChain, rng: np.random.Generator) -> np.ndarray:
-    return rng.uniform(chain.lower, chain.upper)
+    """Uniform within the limits; continuous joints in [−π, π]."""
+    lo = np.where(np.isfinite(chain.lower), chain.lower, -np.pi)
+    hi = np.where(np.isfinite(chain.upper), chain.upper, np.pi)
+    return rng.uniform(lo, hi)
 
 
 def peer_kdl(chain: SerialChain) -> dict[str, Callable[[np.ndarray], np.ndarray | None]] | str:
@@ -143,7 +147,7 @@ def peer_kdl(chain: SerialChain) -> dict[str, Callable[[np.ndarray], np.ndarray 
     # LMA's eps bounds the error weighted by its default L = (1, 1, 1, 0.01, 0.01, 0.01) on
     # (v, ω), so 1e-7 is needed for 1e-5 rad.
     lma = kdl.ChainIkSolverPos_LMA(kchain, 1e-2 * TOL, 500, 1e-15)
-    mid = 0.5 * (chain.lower + chain.upper)
+    mid = middle_of_limits(chain.lower, chain.upper)
     # KDL solvers keep C++ references to the chain and sub-solvers: keep the Python objects alive
     keep_alive = (kchain, qmin, qmax, fk, vel)
 
@@ -179,7 +183,7 @@ def peer_pinocchio(path: Path, chain: SerialChain) -> Callable[[np.ndarray], np.
     except ImportError:
         return "pinocchio not installed (pip install pin)"
     model, data, fid, idx = chain_setup(pin, path, chain)
-    mid = 0.5 * (chain.lower + chain.upper)
+    mid = middle_of_limits(chain.lower, chain.upper)
     DT, damp = 1e-1, 1e-12
 
     def solve(T: np.ndarray) -> np.ndarray:
@@ -214,7 +218,7 @@ def peer_rtb(chain: SerialChain) -> Callable[[np.ndarray], np.ndarray | None] | 
         lim = [float(chain.lower[k]), float(chain.upper[k])]
         ets = ets * (ET.tz(qlim=lim) if prism else ET.Rz(qlim=lim)) * ET.SE3(A[k + 1])
     robot = rtb.Robot(ets)
-    mid = 0.5 * (chain.lower + chain.upper)
+    mid = middle_of_limits(chain.lower, chain.upper)
 
     def solve(T: np.ndarray) -> np.ndarray | None:
         sol = robot.ik_LM(T, q0=mid, ilimit=30, slimit=100, tol=0.5 * TOL**2, joint_limits=True)
@@ -229,7 +233,7 @@ def peer_mr(chain: SerialChain) -> Callable[[np.ndarray], np.ndarray | None] | s
     except ImportError:
         return "modern_robotics not installed (pip install modern-robotics)"
     S, M = np.array(chain.S), np.array(chain.M)
-    mid = 0.5 * (chain.lower + chain.upper)
+    mid = middle_of_limits(chain.lower, chain.upper)
 
     def solve(T: np.ndarray) -> np.ndarray:
         q, _ = mr.IKinSpace(S, M, T, mid.copy(), TOL, TOL)
@@ -271,10 +275,10 @@ def peer_ikpy(chain: SerialChain) -> Callable[[np.ndarray], np.ndarray | None] |
     )
     mask = [False] + [True] * chain.dof + [False]
     ik_chain = Chain(links, active_links_mask=mask)
-    mid = 0.5 * (chain.lower + chain.upper)
+    mid = middle_of_limits(chain.lower, chain.upper)
     init = np.r_[0.0, mid, 0.0]
     # sanity: ikpy FK equals ours at a random configuration
-    q = np.random.default_rng(0).uniform(chain.lower, chain.upper)
+    q = random_q(chain, np.random.default_rng(0))
     if not np.allclose(ik_chain.forward_kinematics(np.r_[0.0, q, 0.0]), chain.fk(q), atol=1e-9):
         return "ikpy chain conversion does not reproduce our FK (skipped)"
 
@@ -313,9 +317,11 @@ def main(argv: list[str] | None = None) -> int:
             continue
         chain = SerialChain.from_urdf(path, tip_link=tip)
         rng = np.random.default_rng(args.seed)
-        Q = rng.uniform(chain.lower, chain.upper, (args.targets, chain.dof))
+        lo = np.where(np.isfinite(chain.lower), chain.lower, -np.pi)  # continuous: [−π, π]
+        hi = np.where(np.isfinite(chain.upper), chain.upper, np.pi)
+        Q = rng.uniform(lo, hi, (args.targets, chain.dof))
         T = chain.fk(Q)
-        mid = 0.5 * (chain.lower + chain.upper)
+        mid = middle_of_limits(chain.lower, chain.upper)  # 0 for continuous joints
         # The closed-form family is detected once per chain, on first use (like a peer building
         # its own model of the arm); done here so that it is not charged to the first target.
         t0 = time.perf_counter()
@@ -361,8 +367,9 @@ def main(argv: list[str] | None = None) -> int:
             peers += [(k, v, args.peer_targets) for k, v in kdl.items()]
         peers.append(("Pinocchio DLS", peer_pinocchio(path, chain), args.peer_targets))
         peers.append(("rtb ik_LM", peer_rtb(chain), args.peer_targets))
-        peers.append(("MR IKinSpace", peer_mr(chain), args.slow_targets))
-        peers.append(("ikpy", peer_ikpy(chain), args.slow_targets))
+        if args.slow_targets > 0:
+            peers.append(("MR IKinSpace", peer_mr(chain), args.slow_targets))
+            peers.append(("ikpy", peer_ikpy(chain), args.slow_targets))
         for pname, solver, count in peers:
             if isinstance(solver, str):
                 print(f"  {pname}: skipped: {solver}")
