@@ -31,7 +31,9 @@ job's deadline is killed and replaced. So `on_done` is called exactly once per j
 deadline + grace at the latest, from the pool's thread (for jobs still open at `shutdown`, from
 the thread calling it): the caller hands the result to its own thread.
 
-Models: a job names its chain by a key and carries the pickled chain (a few kB). The chain goes
+Models: a job names its chain by a key and carries the pickled chain (a few kB) with its
+closed-form family (`chain_blob`: detected once in the node, so no worker spends a job's time
+detecting it; `SerialChain.ik` then answers from the closed form where it applies). The chain goes
 down a worker's pipe only the first time that worker sees the key; each worker keeps the chains of
 the last `_CHAINS_KEPT` keys it used (the pool tracks which, and says which one to forget). So a
 model reload is atomic per job: a job is solved on the model it was submitted with, never on half
