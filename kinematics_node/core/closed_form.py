@@ -1653,13 +1653,16 @@ def held_order(chain: KinematicChain, q_seeds: FloatArray, count: int) -> FloatA
     a 72nd of the range of one already chosen. A target's feasible values of the held joint form
     stretches (on Panda each value of joint 7 reaches about 37 % of random targets, and stretches
     a third of the range apart cover different targets), so spreading the tries finds one sooner
-    than stepping away from the seed. A continuous joint's range is the seed ± π."""
+    than stepping away from the seed. A continuous joint's range, or one wider than a turn, is
+    taken as the seed ± π (values a turn apart hold the arm alike)."""
     solver = _require(chain)
     assert solver.held is not None
     j = solver.held
     s = q_seeds[:, j]
     lo, hi = float(solver.lower_arr[j]), float(solver.upper_arr[j])
-    finite = math.isfinite(lo) and math.isfinite(hi)
+    # A range wider than a turn repeats itself: values a turn apart hold the arm alike, and the
+    # solutions' whole-turn equivalents are taken later. So spread over the turn around the seed.
+    finite = math.isfinite(lo) and math.isfinite(hi) and hi - lo <= TWO_PI
     fractions = _spread_fractions(count)
     if finite:
         span = hi - lo
