@@ -62,7 +62,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .core import IKOptions, SerialChain
-from .core.closed_form import export_family, import_family
+from .core.closed_form import export_family, import_family, pose_errors
 
 FloatArray = NDArray[np.float64]
 
@@ -204,7 +204,7 @@ def _closed_form_set(chain: SerialChain, job: IKJob) -> IKOutcome | None:
     dropped = False
     if min(opts.position_tolerance, opts.orientation_tolerance) < CLOSED_FORM_TOLERANCE:
         # tighter than what ik_all checked: keep the solutions that meet the job's tolerances
-        pos, ori = _pose_errors(chain.fk(Q), job.T_base_target)
+        pos, ori = pose_errors(chain.fk(Q), job.T_base_target[None])
         keep = (pos <= opts.position_tolerance) & (ori <= opts.orientation_tolerance)
         dropped = not bool(np.all(keep))
         Q = Q[keep]
@@ -212,7 +212,7 @@ def _closed_form_set(chain: SerialChain, job: IKJob) -> IKOutcome | None:
             return None
     n_all = Q.shape[0]
     Q = Q[: opts.num_solutions]
-    pos, ori = _pose_errors(chain.fk(Q[:1]), job.T_base_target)
+    pos, ori = pose_errors(chain.fk(Q[:1]), job.T_base_target[None])
     complete = not (dropped or n_all > Q.shape[0] or result.singular or result.held_values.size > 0)
     return IKOutcome(
         q=Q[0].copy(),
@@ -224,14 +224,6 @@ def _closed_form_set(chain: SerialChain, job: IKJob) -> IKOutcome | None:
         solutions=tuple(Q.copy()),
         complete=complete,
     )
-
-
-def _pose_errors(T: FloatArray, T_target: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Position error [m] and rotation angle of R(q)ᵀ R_target [rad] of poses T (K, 4, 4). The
-    angle comes from ‖R − R_target‖_F = 2√2 sin(θ/2), accurate near 0 (unlike arccos)."""
-    pos = np.linalg.norm(T[:, :3, 3] - T_target[:3, 3], axis=-1)
-    chord = np.linalg.norm(T[:, :3, :3] - T_target[:3, :3], axis=(-2, -1)) / (2.0 * np.sqrt(2.0))
-    return pos, 2.0 * np.arcsin(np.minimum(chord, 1.0))
 
 
 def _timed_out(reason: str) -> IKOutcome:

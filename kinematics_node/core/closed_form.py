@@ -48,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 from . import _closed_form_scalar as scalar
 from . import _closed_form_vector as vector
 from . import subproblems as sp
-from ._checks import as_float_array, check_finite
+from ._checks import as_float_array, check_finite, rigid_on_floats
 from .exceptions import InvalidInputError, NoClosedFormError
 from .ik_result import IKResult, check_seed, default_seed
 from .model import TWO_PI, KinematicChain, readonly
@@ -586,9 +586,10 @@ def _wrap(a: FloatArray) -> FloatArray:
     return a - TWO_PI * np.ceil((a - math.pi) / TWO_PI)
 
 
-def _pose_errors(T: FloatArray, T_t: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """‖p − p_t‖ [m] and the rotation angle between R and R_t [rad] (from ‖R − R_t‖_F = 2√2 sin(θ/2),
-    accurate at small angles, unlike arccos of the trace)."""
+def pose_errors(T: FloatArray, T_t: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """‖p − p_t‖ [m] and the rotation angle between R and R_t [rad] of poses T (K, 4, 4) against
+    T_t (K or 1, 4, 4) (from ‖R − R_t‖_F = 2√2 sin(θ/2), accurate at small angles, unlike arccos
+    of the trace)."""
     dp = sp.norm(T[:, :3, 3] - T_t[:, :3, 3])
     f = np.sqrt(((T[:, :3, :3] - T_t[:, :3, :3]) ** 2).sum(axis=(1, 2)))
     return dp, 2.0 * np.arcsin(np.minimum(f / (2.0 * math.sqrt(2.0)), 1.0))
@@ -628,7 +629,7 @@ def _fk_check(
     candidates' range), and the position [m] and rotation [rad] errors."""
     chain = solver.chain
     Q = Q.copy()
-    ep, er = _pose_errors(chain.fk(Q), T_t)
+    ep, er = pose_errors(chain.fk(Q), T_t)
     redo = (
         ((ep > _REFINE_ABOVE * solver.scale) | (er > _REFINE_ABOVE))
         & (ep < _REFINE_BELOW * solver.scale)
@@ -636,7 +637,7 @@ def _fk_check(
     )
     if redo.any():
         Qr = fix(_refine(chain, Q[redo], T_t[redo], solver.held))
-        ep_r, er_r = _pose_errors(chain.fk(Qr), T_t[redo])
+        ep_r, er_r = pose_errors(chain.fk(Qr), T_t[redo])
         better = np.maximum(ep_r / solver.scale, er_r) < np.maximum(
             ep[redo] / solver.scale, er[redo]
         )
@@ -927,7 +928,12 @@ def _fk_errors(solver: _Solver, q: list[float], T: list[list[float]]) -> tuple[f
         + (t[3] - b[0]) ** 2 + (t[4] - b[1]) ** 2 + (t[5] - b[2]) ** 2
         + (t[6] - c[0]) ** 2 + (t[7] - c[1]) ** 2 + (t[8] - c[2]) ** 2
     )  # fmt: skip
-    return dp, 2.0 * math.asin(min(math.sqrt(f) / (2.0 * math.sqrt(2.0)), 1.0))
+    return dp, _chord_angle(f)
+
+
+def _chord_angle(f: float) -> float:
+    """The rotation angle [rad] between two rotations with ‖R_a − R_b‖_F² = f (`pose_errors`)."""
+    return 2.0 * math.asin(min(math.sqrt(f) / (2.0 * math.sqrt(2.0)), 1.0))
 
 
 def _refine_one(solver: _Solver, q: list[float], T: list[list[float]]) -> list[float]:
@@ -959,14 +965,14 @@ def _refine_one(solver: _Solver, q: list[float], T: list[list[float]]) -> list[f
 
 
 def _pose_errors_list(A: list[list[float]], B: list[list[float]]) -> tuple[float, float]:
-    """`_pose_errors` of one pose pair given as nested lists: ‖Δp‖ [m], rotation angle [rad]."""
+    """`pose_errors` of one pose pair given as nested lists: ‖Δp‖ [m], rotation angle [rad]."""
     a0, a1, a2 = A[0], A[1], A[2]
     b0, b1, b2 = B[0], B[1], B[2]
     dp = math.sqrt((a0[3] - b0[3]) ** 2 + (a1[3] - b1[3]) ** 2 + (a2[3] - b2[3]) ** 2)
     f = 0.0
     for a, b in ((a0, b0), (a1, b1), (a2, b2)):
         f += (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 + (a[2] - b[2]) ** 2
-    return dp, 2.0 * math.asin(min(math.sqrt(f) / (2.0 * math.sqrt(2.0)), 1.0))
+    return dp, _chord_angle(f)
 
 
 def _expand_sorted(
@@ -1248,20 +1254,7 @@ def _exact_transform(T: object) -> list[list[float]] | None:
     if not isinstance(T, np.ndarray) or T.shape != (4, 4) or T.dtype != np.float64:
         return None
     Tl: list[list[float]] = T.tolist()
-    if Tl[3] != [0.0, 0.0, 0.0, 1.0] or not all(math.isfinite(x) for row in Tl for x in row):
-        return None
-    c = [[Tl[0][i], Tl[1][i], Tl[2][i]] for i in range(3)]  # columns of R
-    for i in range(3):
-        for j in range(i, 3):
-            d = c[i][0] * c[j][0] + c[i][1] * c[j][1] + c[i][2] * c[j][2] - (i == j)
-            if abs(d) > 1e-13:
-                return None
-    x = c[0][1] * c[1][2] - c[0][2] * c[1][1]
-    y = c[0][2] * c[1][0] - c[0][0] * c[1][2]
-    z = c[0][0] * c[1][1] - c[0][1] * c[1][0]
-    if x * c[2][0] + y * c[2][1] + z * c[2][2] <= 0:
-        return None
-    return Tl
+    return Tl if rigid_on_floats(Tl, 1e-13, 0.0) else None
 
 
 def _check_tolerance(tolerance: float) -> float:
@@ -1724,6 +1717,7 @@ __all__ = [
     "import_family",
     "nearest",
     "nearest_batch",
+    "pose_errors",
     "no_closed_form_reason",
     "solve_all",
     "solve_all_batch",

@@ -378,16 +378,23 @@ def _solve_each(
         own = min(now + problem.opts.timeout, deadline)
         outs.append(_solve_one(problem, closed, T_k, seed_k, now, own))
     failed = [o.message for o in outs if not o.success]
-    outcome = BatchOutcome(
-        q=np.array([o.q for o in outs]).reshape(len(outs), len(problem.lower)),
+    outcome = _stacked(outs, len(problem.lower), failed[0] if failed else "done")
+    return outcome, sum(1 for o in outs if o.success and "closed form" in o.message)
+
+
+def _stacked(
+    outs: Sequence[IKResult] | Sequence[SingleOutcome], n: int, stop_reason: str
+) -> BatchOutcome:
+    """Per-target outcomes (each with q, success, errors, iterations, restarts) as one batch."""
+    return BatchOutcome(
+        q=np.array([o.q for o in outs]).reshape(len(outs), n),
         success=np.array([o.success for o in outs], dtype=bool),
         position_error=np.array([o.position_error for o in outs], dtype=np.float64),
         orientation_error=np.array([o.orientation_error for o in outs], dtype=np.float64),
         iterations=np.array([o.iterations for o in outs], dtype=np.int64),
         restarts=np.array([o.restarts for o in outs], dtype=np.int64),
-        stop_reason=failed[0] if failed else "done",
+        stop_reason=stop_reason,
     )
-    return outcome, sum(1 for o in outs if o.success and "closed form" in o.message)
 
 
 def _solve_vectorised(
@@ -483,15 +490,8 @@ def _numeric_on(
         part = BatchSolver(problem, T[left], seeds[left]).run(deadline)
     else:
         runs = [SingleSolver(problem, T[i], seeds[i]).run(deadline) for i in left]
-        part = BatchOutcome(
-            q=np.array([r.q for r in runs]),
-            success=np.array([r.success for r in runs], dtype=bool),
-            position_error=np.array([r.position_error for r in runs]),
-            orientation_error=np.array([r.orientation_error for r in runs]),
-            iterations=np.array([r.iterations for r in runs], dtype=np.int64),
-            restarts=np.array([r.restarts for r in runs], dtype=np.int64),
-            stop_reason=next((r.stop_reason for r in runs if not r.success), "done"),
-        )
+        reason = next((r.stop_reason for r in runs if not r.success), "done")
+        part = _stacked(runs, len(problem.lower), reason)
     out.q[left] = part.q
     out.success[left] = part.success
     out.position_error[left] = part.position_error
