@@ -72,6 +72,10 @@ def run_live(robot: str, duration: float, rate: float, stream: TextIO) -> tuple[
                     p.kill()
         codes = [p.returncode for p in processes]
         lines.append(f"both processes stopped on SIGINT with exit codes {codes}")
+        for name, code in zip(("sim_arm", "kinematics_node"), codes, strict=True):
+            if code != 0:  # say why, before the log goes with the temporary directory
+                tail = (directory / f"{name}.log").read_text(errors="replace").splitlines()[-15:]
+                lines.extend([f"{name} exited with {code}; the end of its log:", *tail])
     return run, lines
 
 

@@ -30,12 +30,10 @@ import gc
 import math
 import os
 import queue
-import sys
 import time
 from typing import Any
 
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from kinematics_service.srv import ComputeFK, ComputeIK, ComputeJacobian
@@ -47,7 +45,6 @@ from rcl_interfaces.msg import (
 )
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import (
@@ -66,6 +63,7 @@ from msg_adapters import MessageTypes, matrix_from_transform
 from .core.exceptions import InvalidInputError, KinematicsError
 from .ik_pool import IKOutcome, IKPool
 from .parameters import PARAMETERS, SPECS, STARTUP_ONLY, ParameterSpec
+from .ros_main import spin_until_shutdown
 from .service import KinematicsService, Severity
 
 try:  # not on PyPI: present on a full ROS 2 installation
@@ -287,24 +285,10 @@ def _default_workers() -> int:
 
 def main(args: list[str] | None = None) -> int:
     """Entry point of the `kinematics_node` executable: 0 after SIGINT/SIGTERM, 2 when a
-    start-up parameter is invalid (one line on stderr saying which)."""
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = KinematicsNode()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except (InvalidInputError, ParameterException) as exc:  # a bad start-up parameter
-        print(f"kinematics_node: {exc}", file=sys.stderr)
-        return 2
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    start-up parameter is invalid (one line on stderr saying which); see `ros_main`."""
+    return spin_until_shutdown(
+        KinematicsNode, "kinematics_node", (InvalidInputError, ParameterException), args
+    )
 
 
 if __name__ == "__main__":

@@ -21,9 +21,8 @@ commands are refused with a logged warning; the node keeps running.
 
 from __future__ import annotations
 
-import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import ExternalShutdownException
+from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -32,6 +31,7 @@ from trajectory_msgs.msg import JointTrajectory
 from kinematics_node.core import SerialChain
 from kinematics_node.core.exceptions import KinematicsError
 from kinematics_node.robots import default_chain_links, robot_path
+from kinematics_node.ros_main import spin_until_shutdown
 from kinematics_node.simulator import ArmSimulator
 from msg_adapters.joint_commands import apply_trajectory_msg, apply_velocity_msg, fill_joint_state
 
@@ -111,22 +111,10 @@ class SimArmNode(Node):
             self.get_logger().warning(f"refused joint_velocity_commands: {exc}")
 
 
-def main(args: list[str] | None = None) -> None:
-    """Entry point of the `sim_arm` executable."""
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = SimArmNode()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except KinematicsError as exc:  # bad parameters: say why instead of a traceback
-        rclpy.logging.get_logger("sim_arm").fatal(f"cannot start: {exc}")
-        raise SystemExit(1) from None
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
+def main(args: list[str] | None = None) -> int:
+    """Entry point of the `sim_arm` executable: 0 after SIGINT/SIGTERM, 2 when a start-up
+    parameter is invalid (one line on stderr saying which); see `ros_main`."""
+    return spin_until_shutdown(SimArmNode, "sim_arm", (KinematicsError, ParameterException), args)
 
 
 if __name__ == "__main__":
