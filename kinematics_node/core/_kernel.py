@@ -36,6 +36,12 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 
 
+#: Configurations per pass of `Kernel.frames_batch`. Its working arrays (a few times 9 × 8 bytes
+#: per configuration) then stay in the CPU caches: on a UR5 with N = 160,000, FK took 159–172 ms in
+#: one pass and 42–44 ms in passes of 16,384 (4,096: 43–55 ms; 1,024: 100–120 ms).
+FRAMES_CHUNK = 8192
+
+
 class Kernel:
     """Constants of the factored recursion. Immutable after construction; safe to share across threads."""
 
@@ -77,6 +83,30 @@ class Kernel:
         position, Z and O (n, 3, N) joint axes and points in the base if `want_axes`, and if
         `want_joint_frames` the list of (4, 4, N)-free frames after each joint as (3, 4, N) arrays.
         """
+        N = q.shape[0]
+        if N <= FRAMES_CHUNK:
+            return self._frames(q, want_axes, want_joint_frames)
+        parts = [
+            self._frames(q[i : i + FRAMES_CHUNK], want_axes, want_joint_frames)
+            for i in range(0, N, FRAMES_CHUNK)
+        ]
+
+        def joined(k: int, axis: int) -> FloatArray:
+            return np.concatenate([part[k] for part in parts], axis=axis)  # type: ignore[misc]
+
+        F = None
+        if want_joint_frames:
+            F = [np.concatenate([part[4][j] for part in parts], axis=2) for j in range(self.n)]  # type: ignore[index]
+        if want_axes:
+            return joined(0, 2), joined(1, 1), joined(2, 2), joined(3, 2), F
+        return joined(0, 2), joined(1, 1), None, None, F
+
+    def _frames(
+        self, q: FloatArray, want_axes: bool, want_joint_frames: bool
+    ) -> tuple[
+        FloatArray, FloatArray, FloatArray | None, FloatArray | None, list[FloatArray] | None
+    ]:
+        """`frames_batch` in one pass."""
         N = q.shape[0]
         C = np.repeat(self._A_rot_T[0][:, :, None], N, axis=2)  # (3 columns, 3 rows, N)
         p = np.repeat(self._A_pos[0][:, None], N, axis=1)

@@ -102,3 +102,29 @@ def test_pickled_chain_rebuilds_its_generated_kernel() -> None:
     clone = pickle.loads(pickle.dumps(chain))
     q = rng.uniform(-2, 2, 6)
     np.testing.assert_array_equal(clone.fk(q), chain.fk(q))
+
+
+def test_batches_longer_than_one_pass_equal_the_rows_computed_alone() -> None:
+    """`frames_batch` works in passes of FRAMES_CHUNK configurations: a batch that spans several
+    passes (and ends in a partial one) gives every row, pose, Jacobian and joint frame, as if
+    each configuration were computed on its own."""
+    from kinematics_node.core._kernel import FRAMES_CHUNK
+
+    rng = np.random.default_rng(11)
+    chain = _random_chain(rng, 7)
+    N = 2 * FRAMES_CHUNK + 5
+    q = rng.uniform(-3, 3, (N, 7))
+    T, J = chain.fk_jacobian(q, "world")
+    rows = [0, FRAMES_CHUNK - 1, FRAMES_CHUNK, 2 * FRAMES_CHUNK, N - 1]
+    for i in rows:
+        Ti, Ji = chain.fk_jacobian(q[i : i + 1], "world")
+        np.testing.assert_allclose(T[i], Ti[0], rtol=0, atol=1e-13)
+        np.testing.assert_allclose(J[i], Ji[0], rtol=0, atol=1e-13)
+        np.testing.assert_allclose(T[i], _poe(chain, q[i]), rtol=0, atol=1e-12)
+    kernel = chain.solver_model.kernel
+    _, _, _, _, F = kernel.frames_batch(q, want_axes=False, want_joint_frames=True)
+    _, _, _, _, F_one = kernel.frames_batch(q[rows], want_axes=False, want_joint_frames=True)
+    assert F is not None and F_one is not None and len(F) == len(F_one) == 7
+    for frame, frame_one in zip(F, F_one, strict=True):
+        assert frame.shape == (3, 4, N)
+        np.testing.assert_allclose(frame[:, :, rows], frame_one, rtol=0, atol=1e-13)
