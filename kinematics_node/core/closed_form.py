@@ -709,6 +709,13 @@ def _branches(
     return _wrap(Q), ok, owner_lane, held_lane, trace
 
 
+#: Lanes (targets × held values) per pass of `_solve_arrays`: its working arrays then stay in the
+#: CPU caches. `ik_all_batch` of 20,480 UR5 targets, targets/s in three runs on a busy machine:
+#: ±π limits 39–70k in one pass, 58–79k in passes of 2048 (4096: 59–81k, 512: 51–67k); ±2π limits
+#: (230 solutions per target) 3.9–5.0k in one pass, 6.6–7.2k in passes of 2048.
+SOLVE_CHUNK = 2048
+
+
 def _solve_arrays(
     solver: _Solver,
     T: FloatArray,
@@ -720,8 +727,50 @@ def _solve_arrays(
     """Every solution for N targets T (N, 4, 4), sorted per target by distance to its seed (N, n).
 
     `held` (7R arms): (K,) values of the held joint swept for every target, or (N, K) per target.
-    Without `use_limits` solutions are returned in (−π, π] whatever the limits.
+    Without `use_limits` solutions are returned in (−π, π] whatever the limits. Works in passes of
+    about `SOLVE_CHUNK` lanes.
     """
+    N = T.shape[0]
+    K = 1 if held is None else held.shape[-1]
+    step = max(1, SOLVE_CHUNK // K)
+    if N <= step:
+        return _solve_arrays_once(solver, T, seeds, held, tol, use_limits)
+    parts = [
+        _solve_arrays_once(
+            solver,
+            T[i : i + step],
+            seeds[i : i + step],
+            held[i : i + step] if held is not None and held.ndim == 2 else held,
+            tol,
+            use_limits,
+        )
+        for i in range(0, N, step)
+    ]
+    count = np.concatenate([o.count for o in parts])
+    offsets = np.zeros(N + 1, dtype=np.int64)
+    np.cumsum(count, out=offsets[1:])
+    return _Outcome(
+        np.concatenate([o.solutions for o in parts]),
+        offsets,
+        count,
+        np.concatenate([o.singular for o in parts]),
+        [r for o in parts for r in o.reasons],
+        [r for o in parts for r in o.singular_reasons],
+        np.concatenate([o.n_before_limits for o in parts]),
+        np.empty(0) if held is None else np.asarray(held),
+        np.concatenate([o.lane_count for o in parts]),
+    )
+
+
+def _solve_arrays_once(
+    solver: _Solver,
+    T: FloatArray,
+    seeds: FloatArray,
+    held: FloatArray | None,
+    tol: float,
+    use_limits: bool,
+) -> _Outcome:
+    """`_solve_arrays` in one pass."""
     chain = solver.chain
     n = chain.dof
     N = T.shape[0]

@@ -340,6 +340,36 @@ def test_seven_r_default_sweep_and_given_values():
     assert "2 values of panda_joint7 swept" in res.message
 
 
+
+@pytest.mark.parametrize("arm", ["ur5 ±2π", "panda, shared held values", "panda, per-target held"])
+def test_a_batch_solved_in_several_passes_equals_one_pass(monkeypatch, arm):
+    """ik_all_batch works in passes of SOLVE_CHUNK lanes; with passes of 5 lanes (partial last
+    pass, a 7R sweep split across targets) every field equals the one-pass result, including
+    unreachable and singular targets."""
+    import kinematics_node.core.closed_form as cf
+
+    rng = np.random.default_rng(5)
+    chain = ur5_erd(limited=False) if arm.startswith("ur5") else load_robot("panda")
+    q = random_q(chain, rng, 23)
+    if arm.startswith("ur5"):
+        q[4, 4] = 0.0  # wrist singular
+    T = chain.fk(q)
+    T[7, :3, 3] += (3.0, 0.0, 0.0)  # out of reach
+    held = None
+    if arm == "panda, shared held values":
+        held = np.linspace(-2.0, 2.0, 3)
+    elif arm == "panda, per-target held":
+        held = np.stack((q[:, 6], q[:, 6] * 0.5), axis=1)
+    monkeypatch.setattr(cf, "SOLVE_CHUNK", 10**9)
+    one = chain.ik_all_batch(T, held=held)
+    monkeypatch.setattr(cf, "SOLVE_CHUNK", 5)
+    many = chain.ik_all_batch(T, held=held)
+    assert one.count[7] == 0 and one.count.sum() > 23
+    assert one.singular[4] or not arm.startswith("ur5")
+    for field in ("q", "success", "count", "offsets", "solutions", "singular"):
+        np.testing.assert_array_equal(getattr(many, field), getattr(one, field), err_msg=field)
+    assert many.message == one.message
+
 # ---------------------------------------------------------------------- singular and unreachable
 def test_singular_wrist_gives_a_valid_set_and_says_so():
     # UR: joint 6 parallel to joints 2-4, so joint 6 is undetermined (joint 4 takes the rest);
