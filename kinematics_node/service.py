@@ -50,6 +50,7 @@ from .core import IKOptions, SerialChain, se3
 from .core._checks import check_transform
 from .core.analysis import conditioning
 from .core.exceptions import InvalidInputError, KinematicsError, RobotDescriptionError
+from .core.ik import beyond_reach
 from .core.model import Frame
 from .ee_state import EndEffectorState, JointStateTracker, compute_ee_state
 from .ik_pool import IKJob, IKOutcome, chain_blob, solve_job
@@ -123,6 +124,30 @@ class _Rates:
         return float(np.mean(self._latencies)) if self._latencies else 0.0
 
 
+@dataclass
+class IKAnswerCounts:
+    """compute_ik solves answered so far, and how their answers stood against their deadlines
+    (request arrival + timeout) when the node sent them. The client sees them later by the
+    transport's delay; an answer after its deadline here is the node's own lateness."""
+
+    answered: int = 0
+    after_deadline: int = 0
+    worst_after_deadline: float = 0.0  # [s]; 0 while none was late
+
+    def record(self, after_deadline: float) -> None:
+        self.answered += 1
+        if after_deadline > 0.0:
+            self.after_deadline += 1
+            self.worst_after_deadline = max(self.worst_after_deadline, after_deadline)
+
+    def values(self) -> list[tuple[str, str]]:
+        return [
+            ("ik_answered", str(self.answered)),
+            ("ik_after_deadline", str(self.after_deadline)),
+            ("ik_worst_after_deadline_s", f"{self.worst_after_deadline:.6f}"),
+        ]
+
+
 @dataclass(frozen=True)
 class PendingIK:
     """An IK request between `prepare_ik` and `finish_ik`: the job for a worker, and what the
@@ -170,6 +195,7 @@ class KinematicsService:
         self._rates = _Rates()
         self._last_state: EndEffectorState | None = None
         self._last_problem: tuple[str, Severity] | None = None
+        self._ik = IKAnswerCounts()
         self.configure(params or {})
 
     # ------------------------------------------------------------------ configuration
@@ -341,9 +367,13 @@ class KinematicsService:
         self._answer("compute_ik", prepare, request, response)
         return box[0] if box and response.success else None
 
-    def finish_ik(self, pending: PendingIK, outcome: IKOutcome, response: Any) -> Any:
+    def finish_ik(
+        self, pending: PendingIK, outcome: IKOutcome, response: Any, now: float | None = None
+    ) -> Any:
         """Fill `response` from a worker's `outcome` of `pending` (success, solution, errors and a
-        message that says why when it failed)."""
+        message that says why when it failed). `now` (`time.monotonic()` [s], default: now) is
+        compared with the job's deadline for the counts in `diagnostics`."""
+        self._ik.record((time.monotonic() if now is None else now) - pending.job.deadline)
 
         def finish(request: Any, response: Any) -> str | None:
             return self._finish_ik(pending, outcome, response)
@@ -430,7 +460,7 @@ class KinematicsService:
         T_base_frame = self._frame_pose(model, frame, current)
         T_base_target = T_base_frame @ T_frame_target
         options = _ik_options(request, params)
-        note = _out_of_reach(chain, T_base_target, options)
+        note = beyond_reach(chain, T_base_target, options)
         seed = request.seed
         q_seed = None
         if len(seed.name) > 0 or all(
@@ -541,10 +571,11 @@ class KinematicsService:
         return np.array(T_base_frame, dtype=np.float64)
 
     # ------------------------------------------------------------------ diagnostics
-    def diagnostics(self) -> Any:
+    def diagnostics(self, pool: Mapping[str, int] | None = None) -> Any:
         """diagnostic_msgs/DiagnosticArray: one status with manipulability, condition number,
-        near-singularity (WARN), joint_states rate [Hz] and latency [s] (stale → WARN), and the
-        last problem (rejected samples → ERROR; no description → ERROR)."""
+        near-singularity (WARN), joint_states rate [Hz] and latency [s] (stale → WARN), the last
+        problem (rejected samples → ERROR; no description → ERROR), and the IK answers so far
+        (`IKAnswerCounts`) with the worker pool's counts `pool` (keys prefixed "ik_pool_")."""
         types = self._types
         S = types.DiagnosticStatus
         now = self._clock()
@@ -585,6 +616,8 @@ class KinematicsService:
                 text, level = problem
                 severity = max(severity, int(level))
                 notes.append(text)
+        values += self._ik.values()
+        values += [(f"ik_pool_{k}", str(v)) for k, v in (pool or {}).items()]
         status = S(
             level=(S.OK, S.WARN, S.ERROR)[severity],
             name="kinematics_node: end effector",
@@ -595,24 +628,6 @@ class KinematicsService:
         return types.DiagnosticArray(
             header=types.Header(stamp=time_from_seconds(types, now), frame_id=""), status=[status]
         )
-
-
-def _out_of_reach(chain: SerialChain, T_base_target: FloatArray, options: IKOptions) -> str:
-    """Why the target position is beyond every configuration (`chain.reach_sphere`), or "": told
-    to the user when the search fails. (The search still runs: its best configuration, the arm
-    stretched towards the target, is the answer's solution.)"""
-    if options.axis_tolerances is not None:
-        slack = max(options.axis_tolerances[3:])  # inf when a position axis is free
-    else:
-        slack = options.position_tolerance
-    center, radius = chain.reach_sphere
-    distance = float(np.linalg.norm(T_base_target[:3, 3] - center))
-    if distance <= radius + slack:
-        return ""
-    return (
-        f"the target is {distance:.3f} m from the first joint of {chain.base_link} -> "
-        f"{chain.tip_link}, which reaches at most {radius:.3f} m"
-    )
 
 
 def _short(exc: BaseException, limit: int = 200) -> str:

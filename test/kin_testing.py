@@ -19,6 +19,16 @@ REAL_ARMS = [
 ]
 
 
+def ur_hole_target() -> np.ndarray:
+    """A pose inside a UR arm's reach sphere (UR5, UR5e: base_link -> tool0) that no
+    configuration reaches: tool0 at (0, 0, 0.3) m with the base's orientation puts the wrist
+    centre on joint 1's axis, nearer to it than the shoulder offset allows (`ik_all` confirms the
+    set is empty). The reach-sphere test cannot rule it out, so a search uses its whole timeout."""
+    T = np.eye(4)
+    T[:3, 3] = (0.0, 0.0, 0.3)
+    return T
+
+
 def erd_path(relative: str) -> Path:
     path = ERD / relative
     if not path.exists():

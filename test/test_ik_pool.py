@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from kin_testing import ur_hole_target
 
 from kinematics_node import ik_pool
 from kinematics_node.core import IKOptions, SerialChain
@@ -18,8 +19,7 @@ from kinematics_node.ik_pool import IKJob, IKOutcome, IKPool, chain_blob, solve_
 ROBOTS = Path(__file__).resolve().parents[1] / "config" / "robots"
 UR5E = SerialChain.from_urdf(ROBOTS / "ur5e.urdf")
 PLANAR = SerialChain.from_urdf(ROBOTS / "planar3r.urdf")
-UNREACHABLE = np.eye(4)
-UNREACHABLE[:3, 3] = [5.0, 0.0, 0.0]  # the UR5e reaches < 1 m: a search uses its whole timeout
+UNREACHABLE = ur_hole_target()  # inside the reach sphere: a search uses its whole timeout
 Q = np.array([0.3, -1.0, 1.2, -0.5, 0.8, 0.1])
 REACHABLE = UR5E.fk(Q)
 

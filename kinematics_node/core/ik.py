@@ -55,10 +55,11 @@ the result is reproducible whenever the search ends by success or `max_restarts`
 
 from __future__ import annotations
 
+import math
 import time
 import weakref
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -139,7 +140,30 @@ def solve(
     seed = default if q_seed is None else check_seed(chain, q_seed, "q_seed", None)
     if closed.blocker and opts.method == "closed_form":
         raise InvalidInputError(f"IKOptions.method='closed_form' does not apply: {closed.blocker}")
+    far = beyond_reach(chain, T, opts)
+    if far:  # nothing to find: one descent from the seed for the best effort, not the timeout
+        one, _, _ = _prepared(chain, replace(opts, max_restarts=0))
+        out = SingleSolver(one, T, seed).run(start + opts.timeout)
+        return _numeric_result(out, opts, start, f"unreachable: {far}; best effort: ")
     return _solve_one(problem, closed, T, seed, start, start + opts.timeout)
+
+
+def beyond_reach(chain: KinematicChain, T: FloatArray, opts: IKOptions) -> str:
+    """Why the position of target T (4×4, base frame) is beyond every configuration of `chain`
+    (farther from `chain.reach_sphere`'s centre than its radius plus the position tolerance), or
+    "" when it is not: then a search may still fail, but it is not hopeless."""
+    if opts.axis_tolerances is not None:
+        slack = max(opts.axis_tolerances[3:])  # inf when a position axis is free
+    else:
+        slack = opts.position_tolerance
+    center, radius = chain.reach_sphere
+    distance = math.dist(T[:3, 3].tolist(), center.tolist())
+    if distance <= radius + slack:
+        return ""
+    return (
+        f"the target is {distance:.3f} m from the first joint of {chain.base_link} -> "
+        f"{chain.tip_link}, which reaches at most {radius:.3f} m"
+    )
 
 
 _PREPARED: weakref.WeakKeyDictionary[
@@ -505,6 +529,7 @@ __all__: Sequence[str] = [
     "IKBatchResult",
     "IKOptions",
     "IKResult",
+    "beyond_reach",
     "check_seed",
     "default_seed",
     "solve",

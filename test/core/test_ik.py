@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from kin_testing import PinocchioOracle, erd_path
+from kin_testing import PinocchioOracle, erd_path, ur_hole_target
 from scipy.spatial.transform import Rotation
 
 from kinematics_node.core import IKOptions, InvalidInputError, SerialChain, se3, so3
@@ -297,12 +297,13 @@ def wall_times(call, repeats: int = 5) -> tuple[list, np.ndarray]:
 
 
 def test_unreachable_target_fails_cleanly_within_the_timeout() -> None:
-    chain = arm("panda")
-    T = chain.fk(np.zeros(7))
-    T[:3, 3] += (10.0, 0.0, 0.0)
+    chain = arm("ur5")
+    T = ur_hole_target()  # within the reach sphere, but no configuration reaches it
+    assert chain.ik_all(T).solutions == ()
     # max_restarts high enough that only the timeout can end the search (1000 take ~0.2 s)
     opts = IKOptions(timeout=0.02, rng_seed=0, max_restarts=10**6)
     results, elapsed = wall_times(lambda: chain.ik(T, options=opts), repeats=3)
+    assert elapsed.min() >= 0.015, elapsed  # it searched: the target is not ruled out beforehand
     assert elapsed.min() < 0.02 + 0.05 and elapsed.max() < 0.02 + 0.5, elapsed
     for res in results:
         assert not res.success
@@ -310,8 +311,27 @@ def test_unreachable_target_fails_cleanly_within_the_timeout() -> None:
         p_err, o_err = pose_errors(chain.fk(res.q), T)
         assert res.position_error == pytest.approx(p_err, rel=1e-9)
         assert res.orientation_error == pytest.approx(o_err, abs=1e-9)
-        assert 8.0 < p_err < 10.0  # Panda reaches about 1 m; the best residual is what is left
+        assert p_err > opts.position_tolerance or o_err > opts.orientation_tolerance
         assert "timeout" in res.message and "best residual" in res.message and res.solutions == ()
+
+
+def test_a_target_beyond_the_reach_sphere_is_answered_at_once_with_a_best_effort() -> None:
+    chain = arm("panda")
+    T = chain.fk(np.zeros(7))
+    T[:3, 3] += (10.0, 0.0, 0.0)
+    opts = IKOptions(timeout=1.0, rng_seed=0, max_restarts=10**6)
+    results, elapsed = wall_times(lambda: chain.ik(T, options=opts), repeats=3)
+    assert elapsed.max() < 0.25, elapsed  # one descent, not the 1 s timeout
+    for res in results:
+        assert not res.success and res.restarts == 0 and res.solutions == ()
+        assert res.message.startswith("unreachable: the target is"), res.message
+        assert np.all(np.isfinite(res.q)) and within_limits(chain, res.q)
+        p_err, _ = pose_errors(chain.fk(res.q), T)
+        assert res.position_error == pytest.approx(p_err, rel=1e-9)
+        assert 8.0 < p_err < 10.0  # Panda reaches about 1 m; the best residual is what is left
+    # a free position axis leaves no bound on where the tip may be: the search runs as usual
+    free = IKOptions(timeout=0.02, axis_tolerances=(1e-4, 1e-4, 1e-4, math.inf, 1e-5, 1e-5))
+    assert not chain.ik(T, options=free).message.startswith("unreachable")
 
 
 def test_tiny_timeout_is_honoured() -> None:
@@ -334,8 +354,7 @@ def test_tiny_timeout_is_honoured() -> None:
 
 def test_max_restarts_ends_the_search() -> None:
     chain = arm("ur5")
-    T = chain.fk(np.zeros(6))
-    T[:3, 3] += (5.0, 0.0, 0.0)
+    T = ur_hole_target()
     res = chain.ik(T, options=IKOptions(max_restarts=3, timeout=10.0))
     assert not res.success and res.restarts == 3 and "max_restarts" in res.message
 

@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 import pytest
-from kin_testing import erd_path, random_q
+from kin_testing import erd_path, random_q, ur_hole_target
 
 from kinematics_node.core import IKOptions, InvalidInputError, SerialChain
 from kinematics_node.core.closed_form import family_of
@@ -139,8 +139,7 @@ def test_7r_closed_form_sweeps_the_held_joint_when_the_seed_value_has_no_solutio
 # ---------------------------------------------------------------------- fallbacks and choices
 def test_unreachable_6r_target_names_the_closed_form_reason_and_still_searches():
     chain = chain_of("ur5")
-    T = np.eye(4)
-    T[:3, 3] = (5.0, 0.0, 0.0)  # far beyond the reach of a UR5
+    T = ur_hole_target()  # within the reach sphere, unreachable
     opts = IKOptions(timeout=0.02)
     t0 = time.perf_counter()
     res = chain.ik(T, options=opts)

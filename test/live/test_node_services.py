@@ -211,7 +211,8 @@ def test_pose_stream_keeps_flowing_during_a_2_s_ik_call(node, client):
     a pose each (more than 10, and in fact nearly all)."""
     stream = Stream(client)
     wait_until(lambda: stream.pub.get_subscription_count() > 0, 10, "subscription")
-    req = _ik(position=5.0)  # unreachable: the solver uses its whole timeout
+    req = _ik(position=0.0)
+    req.target.pose.position.z = 0.3  # inside the reach but unreachable: the search uses its timeout
     req.timeout = 2.0
     cli = client.node.create_client(ComputeIK, "compute_ik")
     assert cli.wait_for_service(timeout_sec=10.0)
