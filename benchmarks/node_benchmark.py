@@ -11,7 +11,8 @@ Every process is real rclpy over Fast DDS on loopback, in a ROS_DOMAIN_ID of the
   (CLOCK_REALTIME, shared by all processes), so every answer is matched to its sample;
 * a receiver process recording the arrival time of every ee_pose / ee_twist;
 * for the IK phase, 4 clients calling compute_ik back to back (50 ms timeouts, every third target
-  unreachable), timing each answer: one event-driven process, targets computed beforehand.
+  unreachable inside the reach sphere, so that it costs its whole timeout), timing each answer:
+  one event-driven process, targets computed beforehand.
 Reported per phase: the fraction of samples answered on ee_pose and ee_twist, latency (arrival −
 stamp) median and p99, CPU of the node process [% of one core] and its resident memory, and for
 IK the answers per second, late answers (> timeout + 20 ms, queueing included), reachable targets
@@ -164,9 +165,11 @@ def role_receiver(out: str) -> None:
 
 def role_ik_clients(arm: str, seconds: float, clients: int, timeout: float, out: str) -> None:
     """`clients` clients, each calling compute_ik again as soon as its answer arrives, for
-    `seconds`; every third target is unreachable (5 m away). Event-driven in one thread (each
-    answer's callback sends that client's next request), with the targets computed beforehand, so
-    that the harness itself stays light on a 2-core machine. Writes one record per call."""
+    `seconds`; every third target is unreachable yet inside the reach sphere, so each of those
+    costs a worker its whole timeout (one beyond reach would be answered at once). Event-driven in
+    one thread (each answer's callback sends that client's next request), with the targets
+    computed beforehand, so that the harness itself stays light on a 2-core machine. Writes one
+    record per call, and the node's own IK counts from its /diagnostics."""
     rclpy = _init_rclpy()
     import numpy as np
     from kinematics_service.srv import ComputeIK
@@ -182,8 +185,11 @@ def role_ik_clients(arm: str, seconds: float, clients: int, timeout: float, out:
     for i in range(4000):
         unreachable = i % 3 == 0
         T = chain.fk(rng.uniform(chain.lower, chain.upper))
-        if unreachable:
-            T[:3, 3] = [5.0, 0.0, 0.5]
+        if unreachable:  # the wrist centre on joint 1's axis: inside the reach sphere, so
+            # the node cannot rule it out beforehand and searches for its whole timeout
+            T = np.eye(4)
+            T[:3, 3] = [0.0, 0.0, rng.uniform(0.25, 0.5)]
+            assert not chain.ik_all(T).solutions
         req = ComputeIK.Request()
         req.target.header.frame_id = chain.base_link
         p = req.target.pose.position
@@ -193,6 +199,19 @@ def role_ik_clients(arm: str, seconds: float, clients: int, timeout: float, out:
         req.timeout = timeout
         requests.append((unreachable, req))
     node = rclpy.create_node("bench_ik_clients")
+    # the node's own count of answers after their deadlines (its /diagnostics), to tell the node's
+    # lateness from the transport's and this process's
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    node_side: dict[str, str] = {}
+    diagnostics_seen = [0.0]
+
+    def on_diagnostics(msg: Any) -> None:
+        for status in msg.status:
+            node_side.update({kv.key: kv.value for kv in status.values if kv.key.startswith("ik_")})
+        diagnostics_seen[0] = time.monotonic()
+
+    node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
     callers = [node.create_client(ComputeIK, "compute_ik") for _ in range(clients)]
     for cli in callers:
         cli.wait_for_service(timeout_sec=10.0)
@@ -225,7 +244,10 @@ def role_ik_clients(arm: str, seconds: float, clients: int, timeout: float, out:
     executor.add_node(node)
     while active[0] > 0 and time.monotonic() < end + 10.0:
         executor.spin_once(timeout_sec=0.1)
-    Path(out).write_text(json.dumps(records))
+    last_answer = time.monotonic()
+    while diagnostics_seen[0] <= last_answer and time.monotonic() < last_answer + 3.0:
+        executor.spin_once(timeout_sec=0.1)  # diagnostics published after the last answer
+    Path(out).write_text(json.dumps({"calls": records, "node": node_side}))
 
 
 def role_slow_ik(seconds: float, start_at_ns: int, out: str) -> None:
@@ -238,7 +260,8 @@ def role_slow_ik(seconds: float, start_at_ns: int, out: str) -> None:
     cli = node.create_client(ComputeIK, "compute_ik")
     cli.wait_for_service(timeout_sec=10.0)
     req = ComputeIK.Request()
-    req.target.pose.position.x = 5.0
+    req.target.header.frame_id = "base_link"
+    req.target.pose.position.z = 0.3  # unreachable inside the reach sphere (`role_ik_clients`)
     req.target.pose.orientation.w = 1.0
     req.timeout = seconds
     time.sleep(max(0.0, (start_at_ns - time.time_ns()) * 1e-9))
@@ -399,7 +422,8 @@ def run_phase(
                 len(inside) / len(sent_inside) if sent_inside else math.nan
             )
     if ik_clients:
-        records = json.loads(ik_out.read_text())
+        ik = json.loads(ik_out.read_text())
+        records, node_side = ik["calls"], ik["node"]
         answered = [r for r in records if r["answered"]]
         result.update(
             ik_calls=len(records),
@@ -409,6 +433,13 @@ def run_phase(
             ik_reachable_unsolved=sum(1 for r in records if not r["unreachable"]
                                       and not r["success"]),
             ik_unreachable_solved=sum(1 for r in records if r["unreachable"] and r["success"]),
+            ik_node_answered=int(node_side.get("ik_answered", -1)),
+            ik_node_after_deadline=int(node_side.get("ik_after_deadline", -1)),
+            ik_node_worst_after_deadline_ms=float(
+                node_side.get("ik_worst_after_deadline_s", "nan")
+            ) * 1e3,
+            ik_pool_expired_in_queue=int(node_side.get("ik_pool_expired_in_queue", -1)),
+            ik_pool_overdue=int(node_side.get("ik_pool_overdue", -1)),
         )
     return result
 
@@ -522,6 +553,11 @@ def report(results: dict[str, dict[str, Any]]) -> None:
                   f"{r['ik_late']} later than timeout + 20 ms (max {r['ik_latency_max_ms']:.1f} ms), "
                   f"{r['ik_reachable_unsolved']} reachable not solved, "
                   f"{r['ik_unreachable_solved']} unreachable reported solved")
+            print(f"{label}: at the node (its /diagnostics): {r['ik_node_answered']} solves "
+                  f"answered, {r['ik_node_after_deadline']} after their deadline (worst "
+                  f"{r['ik_node_worst_after_deadline_ms']:.1f} ms after); pool: "
+                  f"{r['ik_pool_expired_in_queue']} expired in its queue, {r['ik_pool_overdue']} "
+                  "answered as overdue")
         if "pose_rate_during_slow_ik" in r:
             print(f"{label}: the IK call took {r['slow_ik_seconds']:.2f} s; "
                   f"{100 * r['pose_rate_during_slow_ik']:.1f} % of the "

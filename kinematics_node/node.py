@@ -31,6 +31,7 @@ import math
 import os
 import queue
 import time
+from dataclasses import asdict
 from typing import Any
 
 import numpy as np
@@ -239,7 +240,7 @@ class KinematicsNode(Node):
 
     def _publish_diagnostics(self) -> None:
         if self.get_parameter("publish_diagnostics").value:
-            self._diag_pub.publish(self._logic.diagnostics())
+            self._diag_pub.publish(self._logic.diagnostics(asdict(self._pool.stats())))
 
     def _lookup_transform(self, target_frame: str, source_frame: str) -> np.ndarray:
         """T_target_source from TF (latest available); raises when unavailable."""

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -421,6 +422,34 @@ def test_ik_zero_timeout_means_the_node_default(ros, ur5, q_ur5):
         assert pending is not None
         assert pending.options.timeout == expected
         assert pending.job.deadline == 50.0 + expected
+
+
+def test_diagnostics_count_ik_answers_against_their_deadlines(ros, ur5, q_ur5):
+    """finish_ik compares the time it answers with the job's deadline (arrival + timeout); the
+    diagnostics report the answers, those after their deadline, the worst, and the pool's counts."""
+    from kinematics_node.ik_pool import solve_job
+
+    chain = chain_of(ur5)
+    req = ros.request("ComputeIK", target=_target(ros, chain.fk(q_ur5 + 0.05)), timeout=0.1)
+
+    def answered_at(after_deadline: float) -> None:
+        t0 = time.monotonic()
+        pending = ur5.prepare_ik(ros.roundtrip(req), ros.response("ComputeIK"), now=t0)
+        assert pending is not None
+        resp = ur5.finish_ik(
+            pending, solve_job(pending.job), ros.response("ComputeIK"), now=t0 + 0.1 + after_deadline
+        )
+        assert resp.success, resp.message
+
+    for after in (-0.09, -0.001, 0.004, 0.0125, 0.002):
+        answered_at(after)
+    diag = ur5.diagnostics({"expired_in_queue": 2, "overdue": 1})
+    values = {kv.key: kv.value for kv in diag.status[0].values}
+    assert values["ik_answered"] == "5"
+    assert values["ik_after_deadline"] == "3"
+    assert float(values["ik_worst_after_deadline_s"]) == pytest.approx(0.0125, abs=1e-9)
+    assert values["ik_pool_expired_in_queue"] == "2" and values["ik_pool_overdue"] == "1"
+    check_message(ros, diag)
 
 
 # =========================================================================== parameters
