@@ -318,6 +318,7 @@ class _Solver:
         self.w_all, self.r_all = w, r
         M = np.asarray(chain.M)
         self.M_inv = np.linalg.inv(M)
+        self.M_inv_rows: list[list[float]] = self.M_inv.tolist()
         self.M_arr = M
         self.scale = float(max(1e-3, np.abs(r).max(), np.abs(M[:3, 3]).max()))
         self.keep = [i for i in range(chain.dof) if i != held]
@@ -331,6 +332,7 @@ class _Solver:
         self.default_seed = default_seed(chain)
         self.all_finite = bool(np.all(np.isfinite(self.lower_arr) & np.isfinite(self.upper_arr)))
         self.lo_wide, self.hi_wide = self.lower_arr - 1e-10, self.upper_arr + 1e-10
+        self.lo_wide_list, self.hi_wide_list = self.lo_wide.tolist(), self.hi_wide.tolist()
         self.held_moves = None if held is None else self._held_moves()
         model = chain.solver_model  # the generated scalar FK, where joints are the internal ones
         self.fk_pose = model.kernel.fk_pose if model.to_internal is None else None
@@ -855,6 +857,16 @@ def _scalar_candidates(
     angles in (−π, π] (a 7R arm's held joint at `held_value`), unchecked, with the reasons of the
     angles the target left free (taken from `seed`), and the stages the branches passed."""
     st = solver.structure
+    if held_value is None and not st.reversed:  # one target of a 6R arm: G = T M⁻¹ on floats
+        g = solver.scalar_geometry
+        assert g is not None
+        Mi = solver.M_inv_rows
+        Gl = [
+            [a * m0 + b * m1 + c * m2 + (t if j == 3 else 0.0)
+             for j, m0, m1, m2 in zip(range(4), Mi[0], Mi[1], Mi[2], strict=True)]
+            for a, b, c, t in T[:3]
+        ]  # fmt: skip
+        return _candidates_of(solver, g, Gl, seed, held_value)
     Ta = np.array(T)
     if held_value is None:
         g = solver.scalar_geometry
@@ -873,7 +885,19 @@ def _scalar_candidates(
     if st.reversed:  # the structure read from the tip: G⁻¹ = e^{−[S₆]q₆} ⋯ e^{−[S₁]q₁}
         G = _inverse(G[None])[0]
         d = [-x for x in reversed(d)]
-    Gl = G.tolist()
+    return _candidates_of(solver, g, G.tolist(), d, held_value)
+
+
+def _candidates_of(
+    solver: _Solver,
+    g: scalar.Geometry,
+    Gl: list[list[float]],
+    d: list[float],
+    held_value: float | None,
+) -> tuple[list[scalar.Candidate], scalar.Stages]:
+    """`_scalar_candidates` once the 6R problem is set: geometry g, the pose G (rows) the six
+    joints must produce from their home, the default angles d."""
+    st = solver.structure
     R: scalar.Mat = (
         (Gl[0][0], Gl[0][1], Gl[0][2]), (Gl[1][0], Gl[1][1], Gl[1][2]), (Gl[2][0], Gl[2][1], Gl[2][2])
     )  # fmt: skip
@@ -1029,12 +1053,41 @@ def _expand_sorted(
 ) -> tuple[FloatArray, int]:
     """Whole-turn equivalents within the limits (`_equivalents`), nearest the seed first, and the
     index into `accepted` of the first."""
+    if solver.all_finite:
+        few = _single_equivalents(solver, accepted, seed)
+        if few is not None:
+            return few
     seeds = np.array([seed])
     Qk, tag = _equivalents(solver, np.array(accepted), seeds)
     if not Qk.shape[0]:
         return Qk, 0
     order = np.argsort(((Qk - seeds) ** 2).sum(axis=1), kind="stable")
     return Qk[order], int(tag[order[0]])
+
+
+def _single_equivalents(
+    solver: _Solver, accepted: list[list[float]], seed: list[float]
+) -> tuple[FloatArray, int] | None:
+    """`_expand_sorted` on floats when no angle has a second whole-turn equivalent within the
+    (finite) limits, as with limits of ±π: each solution then stays as it is or drops out (about
+    10 µs against the vectorised 21 µs). None as soon as an angle has another equivalent within
+    the limits (the caller then takes the vectorised product). Same rule as `_equivalents`: limits
+    widened by 1e-10 rad, values then clipped into them."""
+    lo, hi = solver.lo_wide_list, solver.hi_wide_list
+    rows: list[tuple[float, list[float], int]] = []  # (squared distance to the seed, q, source)
+    for i, q in enumerate(accepted):
+        for x, a, b in zip(q, lo, hi, strict=True):
+            if x - TWO_PI >= a or x + TWO_PI <= b:
+                return None
+            if not a <= x <= b:
+                break  # no equivalent of this angle within the limits
+        else:
+            rows.append((sum((x - z) * (x - z) for x, z in zip(q, seed, strict=True)), q, i))
+    if not rows:
+        return np.empty((0, len(seed))), 0
+    rows.sort(key=lambda r: r[0])  # stable, as the vectorised argsort
+    Q = np.array([r[1] for r in rows])
+    return np.clip(Q, solver.lower_arr, solver.upper_arr), rows[0][2]
 
 
 _COMBOS: dict[tuple[int, int], IntArray] = {}

@@ -287,6 +287,35 @@ def test_single_call_equals_batch_and_sorts_by_distance_to_the_seed():
             assert not res.singular and "solution" in res.message
 
 
+def test_angles_on_a_limit_of_pi_give_both_equivalents_in_a_single_call_as_in_a_batch():
+    """With limits of ±π an angle of exactly ±π has two equivalents within the limits (the
+    single call's float path hands these to the vectorised one); angles just inside have one."""
+    chain = ur5_erd()
+    rng = np.random.default_rng(8)
+    q = random_q(chain, rng, 12)
+    q[0:4, 0] = np.pi
+    q[4:8, 5] = -np.pi
+    q[8:12, 3] = np.pi - 1e-7
+    T = chain.fk(q)
+    batch = chain.ik_all_batch(T)
+    for i in range(len(q)):
+        sols = np.array(chain.ik_all(T[i]).solutions)
+        other = batch.solutions_of(i)
+
+        def rows(a: np.ndarray) -> np.ndarray:  # ±π twins lie equally far from the seed: any order
+            return a[np.lexsort(np.round(a, 9).T[::-1])]
+
+        np.testing.assert_allclose(rows(sols), rows(other), atol=1e-9)
+        d = np.linalg.norm(sols - (chain.lower + chain.upper) / 2, axis=1)  # the default seed
+        assert np.all(np.diff(d) >= -1e-12)
+        assert np.abs(sols - q[i]).max(axis=1).min() < 1e-9  # q itself is among them
+        if i < 8:  # ±π and its equivalent ∓π: at least two solutions share the other joints
+            j = 0 if i < 4 else 5
+            twin = q[i].copy()
+            twin[j] = -twin[j]
+            assert np.abs(sols - twin).max(axis=1).min() < 1e-9
+
+
 def test_solutions_match_pinocchio_fk_on_a_real_ur5():
     pin = pytest.importorskip("pinocchio")
     path = erd_path("ur_description/urdf/ur5_robot.urdf")
