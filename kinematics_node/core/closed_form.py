@@ -810,7 +810,7 @@ def _solve_arrays_once(
     offsets = np.zeros(N + 1, dtype=np.int64)
     np.cumsum(count, out=offsets[1:])
     singular = np.zeros(N, dtype=bool)
-    np.logical_or.at(singular, owner, sing_code >= 0)
+    singular[owner[sing_code >= 0]] = True
     # Reasons, for targets without a solution: the first stage at which every branch failed.
     reasons = [""] * N
     empty = np.flatnonzero(count == 0)
@@ -820,7 +820,7 @@ def _solve_arrays_once(
         for name, f in trace.fails:
             ok_so_far = ok_so_far & f
             alive = np.zeros(N, dtype=bool)
-            np.logical_or.at(alive, owner_lane, ok_so_far.any(axis=1))
+            alive[owner_lane[ok_so_far.any(axis=1)]] = True
             stage_dead.append((name, ~alive))
         for i in empty:
             reasons[i] = _reason(stage_dead, int(i), int(n_before[i]), held is not None)
