@@ -121,6 +121,11 @@ class IKOutcome:
     solutions: tuple[FloatArray, ...] = ()
     complete: bool = False
 
+    @classmethod
+    def failed(cls, reason: str) -> IKOutcome:
+        """An outcome of no solve (`q` None, errors NaN) and the reason."""
+        return cls(None, False, math.nan, math.nan, 0, reason)
+
 
 # ---------------------------------------------------------------------- worker process side
 _chains: dict[Any, SerialChain] = {}
@@ -227,11 +232,10 @@ def _closed_form_set(chain: SerialChain, job: IKJob) -> IKOutcome | None:
 
 
 def _timed_out(reason: str) -> IKOutcome:
-    return IKOutcome(None, False, float("nan"), float("nan"), 0, f"timeout: {reason}")
+    return IKOutcome.failed(f"timeout: {reason}")
 
 
-def _failed(reason: str) -> IKOutcome:
-    return IKOutcome(None, False, float("nan"), float("nan"), 0, reason)
+_failed = IKOutcome.failed
 
 
 def _serve(conn: Connection, niceness: int) -> None:

@@ -15,9 +15,11 @@ Threads and processes. One SingleThreadedExecutor runs every callback: rclpy's
 MultiThreadedExecutor cannot carry 1 kHz joint_states, and a busy Python thread in this process
 would hold the GIL away from the pose path. FK and Jacobian requests take microseconds and are
 answered in place. IK runs in worker processes (`IKPool`, `ik.workers`, at a lower CPU priority):
-`compute_ik` is a coroutine that hands the job to the pool and awaits its answer, which a guard
-condition brings back into the executor thread; meanwhile joint_states keep flowing. Every IK
-request is answered by its timeout (plus a few ms), queue time included.
+`compute_ik` hands the job to the pool and returns its response unfinished (`DeferredResponses`:
+no coroutine, which rclpy's executors would resume on every turn); a guard condition brings the
+answer back into the executor thread, which fills the response and sends it. Meanwhile
+joint_states keep flowing. Every IK request is answered by its timeout (plus a few ms), queue time
+included.
 
 TF: target frames that are not robot links are looked up with tf2_ros when it is installed (it is
 not on PyPI); without it such targets are refused with a message saying so. Uses only API
@@ -54,7 +56,6 @@ from rclpy.qos import (
     QoSProfile,
     ReliabilityPolicy,
 )
-from rclpy.task import Future
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -62,10 +63,16 @@ from std_msgs.msg import String
 from msg_adapters import MessageTypes, matrix_from_transform
 
 from .core.exceptions import InvalidInputError, KinematicsError
+from .deferred import DeferredResponses
 from .ik_pool import IKOutcome, IKPool
 from .parameters import PARAMETERS, SPECS, STARTUP_ONLY, ParameterSpec
 from .ros_main import spin_until_shutdown
-from .service import KinematicsService, Severity
+from .service import KinematicsService, PendingIK, Severity
+
+try:  # Jazzy and later
+    from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+except ImportError:  # pragma: no cover - Humble
+    from rclpy.qos_event import PublisherEventCallbacks, SubscriptionEventCallbacks
 
 try:  # not on PyPI: present on a full ROS 2 installation
     from tf2_ros import Buffer, TransformListener
@@ -81,6 +88,15 @@ JOINT_STATES_QOS = QoSProfile(
     reliability=ReliabilityPolicy.BEST_EFFORT,
     durability=DurabilityPolicy.VOLATILE,
 )
+#: Publishers and the joint_states subscription go without rclpy's default QoS-event handlers:
+#: each adds two waitables that the executor sets up again on every turn (~10 µs a turn each, a
+#: turn per joint_states message and more; measured with an idle `spin_once`). They would only
+#: log an incompatible QoS, and there the other side logs it too: our joint_states subscription
+#: (best effort, volatile) is compatible with every publisher, and a subscriber that asks our
+#: publishers for more than they offer gets rclpy's (or rclcpp's) warning itself. The
+#: robot_description subscription keeps them: there the warning explains a model that never loads.
+NO_PUBLISHER_EVENTS = PublisherEventCallbacks(use_default_callbacks=False)
+NO_SUBSCRIPTION_EVENTS = SubscriptionEventCallbacks(use_default_callbacks=False)
 #: Seconds between two log lines about the same joint_states problem.
 WARN_PERIOD = 5.0
 TF_MISSING = "TF frames need tf2_ros, which is not installed here (it comes with a full ROS 2)"
@@ -134,22 +150,22 @@ class KinematicsNode(Node):
 
         self._pool = IKPool(int(values["ik.workers"]) or _default_workers())
         self._pool.warm_up()  # start the workers now: starting one later would block this thread
-        self._ik_done: queue.SimpleQueue[tuple[Future, IKOutcome]] = queue.SimpleQueue()
-        # One thread runs everything, so callbacks never overlap; the group must still be
-        # reentrant: a mutually exclusive one would hold every other callback (joint_states, the
-        # guard condition that brings IK answers back) while a compute_ik coroutine awaits.
+        self._ik_done: queue.SimpleQueue[tuple[PendingIK, Any, IKOutcome]] = queue.SimpleQueue()
+        # One thread runs everything, so callbacks never overlap. The group is reentrant so that
+        # rclpy needs no bookkeeping of which callback of the group may run.
         group = ReentrantCallbackGroup()
         self._ik_wake = self.create_guard_condition(self._deliver_ik_answers, group)
 
-        self._pose_pub = self.create_publisher(PoseStamped, "ee_pose", 10)
-        self._twist_pub = self.create_publisher(TwistStamped, "ee_twist", 10)
-        self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self._pose_pub = self._publisher(PoseStamped, "ee_pose")
+        self._twist_pub = self._publisher(TwistStamped, "ee_twist")
+        self._diag_pub = self._publisher(DiagnosticArray, "/diagnostics")
         self.create_subscription(
             JointState,
             "joint_states",
             self._on_joint_state,
             JOINT_STATES_QOS,
             callback_group=group,
+            event_callbacks=NO_SUBSCRIPTION_EVENTS,
         )
         latched = QoSProfile(
             depth=1,
@@ -166,12 +182,21 @@ class KinematicsNode(Node):
             self._logic.compute_jacobian,
             callback_group=group,
         )
-        self.create_service(ComputeIK, "compute_ik", self._compute_ik, callback_group=group)
+        ik_service = self.create_service(
+            ComputeIK, "compute_ik", self._compute_ik, callback_group=group
+        )
+        self._ik_responses = DeferredResponses(
+            ik_service,
+            lambda exc: self.get_logger().warn(f"an IK answer could not be sent: {exc!r}"),
+        )
         self._diag_timer = self.create_timer(
             float(values["diagnostics_period"]), self._publish_diagnostics, callback_group=group
         )
         self._warned: dict[str, float] = {}  # problem -> when it was last logged
         _freeze_heap()
+
+    def _publisher(self, msg_type: Any, topic: str) -> Any:
+        return self.create_publisher(msg_type, topic, 10, event_callbacks=NO_PUBLISHER_EVENTS)
 
     # -------------------------------------------------------------- callbacks
     def _load(self, description: str, source: str) -> bool:
@@ -216,27 +241,31 @@ class KinematicsNode(Node):
         self._warned[problem] = now
         self.get_logger().warn(f"{problem} (repeats are not logged for {WARN_PERIOD:g} s)")
 
-    async def _compute_ik(self, request: Any, response: Any) -> Any:
+    def _compute_ik(self, request: Any, response: Any) -> Any:
         pending = self._logic.prepare_ik(request, response)
         if pending is None:
-            return response
-        answer = Future()
-        self._pool.submit(pending.job, lambda outcome: self._hand_back(answer, outcome))
-        outcome = await answer
-        return self._logic.finish_ik(pending, outcome, response)
+            return response  # refused or answered at once: rclpy sends it now
+        try:
+            self._pool.submit(
+                pending.job, lambda outcome: self._hand_back(pending, response, outcome)
+            )
+        except RuntimeError as exc:  # the pool is shut down: the node is stopping
+            return self._logic.finish_ik(pending, IKOutcome.failed(str(exc)), response)
+        self._ik_responses.hold(response)  # sent by _deliver_ik_answers
+        return response
 
-    def _hand_back(self, answer: Future, outcome: IKOutcome) -> None:
-        """From a pool thread: queue the outcome and wake the executor thread for it."""
-        self._ik_done.put((answer, outcome))
+    def _hand_back(self, pending: PendingIK, response: Any, outcome: IKOutcome) -> None:
+        """From the pool's thread: queue the outcome and wake the executor thread for it."""
+        self._ik_done.put((pending, response, outcome))
         self._ik_wake.trigger()
 
     def _deliver_ik_answers(self) -> None:
         while True:
             try:
-                answer, outcome = self._ik_done.get_nowait()
+                pending, response, outcome = self._ik_done.get_nowait()
             except queue.Empty:
                 return
-            answer.set_result(outcome)
+            self._ik_responses.release(self._logic.finish_ik(pending, outcome, response))
 
     def _publish_diagnostics(self) -> None:
         if self.get_parameter("publish_diagnostics").value:

@@ -1,0 +1,104 @@
+"""`DeferredResponses`: responses held past their callback and sent with their request's header."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from kinematics_node.deferred import DeferredResponses
+
+
+class FakeService:
+    """What an rclpy executor sees of a Service: `send_response(response, header)`."""
+
+    def __init__(self, fail_on: Any = None) -> None:
+        self.sent: list[tuple[Any, Any]] = []
+        self.fail_on = fail_on
+
+    def send_response(self, response: Any, header: Any) -> None:
+        if response is self.fail_on:
+            raise RuntimeError("client gone")
+        self.sent.append((response, header))
+
+
+class Response:
+    """Equal content, distinct objects: held responses must be told apart by identity."""
+
+    def __init__(self) -> None:
+        self.success = False
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Response) and other.success == self.success
+
+    __hash__ = None  # type: ignore[assignment]  # unhashable, as ROS messages are
+
+
+def executor_turn(service: FakeService, callback: Any, header: Any) -> None:
+    """What rclpy does with a request: call back, then send what the callback returned."""
+    service.send_response(callback(Response()), header)
+
+
+def test_a_response_not_held_is_sent_at_once():
+    service = FakeService()
+    DeferredResponses(service)
+    executor_turn(service, lambda r: r, "h1")
+    assert [h for _, h in service.sent] == ["h1"]
+
+
+def test_a_held_response_goes_out_on_release_with_its_own_header():
+    service = FakeService()
+    deferred = DeferredResponses(service)
+    held: list[Response] = []
+
+    def callback(response: Response) -> Response:
+        deferred.hold(response)
+        held.append(response)
+        return response
+
+    executor_turn(service, callback, "h1")
+    executor_turn(service, callback, "h2")
+    assert service.sent == [] and len(deferred) == 2
+    held[1].success = True
+    deferred.release(held[1])
+    assert service.sent == [(held[1], "h2")] and service.sent[0][0].success
+    deferred.release(held[0])
+    assert service.sent[1] == (held[0], "h1") and service.sent[1][0] is held[0]
+    assert len(deferred) == 0
+
+
+def test_a_release_before_the_executor_sends_goes_out_with_the_header():
+    service = FakeService()
+    deferred = DeferredResponses(service)
+
+    def callback(response: Response) -> Response:
+        deferred.hold(response)
+        deferred.release(response)  # the answer was known before the callback returned
+        return response
+
+    executor_turn(service, callback, "h1")
+    assert [h for _, h in service.sent] == ["h1"] and len(deferred) == 0
+
+
+def test_release_of_a_response_that_is_not_held_is_an_error():
+    deferred = DeferredResponses(FakeService())
+    with pytest.raises(KeyError, match="not held"):
+        deferred.release(Response())
+    r = Response()
+    deferred.hold(r)
+    with pytest.raises(KeyError):
+        deferred.release(Response())  # equal, but another object
+
+
+def test_a_failed_send_is_reported_and_the_others_still_go_out():
+    a, b = Response(), Response()
+    service = FakeService(fail_on=a)
+    errors: list[BaseException] = []
+    deferred = DeferredResponses(service, errors.append)
+    for response, header in ((a, "ha"), (b, "hb")):
+        deferred.hold(response)
+        service.send_response(response, header)
+    deferred.release(a)
+    deferred.release(b)
+    assert [type(e) for e in errors] == [RuntimeError]
+    assert service.sent == [(b, "hb")] and len(deferred) == 0
