@@ -357,15 +357,16 @@ def run_phase(
     names = list(SerialChain.from_urdf(path, tip_link=tip or None).joint_names)
     assert len(names) == names_of[system.arm]
     recv_out, pub_out = directory / "recv.json", directory / "pub.json"
+    ik_out, slow_out = directory / "ik.json", directory / "slow.json"
+    for out in (recv_out, pub_out, ik_out, slow_out):
+        out.unlink(missing_ok=True)  # a role that fails must not leave the last phase's figures
     receiver = _child(["--role", "receiver", "--out", str(recv_out)], env)
     extra: list[subprocess.Popen] = []
-    ik_out = directory / "ik.json"
     if ik_clients:  # waits 1 s after discovery, then calls for `seconds - 2`
         extra.append(
             _child(["--role", "ik_clients", "--arm", system.arm, "--seconds", str(seconds - 2),
                     "--clients", str(ik_clients), "--timeout", "0.05", "--out", str(ik_out)], env)
         )
-    slow_out = directory / "slow.json"
     if slow_ik:  # mid-phase: the publisher starts in ~2 s (discovery), then runs `seconds`
         start_at = time.time_ns() + int((2.0 + 0.3 * seconds) * 1e9)
         extra.append(
@@ -388,6 +389,9 @@ def run_phase(
     time.sleep(0.5)
     receiver.send_signal(signal.SIGINT)
     receiver.wait(20)
+    for role, process, out in (("publisher", publisher, pub_out), ("receiver", receiver, recv_out)):
+        if process.returncode != 0 or not out.exists():
+            raise RuntimeError(f"the {role} process failed (exit code {process.returncode})")
     published = json.loads(pub_out.read_text())
     # The first second is warm-up, for every system alike: the receiver's match to the node's
     # publishers may complete after the first samples went out (a whole phase once lost 8 %).

@@ -115,6 +115,24 @@ def quaternion_from_rows(m: Sequence[float]) -> tuple[float, float, float, float
     return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 
 
+def rows_from_quaternion(x: float, y: float, z: float, w: float) -> tuple[float, ...]:
+    """The rotation of a non-zero quaternion (x, y, z, w), normalised first, as 9 floats,
+    row-major: `rotations.matrix_from_quaternion` of one quaternion in a few float operations,
+    without its checks and arrays (~1 µs against ~50 µs), for the node's per-request path.
+    `x, y, z, w` are not checked; the caller refuses non-finite and zero quaternions."""
+    n = math.hypot(x, y, z, w)  # (no overflow for huge components, unlike a sum of squares)
+    x, y, z, w = x / n, y / n, z / n, w / n
+    s = 2.0
+    xx, yy, zz = s * x * x, s * y * y, s * z * z
+    xy, xz, yz = s * x * y, s * x * z, s * y * z
+    wx, wy, wz = s * w * x, s * w * y, s * w * z
+    return (
+        1.0 - (yy + zz), xy - wz, xz + wy,
+        xy + wz, 1.0 - (xx + zz), yz - wx,
+        xz - wy, yz + wx, 1.0 - (xx + yy),
+    )
+
+
 def log(R: ArrayLike) -> FloatArray:
     """Rotation vector φ = ω̂θ with θ ∈ [0, π] such that exp([φ]) = R (MR §3.2.3.3).
 

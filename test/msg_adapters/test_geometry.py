@@ -44,6 +44,20 @@ def test_pose_quaternion_is_normalised(ros):
     )
 
 
+@pytest.mark.parametrize("scale", [1e-8, 0.3, 1.0, 7.0, 1e200])
+def test_pose_of_any_nonzero_quaternion_is_scipys_rotation(ros, scale):
+    """Quaternions of any norm, tiny to huge (no overflow), give SciPy's rotation of the
+    normalised quaternion: a proper rotation matrix."""
+    rng = np.random.default_rng(7)
+    for q in rng.normal(size=(50, 4)):
+        pose = ros.new("geometry_msgs/msg/Pose")
+        o = pose.orientation
+        o.x, o.y, o.z, o.w = (float(v) for v in scale * q)
+        R = ma.matrix_from_pose(pose)[:3, :3]
+        np.testing.assert_allclose(R, Rotation.from_quat(q).as_matrix(), atol=1e-12)
+        np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
+
+
 @pytest.mark.parametrize(
     ("field", "value", "needle"),
     [
