@@ -16,8 +16,9 @@ MultiThreadedExecutor cannot carry 1 kHz joint_states, and a busy Python thread 
 would hold the GIL away from the pose path. FK and Jacobian requests take microseconds and are
 answered in place. IK runs in worker processes (`IKPool`, `ik.workers`, at a lower CPU priority):
 `compute_ik` hands the job to the pool and returns its response unfinished (`DeferredResponses`:
-no coroutine, which rclpy's executors would resume on every turn); a guard condition brings the
-answer back into the executor thread, which fills the response and sends it. Meanwhile
+no coroutine, which rclpy's executors would resume on every turn). The answer comes back through
+a `Mailbox` into the executor thread, which fills the response and sends it: on the next
+joint_states message's turn while they stream, else woken by a guard condition. Meanwhile
 joint_states keep flowing. Every IK request is answered by its timeout (plus a few ms), queue time
 included.
 
@@ -31,7 +32,6 @@ from __future__ import annotations
 import gc
 import math
 import os
-import queue
 import time
 from dataclasses import asdict
 from typing import Any
@@ -65,6 +65,7 @@ from msg_adapters import MessageTypes, matrix_from_transform
 from .core.exceptions import InvalidInputError, KinematicsError
 from .deferred import DeferredResponses
 from .ik_pool import IKOutcome, IKPool
+from .mailbox import Mailbox
 from .parameters import PARAMETERS, SPECS, STARTUP_ONLY, ParameterSpec
 from .ros_main import spin_until_shutdown
 from .service import KinematicsService, PendingIK, Severity
@@ -97,6 +98,10 @@ JOINT_STATES_QOS = QoSProfile(
 #: robot_description subscription keeps them: there the warning explains a model that never loads.
 NO_PUBLISHER_EVENTS = PublisherEventCallbacks(use_default_callbacks=False)
 NO_SUBSCRIPTION_EVENTS = SubscriptionEventCallbacks(use_default_callbacks=False)
+#: joint_states stream when the last one came less than this long ago [s]; then an IK answer
+#: waits up to this long for the next message's turn of the executor, which collects it
+#: (`Mailbox`), instead of waking the executor for it. (At 500 Hz one comes every 2 ms.)
+STREAMING_GAP = 0.0025
 #: Seconds between two log lines about the same joint_states problem.
 WARN_PERIOD = 5.0
 TF_MISSING = "TF frames need tf2_ros, which is not installed here (it comes with a full ROS 2)"
@@ -150,11 +155,14 @@ class KinematicsNode(Node):
 
         self._pool = IKPool(int(values["ik.workers"]) or _default_workers())
         self._pool.warm_up()  # start the workers now: starting one later would block this thread
-        self._ik_done: queue.SimpleQueue[tuple[PendingIK, Any, IKOutcome]] = queue.SimpleQueue()
         # One thread runs everything, so callbacks never overlap. The group is reentrant so that
         # rclpy needs no bookkeeping of which callback of the group may run.
         group = ReentrantCallbackGroup()
         self._ik_wake = self.create_guard_condition(self._deliver_ik_answers, group)
+        self._ik_answers: Mailbox[tuple[PendingIK, Any, IKOutcome]] = Mailbox(
+            self._ik_wake.trigger, "ik-answers"
+        )
+        self._last_joint_state = -math.inf  # time.monotonic() of the last one's callback
 
         self._pose_pub = self._publisher(PoseStamped, "ee_pose")
         self._twist_pub = self._publisher(TwistStamped, "ee_twist")
@@ -222,6 +230,7 @@ class KinematicsNode(Node):
         self._load(msg.data, "the robot_description topic")
 
     def _on_joint_state(self, msg: JointState) -> None:
+        self._last_joint_state = time.monotonic()
         out = self._logic.on_joint_state(msg)
         if out.pose is not None:
             self._pose_pub.publish(out.pose)
@@ -229,6 +238,8 @@ class KinematicsNode(Node):
             self._twist_pub.publish(out.twist)
         if out.problem is not None and out.severity >= Severity.WARN:
             self._warn_throttled(out.problem)
+        if self._ik_answers:  # IK answers that waited for this turn
+            self._deliver_ik_answers()
 
     def _warn_throttled(self, problem: str) -> None:
         """Log each distinct problem at most once per WARN_PERIOD seconds (at 1 kHz a bad stream
@@ -255,16 +266,13 @@ class KinematicsNode(Node):
         return response
 
     def _hand_back(self, pending: PendingIK, response: Any, outcome: IKOutcome) -> None:
-        """From the pool's thread: queue the outcome and wake the executor thread for it."""
-        self._ik_done.put((pending, response, outcome))
-        self._ik_wake.trigger()
+        """From the pool's thread: hand the outcome to the executor thread, which collects it on
+        the next joint_states turn while they stream, or is woken for it."""
+        streaming = time.monotonic() - self._last_joint_state < STREAMING_GAP
+        self._ik_answers.put((pending, response, outcome), STREAMING_GAP if streaming else 0.0)
 
     def _deliver_ik_answers(self) -> None:
-        while True:
-            try:
-                pending, response, outcome = self._ik_done.get_nowait()
-            except queue.Empty:
-                return
+        for pending, response, outcome in self._ik_answers.collect():
             self._ik_responses.release(self._logic.finish_ik(pending, outcome, response))
 
     def _publish_diagnostics(self) -> None:
@@ -292,7 +300,8 @@ class KinematicsNode(Node):
         return SetParametersResult(successful=True)
 
     def destroy_node(self) -> None:
-        self._pool.shutdown()
+        self._pool.shutdown()  # answers every open job (into the mailbox)
+        self._ik_answers.close()
         super().destroy_node()
 
 

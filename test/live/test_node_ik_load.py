@@ -3,12 +3,14 @@ own: it starts its own node, with 2 workers, and no other node may serve compute
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 
 import numpy as np
+from geometry_msgs.msg import PoseStamped
 from kinematics_service.srv import ComputeIK
-from live_node import ROBOTS, ur5e_description
+from live_node import ROBOTS, ur5e_description, wait_until
 from test_node_services import ik_request
 
 from kinematics_node.core import SerialChain
@@ -80,3 +82,50 @@ def test_ik_timeouts_hold_with_four_clients_at_once(client, start_node):
     assert not late, f"{len(late)} answers later than the timeout + 100 ms: {late}"
     assert not unexplained, f"reachable targets failed without a reason: {unexplained}"
     assert solved[0] >= 8, f"only {solved[0]} of 16 reachable targets solved"
+
+
+def test_ik_answers_come_back_while_joint_states_stream_at_1_khz(client, start_node):
+    """While joint_states stream (here ~1 kHz), the node collects IK answers on the stream's own
+    executor turns instead of being woken for each (`kinematics_node.mailbox`); when the stream
+    stops, it is woken again. Answers must arrive by their timeout (+ 100 ms of slack for this
+    shared machine) either way, and reproduce their targets."""
+    from sensor_msgs.msg import JointState
+
+    start_node(robot_description=ur5e_description())
+    pub = client.publisher(JointState, "joint_states")
+    poses = client.collect(PoseStamped, "ee_pose")
+    streaming = threading.Event()
+    streaming.set()
+
+    def stream() -> None:
+        msg = JointState()
+        msg.name = list(CHAIN.joint_names)
+        k = 0
+        while streaming.is_set():
+            msg.position = [0.2 * math.sin(0.001 * k + j) for j in range(CHAIN.dof)]
+            pub.publish(msg)
+            k += 1
+            time.sleep(0.001)
+
+    streamer = threading.Thread(target=stream, daemon=True)
+    streamer.start()
+    rng = np.random.default_rng(5)
+    timeout = 0.2
+    try:
+        wait_until(lambda: len(poses) > 200, 10.0, "ee_pose while joint_states stream")
+        for phase in ("streaming", "stopped"):
+            if phase == "stopped":
+                streaming.clear()
+                streamer.join(5.0)
+                time.sleep(0.1)
+            for _ in range(8):
+                T = CHAIN.fk(rng.uniform(CHAIN.lower, CHAIN.upper))
+                t0 = time.monotonic()
+                resp = client.call(ComputeIK, "compute_ik", ik_request(T, timeout=timeout), 5.0)
+                elapsed = time.monotonic() - t0
+                assert elapsed <= timeout + 0.1, f"{phase}: answered after {elapsed:.3f} s"
+                assert resp.success, f"{phase}: {resp.message}"
+                q = np.array(resp.solution.position)
+                assert np.abs(CHAIN.fk(q) - T).max() < 1e-5
+    finally:
+        streaming.clear()
