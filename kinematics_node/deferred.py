@@ -7,8 +7,8 @@ and each answer costs one more turn to resume its task. Measured with
 `benchmarks/node_benchmark.py` at 500 Hz joint_states with 4 IK clients: a third of the node's
 CPU went to that polling and to the extra turns.
 
-How: every rclpy executor sends a service's answer by calling `service.send_response(response,
-header)` (public API) right after the callback returns. `DeferredResponses` takes that method's
+How: rclpy's Python executors (from Foxy through Jazzy and Rolling) send a service's answer by
+calling `service.send_response(response, header)` (public API) right after the callback returns. `DeferredResponses` takes that method's
 place on one service object. The callback marks its response as held (`hold`) before returning
 it; for a held response, `send_response` only records the request's header. When the answer is
 known, the caller fills the response and calls `release`, which sends it with that header. A
