@@ -321,9 +321,19 @@ class _Solver:
         self.M_inv_rows: list[list[float]] = self.M_inv.tolist()
         self.M_arr = M
         self.scale = float(max(1e-3, np.abs(r).max(), np.abs(M[:3, 3]).max()))
+        # Squared position error and squared ‖ΔR‖_F below which a candidate is exact to round-off
+        # (`_REFINE_ABOVE`; ‖ΔR‖_F² = 8 sin²(θ/2), see `pose_errors`).
+        self.exact_p2 = (_REFINE_ABOVE * self.scale) ** 2
+        self.exact_f = 8.0 * math.sin(0.5 * _REFINE_ABOVE) ** 2
         self.keep = [i for i in range(chain.dof) if i != held]
         self.geometry = _geometry(structure, w[None], r[None], self.scale) if held is None else None
         self.scalar_geometry = None if self.geometry is None else _lane(self.geometry, 0)
+        # The three-parallel solver with its constants prepared, for one target of a 6R arm.
+        self.three_parallel = (
+            scalar.ThreeParallel(self.scalar_geometry)
+            if self.scalar_geometry is not None and structure.kind == "three_parallel"
+            else None
+        )
         self.lower = [float(x) for x in chain.lower]
         self.upper = [float(x) for x in chain.upper]
         self.info = self.family()
@@ -904,7 +914,11 @@ def _candidates_of(
     p: scalar.Vec = (Gl[0][3], Gl[1][3], Gl[2][3])
     case = st.kind if st.kind == "three_parallel" else st.case
     stages = scalar.Stages(_STAGE_ORDER[case])
-    if st.kind == "three_parallel":
+    if st.kind == "three_parallel" and held_value is None and solver.three_parallel is not None:
+        raw = solver.three_parallel.solve(R, p, d, stages)  # g is solver.scalar_geometry
+        if not st.reversed:
+            return raw, stages  # angles already in (−π, π]
+    elif st.kind == "three_parallel":
         raw = scalar.three_parallel(g, R, p, d, stages)
     else:
         raw = scalar.spherical(st.case, g, R, p, d, stages)
@@ -933,38 +947,71 @@ def _solve_single(
     chain = solver.chain
     cands, stages = _scalar_candidates(solver, T, seed, None)
     accepted: list[list[float]] = []
-    errors: list[tuple[float, float]] = []
+    errors: list[tuple[float, float] | None] = []  # None: exact, not computed yet
     whys: set[str] = set()
-    for q, why in cands:  # one scalar FK each: ~7 µs, where a batched FK of 7 costs ~90 µs
-        ep, er = _fk_errors(solver, q, T)
-        if (
-            (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
-            and ep < _REFINE_BELOW * solver.scale
-            and er < _REFINE_BELOW
-        ):
-            qr = [_wrap1(x) for x in _refine_one(solver, q, T)]
-            ep_r, er_r = _fk_errors(solver, qr, T)
-            if max(ep_r / solver.scale, er_r) < max(ep / solver.scale, er):
-                q, ep, er = qr, ep_r, er_r
-        if ep > tol or er > tol:
-            continue
-        q2 = q[2]  # a cheap first test on one joint (branches often share the first joint)
-        if any(
-            (abs(q2 - o[2]) <= _SAME_SOLUTION or abs(abs(q2 - o[2]) - TWO_PI) <= _SAME_SOLUTION)
-            and _same(q, o)
-            for o in accepted
-        ):
+    fk = solver.fk_pose
+    # Candidates exact to round-off (the usual case) are accepted on the squared errors, without
+    # the square root and arcsine of `_fk_errors`, when that implies the tolerance (hand-written
+    # for speed: this loop runs for every candidate of every call).
+    quick = fk is not None and tol >= _REFINE_ABOVE * max(solver.scale, 1.0)
+    exact_p2, exact_f = solver.exact_p2, solver.exact_f
+    a0, a1, a2, a3 = T[0]
+    b0, b1, b2, b3 = T[1]
+    c0, c1, c2, c3 = T[2]
+    for q, why in cands:  # one scalar FK each: ~3 µs, where a batched FK of 7 costs ~90 µs
+        if quick:
+            t, _ = fk(q)  # type: ignore[misc]
+            dp2 = (t[9] - a3) ** 2 + (t[10] - b3) ** 2 + (t[11] - c3) ** 2
+            f = (
+                (t[0] - a0) ** 2 + (t[1] - a1) ** 2 + (t[2] - a2) ** 2
+                + (t[3] - b0) ** 2 + (t[4] - b1) ** 2 + (t[5] - b2) ** 2
+                + (t[6] - c0) ** 2 + (t[7] - c1) ** 2 + (t[8] - c2) ** 2
+            )  # fmt: skip
+            if dp2 <= exact_p2 and f <= exact_f:
+                err: tuple[float, float] | None = None  # computed if this one comes first
+            else:
+                err = (math.sqrt(dp2), _chord_angle(f))
+        else:
+            err = _fk_errors(solver, q, T)
+        if err is not None:
+            ep, er = err
+            if (
+                (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
+                and ep < _REFINE_BELOW * solver.scale
+                and er < _REFINE_BELOW
+            ):
+                qr = [_wrap1(x) for x in _refine_one(solver, q, T)]
+                ep_r, er_r = _fk_errors(solver, qr, T)
+                if max(ep_r / solver.scale, er_r) < max(ep / solver.scale, er):
+                    q, ep, er = qr, ep_r, er_r
+            if ep > tol or er > tol:
+                continue
+            err = (ep, er)
+        if _seen(q, accepted):
             continue
         accepted.append(q)
-        errors.append((ep, er))
-        whys.update(why)
+        errors.append(err)
+        if why:
+            whys.update(why)
     none = np.empty((0, chain.dof))
     if not accepted:
         return none, (math.inf, math.inf), "", _empty_reason(stages.first_dead(), 0)
     sols, first = _expand_sorted(solver, accepted, seed)
     if not sols.shape[0]:
         return none, (math.inf, math.inf), "", _empty_reason(None, len(accepted))
-    return sols, errors[first], "; ".join(sorted(whys)), ""
+    err = errors[first]
+    return sols, err or _fk_errors(solver, accepted[first], T), "; ".join(sorted(whys)), ""
+
+
+def _seen(q: list[float], accepted: list[list[float]]) -> bool:
+    """q equals (`_same`) one of `accepted`; a cheap first test on one joint (branches often
+    share the first joint)."""
+    q2 = q[2]
+    for o in accepted:
+        d = abs(q2 - o[2])
+        if (d <= _SAME_SOLUTION or abs(d - TWO_PI) <= _SAME_SOLUTION) and _same(q, o):
+            return True
+    return False
 
 
 def _same(a: list[float], b: list[float]) -> bool:
@@ -1075,19 +1122,26 @@ def _single_equivalents(
     widened by 1e-10 rad, values then clipped into them."""
     lo, hi = solver.lo_wide_list, solver.hi_wide_list
     rows: list[tuple[float, list[float], int]] = []  # (squared distance to the seed, q, source)
+    clip = False  # some angle lies in the 1e-10 margin outside a limit
     for i, q in enumerate(accepted):
-        for x, a, b in zip(q, lo, hi, strict=True):
+        dist = 0.0
+        for x, a, b, z, lo_j, hi_j in zip(q, lo, hi, seed, solver.lower, solver.upper, strict=True):
             if x - TWO_PI >= a or x + TWO_PI <= b:
                 return None
             if not a <= x <= b:
                 break  # no equivalent of this angle within the limits
+            if x < lo_j or x > hi_j:
+                clip = True
+            dist += (x - z) * (x - z)
         else:
-            rows.append((sum((x - z) * (x - z) for x, z in zip(q, seed, strict=True)), q, i))
+            rows.append((dist, q, i))
     if not rows:
         return np.empty((0, len(seed))), 0
     rows.sort(key=lambda r: r[0])  # stable, as the vectorised argsort
     Q = np.array([r[1] for r in rows])
-    return np.clip(Q, solver.lower_arr, solver.upper_arr), rows[0][2]
+    if clip:
+        Q = np.clip(Q, solver.lower_arr, solver.upper_arr)
+    return Q, rows[0][2]
 
 
 _COMBOS: dict[tuple[int, int], IntArray] = {}

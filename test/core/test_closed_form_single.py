@@ -1,0 +1,119 @@
+"""The single-target paths of the closed form (`ik_all` on one target) against the general ones.
+
+The prepared three-parallel solver (`_closed_form_scalar.ThreeParallel`) must give the candidates
+of the reference scalar solver (`three_parallel`, itself the twin of the vectorised one), and one
+`ik_all` call the solutions of `ik_all_batch`, also with whole-turn equivalents (limits ±2π).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from kin_testing import erd_path, random_q
+
+from kinematics_node.core import SerialChain, se3
+from kinematics_node.core import _closed_form_scalar as scalar
+from kinematics_node.core import closed_form as cf
+from kinematics_node.robots import load_robot
+
+FK_TOL = 1e-9
+
+
+def ur5(limited: bool) -> SerialChain:
+    name = "ur5_joint_limited_robot.urdf" if limited else "ur5_robot.urdf"
+    return SerialChain.from_urdf(erd_path(f"ur_description/urdf/{name}"), None, "tool0")
+
+
+def moved_base(chain: SerialChain) -> SerialChain:
+    """The same arm on a base turned and shifted off the coordinate axes: S′ = Ad(B) S, M′ = B M,
+    so no axis direction or point has zero components."""
+    rng = np.random.default_rng(11)
+    B = se3.exp(rng.normal(size=6) * 0.7)
+    S = se3.adjoint(B) @ np.asarray(chain.S)
+    return SerialChain.from_poe(S, B @ np.asarray(chain.M), lower=chain.lower, upper=chain.upper)
+
+
+def reversed_arm(chain: SerialChain) -> SerialChain:
+    """The arm read from the tip (its three-parallel structure is then found reversed)."""
+    Mi = se3.inverse(chain.M)
+    S = se3.adjoint(Mi) @ np.asarray(chain.S)[:, ::-1]
+    return SerialChain.from_poe(S, Mi, lower=-chain.upper[::-1], upper=-chain.lower[::-1])
+
+
+ARMS = {
+    "ur5-limited": lambda: ur5(True),
+    "ur5": lambda: ur5(False),
+    "ur5e": lambda: load_robot("ur5e"),
+    "ur5 on a moved base": lambda: moved_base(ur5(True)),
+    "ur5 reversed": lambda: reversed_arm(ur5(True)),
+}
+
+
+def wrapped_gap(a: list[float], b: list[float]) -> float:
+    return max(abs((x - y + math.pi) % (2 * math.pi) - math.pi) for x, y in zip(a, b, strict=True))
+
+
+@pytest.mark.parametrize("arm", list(ARMS))
+def test_prepared_three_parallel_solver_equals_the_reference(arm):
+    chain = ARMS[arm]()
+    solver = cf._solver(chain)
+    assert solver is not None and solver.structure.kind == "three_parallel"
+    assert solver.three_parallel is not None
+    g = solver.scalar_geometry
+    rng = np.random.default_rng(5)
+    q = random_q(chain, rng, 400)
+    # Exactly singular rows: wrist aligned (q₅ = 0), elbow straight (q₃ = 0), both.
+    q[:40, 4] = 0.0
+    q[40:80, 2] = 0.0
+    q[80:100, [2, 4]] = 0.0
+    T = chain.fk(q)
+    stage_names = cf._STAGE_ORDER["three_parallel"]
+    regular_gap = singular_gap = 0.0
+    for i in range(len(q)):
+        G = T[i] @ solver.M_inv
+        if solver.structure.reversed:
+            G = se3.inverse(G)
+        R = tuple(tuple(row) for row in G[:3, :3].tolist())
+        p = tuple(G[:3, 3].tolist())
+        d = rng.uniform(-4.0, 4.0, 6).tolist()  # defaults of free angles, beyond ±π too
+        ref_stages, fast_stages = scalar.Stages(stage_names), scalar.Stages(stage_names)
+        ref = scalar.three_parallel(g, R, p, d, ref_stages)
+        fast = solver.three_parallel.solve(R, p, d, fast_stages)
+        assert fast_stages.passed == ref_stages.passed
+        assert len(fast) == len(ref)
+        for (qr, why_r), (qf, why_f) in zip(ref, fast, strict=True):
+            assert why_f == why_r
+            assert all(-math.pi < x <= math.pi for x in qf)
+            gap = wrapped_gap(qr, qf)
+            if i < 100:
+                singular_gap = max(singular_gap, gap)
+            else:
+                regular_gap = max(regular_gap, gap)
+    assert regular_gap <= 1e-9
+    # At the singular rows the subproblems meet at a tangent (a square root of round-off):
+    # regrouped products differ there by ~√ε; the FK check and refinement restore precision.
+    assert singular_gap <= 1e-6
+
+
+@pytest.mark.parametrize("arm", ["ur5", "ur5e", "ur5 on a moved base", "ur5 reversed"])
+def test_single_call_equals_batch_with_whole_turn_equivalents(arm):
+    chain = ARMS[arm]()
+    rng = np.random.default_rng(6)
+    q = random_q(chain, rng, 40)
+    seeds = random_q(chain, rng, 40)
+    T = chain.fk(q)
+    batch = chain.ik_all_batch(T, seeds)
+    for i in range(len(q)):
+        res = chain.ik_all(T[i], seeds[i])
+        sols = np.array(res.solutions)
+        assert res.success and sols.shape == batch.solutions_of(i).shape
+        np.testing.assert_allclose(sols, batch.solutions_of(i), atol=1e-9)
+        assert np.abs(sols - q[i]).max(axis=1).min() < 1e-9  # q itself is among them
+        assert chain.within_limits(sols).all()
+        err = np.abs(chain.fk(sols) - T[i]).max()
+        assert err <= FK_TOL
+        d = np.linalg.norm(sols - seeds[i], axis=1)
+        assert np.all(np.diff(d) >= -1e-12)
+        assert res.position_error <= FK_TOL and res.orientation_error <= FK_TOL
