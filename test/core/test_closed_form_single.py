@@ -42,12 +42,21 @@ def reversed_arm(chain: SerialChain) -> SerialChain:
     return SerialChain.from_poe(S, Mi, lower=-chain.upper[::-1], upper=-chain.lower[::-1])
 
 
+def mixed_limits(chain: SerialChain) -> SerialChain:
+    """The arm with limits of mixed widths: ±2π, a narrow range (many solutions have no angle
+    within it), 3π off-centre (one or two equivalents), a turn exactly."""
+    lower = np.array([-2 * np.pi, -1.0, 0.0, -2 * np.pi, -np.pi, -2 * np.pi])
+    upper = np.array([2 * np.pi, 2.0, 3 * np.pi, 2 * np.pi, np.pi, 2 * np.pi])
+    return SerialChain.from_poe(np.asarray(chain.S), np.asarray(chain.M), lower=lower, upper=upper)
+
+
 ARMS = {
     "ur5-limited": lambda: ur5(True),
     "ur5": lambda: ur5(False),
     "ur5e": lambda: load_robot("ur5e"),
     "ur5 on a moved base": lambda: moved_base(ur5(True)),
     "ur5 reversed": lambda: reversed_arm(ur5(True)),
+    "ur5 mixed limits": lambda: mixed_limits(ur5(True)),
 }
 
 
@@ -97,7 +106,9 @@ def test_prepared_three_parallel_solver_equals_the_reference(arm):
     assert singular_gap <= 1e-6
 
 
-@pytest.mark.parametrize("arm", ["ur5", "ur5e", "ur5 on a moved base", "ur5 reversed"])
+@pytest.mark.parametrize(
+    "arm", ["ur5", "ur5e", "ur5 on a moved base", "ur5 reversed", "ur5 mixed limits"]
+)
 def test_single_call_equals_batch_with_whole_turn_equivalents(arm):
     chain = ARMS[arm]()
     rng = np.random.default_rng(6)
