@@ -369,6 +369,7 @@ class ThreeParallel:
         # The point r₄ turned by −q₅ about axis 5: r₅ + R(ω₅, −q₅)(r₄ − r₅).
         v = sub(P[3], P[4])
         self.p4, self.v43, self.w4xv, self.w4v = P[4], v, cross(W[4], v), dot(W[4], v)
+        self.w4xx, self.w4x = cross(W[4], x), dot(W[4], x)  # x turned about axis 5
         # The elbow point e₃ r₄ − r₂ = (r₃ − r₂) + R(ω₃, q₃)(r₄ − r₃).
         v = sub(P[3], P[2])
         self.v21, self.v32, self.w2xv, self.w2v = sub(P[2], P[1]), v, cross(W[2], v), dot(W[2], v)

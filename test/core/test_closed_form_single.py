@@ -128,3 +128,43 @@ def test_single_call_equals_batch_with_whole_turn_equivalents(arm):
         d = np.linalg.norm(sols - seeds[i], axis=1)
         assert np.all(np.diff(d) >= -1e-12)
         assert res.position_error <= FK_TOL and res.orientation_error <= FK_TOL
+
+
+@pytest.mark.parametrize("arm", ["ur5-limited", "ur5 on a moved base", "ur5 reversed"])
+def test_prepared_vectorised_three_parallel_solver_equals_the_reference(arm):
+    """`solve_three_parallel_prepared` (ik_all_batch) against `solve_three_parallel`: same
+    branches, same flags and reasons, angles equal to round-off (√ε at exact tangents)."""
+    from kinematics_node.core import _closed_form_vector as vector
+
+    chain = ARMS[arm]()
+    solver = cf._solver(chain)
+    rng = np.random.default_rng(12)
+    q = random_q(chain, rng, 600)
+    q[:60, 4] = 0.0
+    q[60:120, 2] = 0.0
+    q[120:150, [2, 4]] = 0.0
+    T = chain.fk(q)
+    T[150:200, :3, 3] *= 3.0  # out of reach: branches fail at some stage
+    G = T @ solver.M_inv
+    if solver.structure.reversed:
+        G = np.stack([se3.inverse(x) for x in G])
+    dflt = rng.uniform(-4.0, 4.0, (len(q), 6))
+    ref_trace, fast_trace = vector.Trace(), vector.Trace()
+    Q_ref, ok_ref = vector.solve_three_parallel(
+        solver.geometry, G[:, :3, :3], G[:, :3, 3], dflt, ref_trace
+    )
+    Q_fast, ok_fast = vector.solve_three_parallel_prepared(
+        solver.three_parallel, G[:, :3, :3], G[:, :3, 3], dflt, fast_trace
+    )
+    np.testing.assert_array_equal(ok_fast, ok_ref)
+    assert not ok_ref[150:200].all()
+    for (name_r, f_r), (name_f, f_f) in zip(
+        ref_trace.fails + ref_trace.frees, fast_trace.fails + fast_trace.frees, strict=True
+    ):
+        assert name_f == name_r
+        np.testing.assert_array_equal(f_f, f_r, err_msg=name_r)
+    gap = np.abs(cf._wrap(Q_fast - Q_ref))
+    gap = np.where(ok_ref[..., None], gap, 0.0).max(axis=(1, 2))
+    assert gap[150:].max() <= 1e-9
+    assert gap[:150].max() <= 1e-6
+    assert np.isfinite(Q_fast).all()
