@@ -834,12 +834,11 @@ def _solve_arrays_once(
     if use_limits:
         Qk, owner, sing_code = _within_limits(chain, Qk, owner, sing_code, seeds)
     # Sort by target, then by distance to that target's seed.
-    dist = np.linalg.norm(Qk - seeds[owner], axis=1) if Qk.size else np.zeros(0)
-    order = np.lexsort((dist, owner))
-    Qk, owner, sing_code = Qk[order], owner[order], sing_code[order]
     count = np.bincount(owner, minlength=N).astype(np.int64)
     offsets = np.zeros(N + 1, dtype=np.int64)
     np.cumsum(count, out=offsets[1:])
+    order = _order_within_targets(Qk, owner, seeds, count, offsets)
+    Qk, owner, sing_code = Qk.take(order, 0), owner.take(order), sing_code.take(order)
     singular = np.zeros(N, dtype=bool)
     singular[owner[sing_code >= 0]] = True
     # Reasons, for targets without a solution: the first stage at which every branch failed.
@@ -870,6 +869,26 @@ def _solve_arrays_once(
         np.empty(0) if held is None else np.asarray(held),
         lane_count,
     )
+
+
+def _order_within_targets(
+    Q: FloatArray, owner: IntArray, seeds: FloatArray, count: IntArray, offsets: IntArray
+) -> IntArray:
+    """The order that sorts rows Q (K, n), grouped by target (`owner` nondecreasing, `count` rows
+    per target starting at `offsets`), by target and then by squared distance to the target's
+    seed, ties in row order: `np.lexsort((dist, owner))`. Sorted as a (targets × most rows)
+    table padded with inf, one short row sort per target (a third of lexsort's time)."""
+    K = Q.shape[0]
+    if not K:
+        return np.zeros(0, dtype=np.int64)
+    D = Q - seeds[owner]
+    dist = np.einsum("ij,ij->i", D, D)
+    m = int(count.max())
+    pos = np.arange(K) - offsets[owner]
+    table = np.full((count.shape[0], m), np.inf)
+    table[owner, pos] = dist
+    o = np.argsort(table, axis=1, kind="stable")
+    return (o + offsets[:-1, None])[np.arange(m) < count[:, None]]
 
 
 _STAGE_ORDER = {

@@ -168,3 +168,21 @@ def test_prepared_vectorised_three_parallel_solver_equals_the_reference(arm):
     assert gap[150:].max() <= 1e-9
     assert gap[:150].max() <= 1e-6
     assert np.isfinite(Q_fast).all()
+
+
+def test_order_within_targets_equals_lexsort():
+    """The batch's per-target sort is `np.lexsort((dist, owner))`, ties (equal distances, e.g.
+    ±π twins) in row order, for targets with no rows, one row or many."""
+    rng = np.random.default_rng(13)
+    N, n = 300, 6
+    count = rng.choice([0, 1, 3, 8, 40], size=N).astype(np.int64)
+    offsets = np.zeros(N + 1, dtype=np.int64)
+    np.cumsum(count, out=offsets[1:])
+    owner = np.repeat(np.arange(N), count)
+    Q = rng.choice([-np.pi, -1.0, 0.0, 0.5, np.pi], size=(owner.size, n))  # many ties
+    seeds = rng.uniform(-1.0, 1.0, (N, n))
+    seeds[::3] = 0.0
+    order = cf._order_within_targets(Q, owner, seeds, count, offsets)
+    D = Q - seeds[owner]
+    expected = np.lexsort((np.einsum("ij,ij->i", D, D), owner))
+    np.testing.assert_array_equal(order, expected)
