@@ -423,6 +423,17 @@ class ThreeParallel:
         hpx, hpy, hpz = self.hp4
         hpn = self.hp4n
         e2 = 1e-18  # (1e-9)², the SP1 tolerance of the wrist angles
+        # Constants as locals (attribute look-ups cost as much as the arithmetic here).
+        x0, x1, x2 = self.x
+        w4xx, w4x_, w4xv, w4v, v43 = self.w4xx, self.w4x, self.w4xv, self.w4v, self.v43
+        o5 = self.p5
+        o45 = (self.p4[0] - o5[0], self.p4[1] - o5[1], self.p4[2] - o5[2])
+        r1 = self.p1
+        r01x, r01y, r01z = r0x - r1[0], r0y - r1[1], r0z - r1[2]
+        a3, b3, pq3, dk3sq, eL2, eLsq = self.a3, self.b3, self.pq3, self.dk3**2, self.eL2, self.eLsq
+        w1x, w1y, w1z = self.w1
+        v32, w2xv, v21, w2d, w2v = self.v32, self.w2xv, self.v21, self.w2, self.w2v
+        n_wrist = n_elbow = 0
         for phi in th1:
             q1 = -phi
             c1, s1 = cos(q1), sin(q1)
@@ -490,57 +501,61 @@ class ThreeParallel:
                     fr5 = False
                     if q5 <= -pi:
                         q5 += TWO_PI
-                stages.passed["wrist"] += 1
-                why2 = why1 + (
-                    ("wrist axes aligned (joint 6 parallel to joints 2-4)",) if fr5 or fr6 else ()
-                )
-                # θ₂₃₄ from z₁ = R(ω₆, −q₆) R(ω₅, −q₅) x.
+                n_wrist += 1
+                why2 = why1 + (_WHY_WRIST,) if fr5 or fr6 else why1
+                # θ₂₃₄ from z = R(ω₆, −q₆) R(ω₅, −q₅) x (x and ω₅ × x constant).
                 c5, s5 = cos(q5), sin(q5)
-                z1 = _rot(self.w4, c5, -s5, self.x)
-                z1 = _rot(self.w5, c6, -s6, z1)
-                t234 = atan2(
-                    H1[0] * z1[0] + H1[1] * z1[1] + H1[2] * z1[2],
-                    X1[0] * z1[0] + X1[1] * z1[1] + X1[2] * z1[2],
+                f = w4x_ * (1.0 - c5)
+                zx = x0 * c5 - w4xx[0] * s5 + w4x * f
+                zy = x1 * c5 - w4xx[1] * s5 + w4y * f
+                zz = x2 * c5 - w4xx[2] * s5 + w4z * f
+                f = (w5x * zx + w5y * zy + w5z * zz) * (1.0 - c6)
+                zx, zy, zz = (
+                    zx * c6 - (w5y * zz - w5z * zy) * s6 + w5x * f,
+                    zy * c6 - (w5z * zx - w5x * zz) * s6 + w5y * f,
+                    zz * c6 - (w5x * zy - w5y * zx) * s6 + w5z * f,
                 )
-                # K r₄ = e₁⁻¹ G e₆⁻¹ e₅⁻¹ r₄
-                v, wxv, f = self.v43, self.w4xv, self.w4v * (1.0 - c5)
-                o = self.p4
-                mx = o[0] + v[0] * c5 - wxv[0] * s5 + w4x * f
-                my = o[1] + v[1] * c5 - wxv[1] * s5 + w4y * f
-                mz = o[2] + v[2] * c5 - wxv[2] * s5 + w4z * f
-                o = self.p5
-                m = _rot(self.w5, c6, -s6, (mx - o[0], my - o[1], mz - o[2]))
-                mx, my, mz = m[0] + o[0], m[1] + o[1], m[2] + o[2]
+                t234 = atan2(
+                    H1[0] * zx + H1[1] * zy + H1[2] * zz, X1[0] * zx + X1[1] * zy + X1[2] * zz
+                )
+                # K r₄ = e₁⁻¹ G e₆⁻¹ e₅⁻¹ r₄: m = r₅ + R(ω₅, −q₅)(r₄ − r₅) − r₆, then about axis 6.
+                f = w4v * (1.0 - c5)
+                mx = o45[0] + v43[0] * c5 - w4xv[0] * s5 + w4x * f
+                my = o45[1] + v43[1] * c5 - w4xv[1] * s5 + w4y * f
+                mz = o45[2] + v43[2] * c5 - w4xv[2] * s5 + w4z * f
+                f = (w5x * mx + w5y * my + w5z * mz) * (1.0 - c6)
+                mx, my, mz = (
+                    mx * c6 - (w5y * mz - w5z * my) * s6 + w5x * f + o5[0],
+                    my * c6 - (w5z * mx - w5x * mz) * s6 + w5y * f + o5[1],
+                    mz * c6 - (w5x * my - w5y * mx) * s6 + w5z * f + o5[2],
+                )
                 nx = R00 * mx + R01 * my + R02 * mz + p0x - r0x
                 ny = R10 * mx + R11 * my + R12 * mz + p0y - r0y
                 nz = R20 * mx + R21 * my + R22 * mz + p0z - r0z
-                k = _rot(self.w0, c1, -s1, (nx, ny, nz))
-                r1 = self.p1
-                krx, kry, krz = k[0] + r0x - r1[0], k[1] + r0y - r1[1], k[2] + r0z - r1[2]
+                f = (w0x * nx + w0y * ny + w0z * nz) * f1
+                krx = nx * c1 - (w0y * nz - w0z * ny) * s1 + w0x * f + r01x
+                kry = ny * c1 - (w0z * nx - w0x * nz) * s1 + w0y * f + r01y
+                krz = nz * c1 - (w0x * ny - w0y * nx) * s1 + w0z * f + r01z
                 # q₃: SP3 with constant p = r₄ − r₃, q = r₂ − r₃.
-                delta2 = krx * krx + kry * kry + krz * krz - self.dk3 * self.dk3
-                th3, ok3, fr3 = solve_trig(
-                    self.a3, self.b3, 0.5 * (self.pq3 - delta2), d[2], self.eL2
-                )
+                delta2 = krx * krx + kry * kry + krz * krz - dk3sq
+                th3, ok3, fr3 = solve_trig(a3, b3, 0.5 * (pq3 - delta2), d[2], eL2)
                 if not ok3:
                     continue
-                stages.passed["elbow"] += 2
-                why3 = why2 + (("joint 4's axis passes through joint 3's axis",) if fr3 else ())
+                n_elbow += 2
+                why3 = why2 + (_WHY_ELBOW,) if fr3 else why2
                 # q₂ = SP1(ω₂, e₃ r₄ − r₂ → K r₄ − r₂); the projection of the latter is shared.
-                w1x, w1y, w1z = self.w1
                 kk = w1x * krx + w1y * kry + w1z * krz
                 bx, by, bz = krx - w1x * kk, kry - w1y * kk, krz - w1z * kk
-                b_small = bx * bx + by * by + bz * bz <= self.eLsq
-                v, wxv, v21, w2d = self.v32, self.w2xv, self.v21, self.w2
+                b_small = bx * bx + by * by + bz * bz <= eLsq
                 for q3 in th3:
                     c3, s3_ = cos(q3), sin(q3)
-                    f = self.w2v * (1.0 - c3)
-                    ex = v21[0] + v[0] * c3 + wxv[0] * s3_ + w2d[0] * f
-                    ey = v21[1] + v[1] * c3 + wxv[1] * s3_ + w2d[1] * f
-                    ez = v21[2] + v[2] * c3 + wxv[2] * s3_ + w2d[2] * f
+                    f = w2v * (1.0 - c3)
+                    ex = v21[0] + v32[0] * c3 + w2xv[0] * s3_ + w2d[0] * f
+                    ey = v21[1] + v32[1] * c3 + w2xv[1] * s3_ + w2d[1] * f
+                    ez = v21[2] + v32[2] * c3 + w2xv[2] * s3_ + w2d[2] * f
                     ke = w1x * ex + w1y * ey + w1z * ez
                     ax, ay, az = ex - w1x * ke, ey - w1y * ke, ez - w1z * ke
-                    if b_small or ax * ax + ay * ay + az * az <= self.eLsq:
+                    if b_small or ax * ax + ay * ay + az * az <= eLsq:
                         q2, fr4 = wrap(d[1]), True
                     else:
                         q2 = atan2(
@@ -555,10 +570,18 @@ class ThreeParallel:
                     q4 = s4 * (t234 - s2 * q2 - s3 * q3)
                     if not -pi < q4 <= pi:
                         q4 = wrap(q4)
-                    why = why3 + (("the elbow point lies on joint 2's axis",) if fr4 else ())
                     q3w = q3 if -pi < q3 <= pi else wrap(q3)
-                    out.append(([q1w, q2, q3w, q4, q5, q6], why))
+                    out.append(
+                        ([q1w, q2, q3w, q4, q5, q6], why3 + (_WHY_ELBOW_POINT,) if fr4 else why3)
+                    )
+        stages.passed["wrist"] += n_wrist
+        stages.passed["elbow"] += n_elbow
         return out
+
+
+_WHY_WRIST = "wrist axes aligned (joint 6 parallel to joints 2-4)"
+_WHY_ELBOW = "joint 4's axis passes through joint 3's axis"
+_WHY_ELBOW_POINT = "the elbow point lies on joint 2's axis"
 
 
 def _rot(k: Vec, c: float, s: float, x: Vec) -> Vec:
