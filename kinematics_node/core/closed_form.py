@@ -48,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 from . import _closed_form_scalar as scalar
 from . import _closed_form_vector as vector
 from . import subproblems as sp
-from ._checks import as_float_array, check_finite, rigid_on_floats
+from ._checks import as_float_array, check_finite
 from .exceptions import InvalidInputError, NoClosedFormError
 from .ik_result import IKResult, check_seed, default_seed
 from .model import TWO_PI, KinematicChain, readonly
@@ -344,9 +344,19 @@ class _Solver:
         self.lower_arr, self.upper_arr = np.asarray(chain.lower), np.asarray(chain.upper)
         self.continuous = ~(np.isfinite(self.lower_arr) | np.isfinite(self.upper_arr))
         self.default_seed = default_seed(chain)
+        self.default_seed_list: list[float] = self.default_seed.tolist()
         self.all_finite = bool(np.all(np.isfinite(self.lower_arr) & np.isfinite(self.upper_arr)))
         self.lo_wide, self.hi_wide = self.lower_arr - 1e-10, self.upper_arr + 1e-10
         self.lo_wide_list, self.hi_wide_list = self.lo_wide.tolist(), self.hi_wide.tolist()
+        # Angles strictly inside (one_lo, one_hi) lie within their limits and have no other
+        # whole-turn equivalent within the widened ones (x − 2π < lo − 1e-10, x + 2π > hi + 1e-10),
+        # kept 1e-9 away from where that changes (`_single_equivalents`).
+        self.one_lo = [
+            max(lo, b - TWO_PI) + 1e-9 for lo, b in zip(self.lower, self.hi_wide_list, strict=True)
+        ]
+        self.one_hi = [
+            min(hi, a + TWO_PI) - 1e-9 for hi, a in zip(self.upper, self.lo_wide_list, strict=True)
+        ]
         self.held_moves = None if held is None else self._held_moves()
         model = chain.solver_model  # the generated scalar FK, where joints are the internal ones
         self.kernel = model.kernel
@@ -1232,6 +1242,16 @@ def _single_equivalents(
     rows: list[tuple[float, list[float], int]] = []  # (squared distance to the seed, q, source)
     clip = False  # some angle lies in the 1e-10 margin outside a limit
     for i, q in enumerate(accepted):
+        # First the usual case on one test per angle: inside `solver.one_lo/one_hi` an angle is
+        # within its limits and has no other equivalent (hand-written for speed).
+        dist = 0.0
+        for x, z, a, b in zip(q, seed, solver.one_lo, solver.one_hi, strict=True):
+            if not a < x < b:
+                break
+            dist += (x - z) * (x - z)
+        else:
+            rows.append((dist, q, i))
+            continue
         dist = 0.0
         for x, a, b, z, lo_j, hi_j in zip(q, lo, hi, seed, solver.lower, solver.upper, strict=True):
             if x - TWO_PI >= a or x + TWO_PI <= b:
@@ -1518,7 +1538,26 @@ def _exact_transform(T: object) -> list[list[float]] | None:
     if not isinstance(T, np.ndarray) or T.shape != (4, 4) or T.dtype != np.float64:
         return None
     Tl: list[list[float]] = T.tolist()
-    return Tl if rigid_on_floats(Tl, 1e-13, 0.0) else None
+    # `rigid_on_floats(Tl, 1e-13, 0.0)` written out (it runs on every single-target call).
+    (a, b, c, p), (d, e, f, q), (g, h, i, r), last = Tl
+    if last != [0.0, 0.0, 0.0, 1.0] or not (
+        -math.inf < a + b + c + d + e + f + g + h + i + p + q + r < math.inf
+    ):
+        return (
+            None  # (a sum of finite values can only overflow for absurd ones: then the slow path)
+        )
+    tol = 1e-13
+    if (
+        abs(a * a + d * d + g * g - 1.0) > tol
+        or abs(b * b + e * e + h * h - 1.0) > tol
+        or abs(c * c + f * f + i * i - 1.0) > tol
+        or abs(a * b + d * e + g * h) > tol
+        or abs(a * c + d * f + g * i) > tol
+        or abs(b * c + e * f + h * i) > tol
+    ):
+        return None
+    det = (d * h - g * e) * c + (g * b - a * h) * f + (a * e - d * b) * i
+    return Tl if det > 0 else None
 
 
 def _check_tolerance(tolerance: float) -> float:
@@ -1527,6 +1566,9 @@ def _check_tolerance(tolerance: float) -> float:
             f"tolerance must be a number in (0, 0.01) [m and rad], got {tolerance!r}"
         )
     return float(tolerance)
+
+
+_NO_HELD_VALUES = readonly(np.empty(0))
 
 
 def solve_all(
@@ -1568,14 +1610,15 @@ def solve_all(
             )
         Tl = _orthonormal(T[None])[0].tolist()
     if q_seed is None:
-        seed = solver.default_seed
+        seed, seed_list = solver.default_seed, solver.default_seed_list
     else:
         seed = check_seed(chain, q_seed, "q_seed", None)
-    held_arr = _held_values(solver, held, None)
+        seed_list = seed.tolist()
+    held_arr = None if held is None and solver.held is None else _held_values(solver, held, None)
     family = solver.info
     if solver.held is None:
-        sol_arr, (ep, er), singular_why, reason = _solve_single(solver, Tl, seed.tolist(), tol)
-        held_used = np.empty(0)
+        sol_arr, (ep, er), singular_why, reason = _solve_single(solver, Tl, seed_list, tol)
+        held_used = _NO_HELD_VALUES
     else:
         out = _solve_arrays(solver, np.array([Tl]), seed[None], held_arr, tol)
         sol_arr, held_used = out.solutions, out.held_values
@@ -1585,8 +1628,9 @@ def solve_all(
         if sol_arr.shape[0]:
             ep, er = _pose_errors_list(chain.fk(sol_arr[0]).tolist(), Tl)
     k = sol_arr.shape[0]
+    sol_arr.setflags(write=False)
     if k:
-        q = sol_arr[0]
+        q = sol_arr[0]  # a read-only view
         msg = f"{k} solution{'s' if k > 1 else ''} ({family.name}), nearest the seed first"
         if held_arr is not None:
             msg += f"; {held_arr.size} value{'s' if held_arr.size > 1 else ''} of {family.held_joint} swept"
@@ -1596,12 +1640,11 @@ def solve_all(
                 "were taken from the seed"
             )
     else:
-        q = seed
-        ep, er = _fk_errors(solver, seed.tolist(), Tl)
+        q = readonly(seed)
+        ep, er = _fk_errors(solver, seed_list, Tl)
         msg = reason
-    sol_arr.setflags(write=False)
     return ClosedFormResult(
-        q=readonly(q),
+        q=q,
         success=bool(k),
         position_error=float(ep),
         orientation_error=float(er),
@@ -1611,7 +1654,7 @@ def solve_all(
         message=msg,
         singular=bool(singular_why),
         family=family.name,
-        held_values=readonly(held_used),
+        held_values=held_used if held_used is _NO_HELD_VALUES else readonly(held_used),
     )
 
 

@@ -186,3 +186,25 @@ def test_order_within_targets_equals_lexsort():
     D = Q - seeds[owner]
     expected = np.lexsort((np.einsum("ij,ij->i", D, D), owner))
     np.testing.assert_array_equal(order, expected)
+
+
+def test_the_written_out_rigid_check_agrees_with_rigid_on_floats():
+    from kinematics_node.core._checks import rigid_on_floats
+
+    rng = np.random.default_rng(14)
+    chain = ur5(True)
+    for T in chain.fk(random_q(chain, rng, 200)):
+        for bad in (None, "rot", "row", "nan", "inf", "mirror"):
+            A = T.copy()
+            if bad == "rot":
+                A[rng.integers(3), rng.integers(3)] += 10.0 ** rng.uniform(-15, -11)
+            elif bad == "row":
+                A[3, rng.integers(4)] += 1e-300
+            elif bad == "nan":
+                A[rng.integers(3), rng.integers(4)] = np.nan
+            elif bad == "inf":
+                A[rng.integers(3), 3] = np.inf
+            elif bad == "mirror":
+                A[:3, 0] *= -1.0
+            expected = rigid_on_floats(A.tolist(), 1e-13, 0.0)
+            assert (cf._exact_transform(A) is not None) == expected, bad
