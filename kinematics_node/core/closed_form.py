@@ -842,7 +842,10 @@ def _solve_arrays_once(
     sing_code = free_codes.reshape(-1)[keep]
     n_before = np.bincount(owner, minlength=N)
     if use_limits:
-        Qk, owner, sing_code = _within_limits(chain, Qk, owner, sing_code, seeds)
+        two = _within_limits_two(solver, Qk, owner, sing_code) if solver.all_finite else None
+        if two is None:
+            two = _within_limits(chain, Qk, owner, sing_code, seeds)
+        Qk, owner, sing_code = two
     # Sort by target, then by distance to that target's seed.
     count = np.bincount(owner, minlength=N).astype(np.int64)
     offsets = np.zeros(N + 1, dtype=np.int64)
@@ -1209,11 +1212,7 @@ def _two_equivalents(
     cnt = np.floor((solver.hi_wide - Q) * _INVTWO_PI) - k_lo
     if cnt.max() > 1.0:  # (cnt is the number of equivalents − 1)
         return None
-    if n not in _TURN_BITS:
-        all_codes = np.arange(2**n, dtype=np.int64)
-        bits = ((all_codes[:, None] >> np.arange(n)) & 1).astype(np.float64)
-        _TURN_BITS[n] = (TWO_PI * bits, all_codes)
-    turns, codes = _TURN_BITS[n]
+    turns, codes = _turn_bits(n)
     fixed = (cnt == 0.0) @ (1 << np.arange(n))  # angles with one equivalent: their bit stays 0
     ok = (codes[None, :] & fixed[:, None]) == 0
     ok &= (cnt >= 0.0).all(axis=1)[:, None]  # an angle without any: no equivalent of the solution
@@ -1377,6 +1376,61 @@ def _insert(Q6: FloatArray, j: int, values: FloatArray) -> FloatArray:
     L = Q6.shape[0]
     col = np.broadcast_to(values[:, None, None], (L, 8, 1))
     return np.concatenate((Q6[..., :j], col, Q6[..., j:]), axis=2)
+
+
+def _within_limits_two(
+    solver: _Solver, Q: FloatArray, owner: IntArray, tag: IntArray
+) -> tuple[FloatArray, IntArray, IntArray] | None:
+    """`_within_limits` for finite limits where no angle has more than two whole-turn equivalents
+    (limits of ±2π: each solution has up to 2⁵ equivalents), in one gather instead of one per
+    joint: row r's equivalents are its lowest one plus 2π b for the bit patterns b with
+    b & fixed_r = 0 (`_two_equivalents`, vectorised over rows). None if the rule does not apply.
+    Rows stay grouped by target, in the order of `_within_limits`."""
+    if not Q.shape[0]:
+        return None
+    n = Q.shape[1]
+    # The same arithmetic as `_within_limits` (the results must not depend on the passes).
+    k_lo = np.ceil((solver.lo_wide - Q) / TWO_PI)
+    cnt = np.floor((solver.hi_wide - Q) / TWO_PI) - k_lo  # equivalents − 1
+    most = cnt.max()
+    if most > 1.0 or n > 16:
+        return None
+    if most < 1.0:  # one equivalent or none per angle (limits of ±π): no product to take
+        out = Q + TWO_PI * k_lo
+        if cnt.min() < 0.0:
+            rows = np.flatnonzero((cnt >= 0.0).all(axis=1))
+            out, owner, tag = out.take(rows, 0), owner.take(rows), tag.take(rows)
+        if (out < solver.lower_arr).any() or (out > solver.upper_arr).any():
+            np.minimum(out, solver.upper_arr, out=out)
+            np.maximum(out, solver.lower_arr, out=out)
+        return out, owner, tag
+    turns, codes = _turn_bits(n)
+    fixed = (cnt == 0.0) @ (1 << np.arange(n))  # angles with one equivalent: their bit stays 0
+    ok = (codes[None, :] & fixed[:, None]) == 0
+    if cnt.min() < 0.0:
+        ok &= (cnt >= 0.0).all(axis=1)[:, None]  # an angle without any: none of the solution
+    flat = np.flatnonzero(ok)
+    rows = flat >> n  # flat = row · 2ⁿ + code
+    k = k_lo.take(rows, 0)
+    k += turns.take(flat & (2**n - 1), 0) * (1.0 / TWO_PI)  # (the bits, exactly)
+    out = Q.take(rows, 0)
+    out += TWO_PI * k
+    # Clip into the limits (the widening by 1e-10) only where some equivalent lies outside them
+    # (elsewhere clipping changes nothing).
+    lowest, highest = Q + TWO_PI * k_lo, Q + TWO_PI * (k_lo + cnt)  # (as `out` is computed)
+    if (lowest < solver.lower_arr).any() or (highest > solver.upper_arr).any():
+        np.minimum(out, solver.upper_arr, out=out)
+        np.maximum(out, solver.lower_arr, out=out)
+    return out, owner.take(rows), tag.take(rows)
+
+
+def _turn_bits(n: int) -> tuple[FloatArray, IntArray]:
+    """2π × the (2ⁿ, n) bits of 0 … 2ⁿ − 1 and those codes (cached per n)."""
+    if n not in _TURN_BITS:
+        all_codes = np.arange(2**n, dtype=np.int64)
+        bits = ((all_codes[:, None] >> np.arange(n)) & 1).astype(np.float64)
+        _TURN_BITS[n] = (TWO_PI * bits, all_codes)
+    return _TURN_BITS[n]
 
 
 def _within_limits(

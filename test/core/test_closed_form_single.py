@@ -50,6 +50,14 @@ def mixed_limits(chain: SerialChain) -> SerialChain:
     return SerialChain.from_poe(np.asarray(chain.S), np.asarray(chain.M), lower=lower, upper=upper)
 
 
+def narrow_limits(chain: SerialChain) -> SerialChain:
+    """Limits within a turn, two of them narrow: no angle has a second equivalent, and many
+    solutions have none within the limits."""
+    lower = np.array([-np.pi, -1.0, -np.pi, -2.0, -np.pi, -np.pi])
+    upper = np.array([np.pi, 2.0, np.pi, 0.5, np.pi, np.pi])
+    return SerialChain.from_poe(np.asarray(chain.S), np.asarray(chain.M), lower=lower, upper=upper)
+
+
 ARMS = {
     "ur5-limited": lambda: ur5(True),
     "ur5": lambda: ur5(False),
@@ -57,6 +65,7 @@ ARMS = {
     "ur5 on a moved base": lambda: moved_base(ur5(True)),
     "ur5 reversed": lambda: reversed_arm(ur5(True)),
     "ur5 mixed limits": lambda: mixed_limits(ur5(True)),
+    "ur5 narrow limits": lambda: narrow_limits(ur5(True)),
 }
 
 
@@ -107,7 +116,8 @@ def test_prepared_three_parallel_solver_equals_the_reference(arm):
 
 
 @pytest.mark.parametrize(
-    "arm", ["ur5", "ur5e", "ur5 on a moved base", "ur5 reversed", "ur5 mixed limits"]
+    "arm",
+    ["ur5", "ur5e", "ur5 on a moved base", "ur5 reversed", "ur5 mixed limits", "ur5 narrow limits"],
 )
 def test_single_call_equals_batch_with_whole_turn_equivalents(arm):
     chain = ARMS[arm]()
