@@ -1406,9 +1406,11 @@ def _within_limits_two(
         return out, owner, tag
     turns, codes = _turn_bits(n)
     fixed = (cnt == 0.0) @ (1 << np.arange(n))  # angles with one equivalent: their bit stays 0
-    ok = (codes[None, :] & fixed[:, None]) == 0
+    ok: BoolArray = (codes[None, :] & fixed[:, None]) == 0
     if cnt.min() < 0.0:
-        ok &= (cnt >= 0.0).all(axis=1)[:, None]  # an angle without any: none of the solution
+        ok &= np.asarray((cnt >= 0.0).all(axis=1))[
+            :, None
+        ]  # an angle without any: none of the solution
     flat = np.flatnonzero(ok)
     rows = flat >> n  # flat = row · 2ⁿ + code
     k = k_lo.take(rows, 0)
