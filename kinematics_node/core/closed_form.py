@@ -48,7 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 from . import _closed_form_scalar as scalar
 from . import _closed_form_vector as vector
 from . import subproblems as sp
-from ._checks import as_float_array, check_finite
+from ._checks import as_float_array, check_finite, rigid_on_floats
 from .exceptions import InvalidInputError, NoClosedFormError
 from .ik_result import IKResult, check_seed, default_seed
 from .model import TWO_PI, KinematicChain, readonly
@@ -1594,26 +1594,7 @@ def _exact_transform(T: object) -> list[list[float]] | None:
     if not isinstance(T, np.ndarray) or T.shape != (4, 4) or T.dtype != np.float64:
         return None
     Tl: list[list[float]] = T.tolist()
-    # `rigid_on_floats(Tl, 1e-13, 0.0)` written out (it runs on every single-target call).
-    (a, b, c, p), (d, e, f, q), (g, h, i, r), last = Tl
-    if last != [0.0, 0.0, 0.0, 1.0] or not (
-        -math.inf < a + b + c + d + e + f + g + h + i + p + q + r < math.inf
-    ):
-        return (
-            None  # (a sum of finite values can only overflow for absurd ones: then the slow path)
-        )
-    tol = 1e-13
-    if (
-        abs(a * a + d * d + g * g - 1.0) > tol
-        or abs(b * b + e * e + h * h - 1.0) > tol
-        or abs(c * c + f * f + i * i - 1.0) > tol
-        or abs(a * b + d * e + g * h) > tol
-        or abs(a * c + d * f + g * i) > tol
-        or abs(b * c + e * f + h * i) > tol
-    ):
-        return None
-    det = (d * h - g * e) * c + (g * b - a * h) * f + (a * e - d * b) * i
-    return Tl if det > 0 else None
+    return Tl if rigid_on_floats(Tl, 1e-13, 0.0) else None
 
 
 def _check_tolerance(tolerance: float) -> float:

@@ -198,23 +198,44 @@ def test_order_within_targets_equals_lexsort():
     np.testing.assert_array_equal(order, expected)
 
 
-def test_the_written_out_rigid_check_agrees_with_rigid_on_floats():
+def test_the_written_out_rigid_check_agrees_with_numpy():
+    """`rigid_on_floats` (written out on floats) against the same criteria in NumPy: finite, last
+    row (0, 0, 0, 1) within the row tolerance, |RᵀR − I| within the rotation tolerance, det R > 0;
+    and `_exact_transform` (tolerances 1e-13 and 0) accepts exactly those transforms."""
     from kinematics_node.core._checks import rigid_on_floats
+
+    def numpy_rigid(A: np.ndarray, rot_tol: float, row_tol: float) -> bool:
+        if not np.isfinite(A).all():
+            return False
+        if np.abs(A[3] - (0.0, 0.0, 0.0, 1.0)).max() > row_tol:
+            return False
+        R = A[:3, :3]
+        return bool(np.abs(R.T @ R - np.eye(3)).max() <= rot_tol and np.linalg.det(R) > 0)
 
     rng = np.random.default_rng(14)
     chain = ur5(True)
     for T in chain.fk(random_q(chain, rng, 200)):
-        for bad in (None, "rot", "row", "nan", "inf", "mirror"):
+        for bad in (None, "rot", "row", "nan", "inf", "mirror", "scaled"):
             A = T.copy()
             if bad == "rot":
-                A[rng.integers(3), rng.integers(3)] += 10.0 ** rng.uniform(-15, -11)
+                A[rng.integers(3), rng.integers(3)] += 10.0 ** rng.uniform(-15, -5)
             elif bad == "row":
-                A[3, rng.integers(4)] += 1e-300
+                A[3, rng.integers(4)] += 10.0 ** rng.uniform(-12, -6)
             elif bad == "nan":
-                A[rng.integers(3), rng.integers(4)] = np.nan
+                A[rng.integers(4), rng.integers(4)] = np.nan
             elif bad == "inf":
-                A[rng.integers(3), 3] = np.inf
+                A[rng.integers(3), 3] = -np.inf
             elif bad == "mirror":
                 A[:3, 0] *= -1.0
-            expected = rigid_on_floats(A.tolist(), 1e-13, 0.0)
-            assert (cf._exact_transform(A) is not None) == expected, bad
+            elif bad == "scaled":
+                A[:3, :3] *= 1.0 + 10.0 ** rng.uniform(-9, -5)
+            for rot_tol, row_tol in ((1e-6, 1e-9), (1e-13, 0.0)):
+                got = rigid_on_floats(A.tolist(), rot_tol, row_tol)
+                want = numpy_rigid(A, rot_tol, row_tol)
+                # (the two may round |RᵀR − I| differently right at the tolerance)
+                near = (
+                    np.isfinite(A).all()
+                    and abs(np.abs(A[:3, :3].T @ A[:3, :3] - np.eye(3)).max() - rot_tol) < 1e-15
+                )
+                assert got == want or near, (bad, rot_tol)
+            assert (cf._exact_transform(A) is not None) == rigid_on_floats(A.tolist(), 1e-13, 0.0)
