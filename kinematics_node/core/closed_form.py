@@ -340,6 +340,10 @@ class _Solver:
         )
         self.lower = [float(x) for x in chain.lower]
         self.upper = [float(x) for x in chain.upper]
+        # Every angle of [−π, π] lies within the limits (±π, ±2π, continuous joints).
+        self.holds_turn = all(
+            a <= -math.pi and b >= math.pi for a, b in zip(self.lower, self.upper, strict=True)
+        )
         self.info = self.family()
         self.lower_arr, self.upper_arr = np.asarray(chain.lower), np.asarray(chain.upper)
         self.continuous = ~(np.isfinite(self.lower_arr) | np.isfinite(self.upper_arr))
@@ -1786,11 +1790,7 @@ def _nearest_turn(
 
 
 def _ranked(
-    cands: list[scalar.Candidate],
-    seed: list[float],
-    lo: list[float],
-    hi: list[float],
-    w: list[float],
+    cands: list[scalar.Candidate], seed: list[float], solver: _Solver, w: list[float]
 ) -> list[tuple[float, list[float]]]:
     """The candidates' `_nearest_turn` equivalents with their weighted distances Σ wⱼ (qⱼ − sⱼ)²
     to the seed, nearest first (those without an equivalent within the limits left out).
@@ -1799,16 +1799,27 @@ def _ranked(
     the seed and within the limits is its own nearest equivalent, so only the others go through
     `_nearest_turn`."""
     ranked: list[tuple[float, list[float]]] = []
+    lo, hi = solver.lower, solver.upper
     for q, _ in cands:
         dist = 0.0
-        for x, s, a, b, wj in zip(q, seed, lo, hi, w, strict=True):
-            d = x - s
-            if not (-math.pi < d < math.pi and a <= x <= b):
-                break
-            dist += wj * (d * d)
+        if solver.holds_turn:  # no test of the limits per angle
+            for x, s, wj in zip(q, seed, w, strict=True):
+                d = x - s
+                if not -math.pi < d < math.pi:
+                    break
+                dist += wj * (d * d)
+            else:
+                ranked.append((dist, q))
+                continue
         else:
-            ranked.append((dist, q))
-            continue
+            for x, s, a, b, wj in zip(q, seed, lo, hi, w, strict=True):
+                d = x - s
+                if not (-math.pi < d < math.pi and a <= x <= b):
+                    break
+                dist += wj * (d * d)
+            else:
+                ranked.append((dist, q))
+                continue
         qn = _nearest_turn(q, seed, lo, hi)
         if qn is not None:
             ranked.append(
@@ -1914,7 +1925,7 @@ def _nearest_at(
     """`nearest` for one value of the held joint (None for a 6R arm): the solutions with their
     (position, rotation) errors, and why there are none ("" if there are)."""
     cands, stages = _scalar_candidates(solver, Tl, seed, held_value)
-    ranked = _ranked(cands, seed, solver.lower, solver.upper, w)
+    ranked = _ranked(cands, seed, solver, w)
     found: list[tuple[FloatArray, tuple[float, float]]] = []
     for _, q in ranked:
         if any(np.abs(np.asarray(q) - f).max() <= separation for f, _ in found):

@@ -239,3 +239,25 @@ def test_the_written_out_rigid_check_agrees_with_numpy():
                 )
                 assert got == want or near, (bad, rot_tol)
             assert (cf._exact_transform(A) is not None) == rigid_on_floats(A.tolist(), 1e-13, 0.0)
+
+
+@pytest.mark.parametrize("arm", ["ur5", "ur5-limited", "ur5 narrow limits", "ur5 mixed limits"])
+def test_ik_closed_form_is_the_weighted_nearest_member_of_the_set(arm):
+    """`ik` ranks the candidates by their nearest whole-turn equivalent (with or without a test of
+    the limits per angle): its answer is the member of `ik_all` with the least weighted distance."""
+    from kinematics_node.core import IKOptions
+
+    chain = ARMS[arm]()
+    rng = np.random.default_rng(15)
+    w = (3.0, 1.0, 0.5, 1.0, 2.0, 1.0)
+    opts = IKOptions(method="closed_form", joint_weights=w)
+    for q, seed in zip(random_q(chain, rng, 40), random_q(chain, rng, 40), strict=True):
+        T = chain.fk(q)
+        res = chain.ik(T, seed, opts)
+        every = np.array(chain.ik_all(T, seed).solutions)
+        cost = ((every - seed) ** 2 * np.array(w)).sum(axis=1)
+        assert res.success
+        assert float(((res.q - seed) ** 2 * np.array(w)).sum()) == pytest.approx(
+            cost.min(), abs=1e-9
+        )
+        assert np.abs(chain.fk(res.q) - T).max() <= FK_TOL
