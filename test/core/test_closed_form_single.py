@@ -261,3 +261,28 @@ def test_ik_closed_form_is_the_weighted_nearest_member_of_the_set(arm):
             cost.min(), abs=1e-9
         )
         assert np.abs(chain.fk(res.q) - T).max() <= FK_TOL
+
+
+def test_check_seed_on_floats_equals_the_array_rules():
+    """The float fast path of `check_seed` returns what clamping returns, and anything it does not
+    accept (outside the limits, NaN, inf, other dtypes or shapes) takes the array rules."""
+    from kinematics_node.core import InvalidInputError
+    from kinematics_node.core.ik_result import check_seed
+
+    chain = ARMS["ur5 narrow limits"]()
+    rng = np.random.default_rng(16)
+    for s in [
+        *random_q(chain, rng, 20),
+        rng.uniform(-4, 4, 6),
+        chain.lower.copy(),
+        chain.upper.copy(),
+    ]:
+        got = check_seed(chain, s, "q_seed", None)
+        np.testing.assert_array_equal(got, np.clip(s, chain.lower, chain.upper))
+        assert got is not s
+    np.testing.assert_array_equal(
+        check_seed(chain, [0, 0, 0, 0, 0, 0], "q_seed", None), np.zeros(6)
+    )
+    for bad in (np.full(6, np.nan), np.array([0, 0, np.inf, 0, 0, 0.0]), np.zeros(5)):
+        with pytest.raises(InvalidInputError):
+            check_seed(chain, bad, "q_seed", None)
