@@ -1217,9 +1217,10 @@ def _two_equivalents(
     if cnt.max() > 1.0:  # (cnt is the number of equivalents − 1)
         return None
     turns, codes = _turn_bits(n)
-    fixed = (cnt == 0.0) @ (1 << np.arange(n))  # angles with one equivalent: their bit stays 0
+    fixed = (cnt == 0.0) @ _powers_of_two(n)  # angles with one equivalent: their bit stays 0
     ok = (codes[None, :] & fixed[:, None]) == 0
-    ok &= (cnt >= 0.0).all(axis=1)[:, None]  # an angle without any: no equivalent of the solution
+    if cnt.min() < 0.0:  # an angle without any: no equivalent of the solution
+        ok &= (cnt >= 0.0).all(axis=1)[:, None]
     ok = np.flatnonzero(ok)
     keep = ok >> n  # ok = solution · 2ⁿ + code
     out = (Q + TWO_PI * k_lo).take(keep, 0)
@@ -1409,7 +1410,7 @@ def _within_limits_two(
             np.maximum(out, solver.lower_arr, out=out)
         return out, owner, tag
     turns, codes = _turn_bits(n)
-    fixed = (cnt == 0.0) @ (1 << np.arange(n))  # angles with one equivalent: their bit stays 0
+    fixed = (cnt == 0.0) @ _powers_of_two(n)  # angles with one equivalent: their bit stays 0
     ok: BoolArray = (codes[None, :] & fixed[:, None]) == 0
     if cnt.min() < 0.0:
         ok &= np.asarray((cnt >= 0.0).all(axis=1))[
@@ -1428,6 +1429,14 @@ def _within_limits_two(
         np.minimum(out, solver.upper_arr, out=out)
         np.maximum(out, solver.lower_arr, out=out)
     return out, owner.take(rows), tag.take(rows)
+
+
+@functools.lru_cache(maxsize=4)
+def _powers_of_two(n: int) -> IntArray:
+    """1, 2, 4, …, 2ⁿ⁻¹ (read-only)."""
+    out = 1 << np.arange(n, dtype=np.int64)
+    out.setflags(write=False)
+    return out
 
 
 def _turn_bits(n: int) -> tuple[FloatArray, IntArray]:
