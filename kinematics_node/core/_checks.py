@@ -76,26 +76,22 @@ def rigid_on_floats(T: list[list[float]], rotation_tolerance: float, row_toleran
     """True if T (4 × 4 nested lists) is finite, has last row (0, 0, 0, 1) within `row_tolerance`
     and a rotation with |RᵀR − I| ≤ `rotation_tolerance` elementwise and det R > 0: the tests of
     `check_transform` (1e-6, 1e-9) on plain floats, a few µs for one transform instead of ~20 µs
-    of NumPy. False means "let the array path decide" (it raises with the reason)."""
-    for row in T:
-        for x in row:
-            if not (-math.inf < x < math.inf):
-                return False
-    a, b, c, d = T[3]
-    if max(abs(a), abs(b), abs(c), abs(d - 1.0)) > row_tolerance:
+    of NumPy. False means "let the array path decide" (it raises with the reason).
+
+    Written out for speed: it runs on every single-target FK/IK call."""
+    (a, b, c, p), (d, e, f, q), (g, h, i, r), (w, x, y, z) = T
+    if not (-math.inf < a + b + c + d + e + f + g + h + i + p + q + r + w + x + y + z < math.inf):
+        return False  # some value is not finite (or they are so large that the sum overflows)
+    if max(abs(w), abs(x), abs(y), abs(z - 1.0)) > row_tolerance:
         return False
-    cols = [(T[0][i], T[1][i], T[2][i]) for i in range(3)]
-    for i in range(3):
-        u = cols[i]
-        for j in range(i, 3):
-            v = cols[j]
-            dot = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-            if abs(dot - (1.0 if i == j else 0.0)) > rotation_tolerance:
-                return False
-    u, v, w = cols
-    det = (
-        (u[1] * v[2] - u[2] * v[1]) * w[0]
-        + (u[2] * v[0] - u[0] * v[2]) * w[1]
-        + (u[0] * v[1] - u[1] * v[0]) * w[2]
-    )
-    return det > 0
+    tol = rotation_tolerance
+    if (  # columns (a, d, g), (b, e, h), (c, f, i): unit length, pairwise orthogonal
+        abs(a * a + d * d + g * g - 1.0) > tol
+        or abs(a * b + d * e + g * h) > tol
+        or abs(a * c + d * f + g * i) > tol
+        or abs(b * b + e * e + h * h - 1.0) > tol
+        or abs(b * c + e * f + h * i) > tol
+        or abs(c * c + f * f + i * i - 1.0) > tol
+    ):
+        return False
+    return (d * h - g * e) * c + (g * b - a * h) * f + (a * e - d * b) * i > 0

@@ -15,6 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from . import subproblems as sp
+from ._closed_form_scalar import ThreeParallel, Vec
+from .subproblems import TANGENT_TOLERANCE
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -232,3 +234,182 @@ def solve_spherical(
     for _, f in trace.fails:
         ok &= f
     return Q, ok
+
+
+def solve_three_parallel_prepared(
+    c: ThreeParallel, R: FloatArray, p: FloatArray, dflt: FloatArray, trace: Trace
+) -> tuple[FloatArray, BoolArray]:
+    """`solve_three_parallel` for one fixed geometry whose constants `c` were prepared once
+    (`_closed_form_scalar.ThreeParallel`: the same equations as its `solve`, on arrays).
+
+    Hand-written for speed (`ik_all_batch`): vectors are kept as three (L, b) component arrays
+    and constant vectors as floats, so a rotation of a constant vector costs three scaled sums
+    instead of a cross product, a dot product and broadcast copies of (L, b, 3) arrays. Same
+    branch layout, flags and reasons as `solve_three_parallel` (the tests compare the two).
+    """
+    L = R.shape[0]
+    (R00, R01, R02), (R10, R11, R12), (R20, R21, R22) = (
+        [R[:, i, j][:, None] for j in range(3)] for i in range(3)
+    )
+    px, py, pz = (p[:, i][:, None] for i in range(3))
+    w0x, w0y, w0z = c.w0
+    r0x, r0y, r0z = c.p0
+    hx_, hy_, hz_ = c.h
+    # q₁: hᵀ e₁⁻¹(G c) = hᵀc (SP4 in φ = −q₁).
+    cx, cy, cz = c.c
+    ax = R00 * cx + R01 * cy + R02 * cz + (px - r0x)
+    ay = R10 * cx + R11 * cy + R12 * cz + (py - r0y)
+    az = R20 * cx + R21 * cy + R22 * cz + (pz - r0z)
+    kp = w0x * ax + w0y * ay + w0z * az
+    hxw = c.hxw0
+    phi, ok1, fr1 = sp.solve_trig(
+        (hx_ * ax + hy_ * ay + hz_ * az - c.hw0 * kp)[:, 0],
+        (hxw[0] * ax + hxw[1] * ay + hxw[2] * az)[:, 0],
+        (c.d1 - c.hw0 * kp)[:, 0],
+        -dflt[:, 0],
+        c.eL,
+    )
+    trace.fails.append(("shoulder", _flag(ok1, L, 8)))
+    trace.frees.append(("the wrist point lies on joint 1's axis", _flag(fr1, L, 8)))
+    q1 = -phi  # (L, 2)
+    c1, s1 = np.cos(q1), np.sin(q1)
+    f1 = 1.0 - c1
+
+    def turned(v0: Vec, wxv: Vec, wv: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Rᵀ R(ω₁, q₁) v of a constant v, (L, 2) components."""
+        b = wv * f1
+        vx = v0[0] * c1 + wxv[0] * s1 + w0x * b
+        vy = v0[1] * c1 + wxv[1] * s1 + w0y * b
+        vz = v0[2] * c1 + wxv[2] * s1 + w0z * b
+        return (
+            R00 * vx + R10 * vy + R20 * vz,
+            R01 * vx + R11 * vy + R21 * vz,
+            R02 * vx + R12 * vy + R22 * vz,
+        )
+
+    ux, uy, uz = turned(c.h, c.w0xh, c.hw0)
+    X1 = turned(c.x, c.w0xx, c.w0x)
+    H1 = turned(c.hx, c.w0xhx, c.w0hx)
+    # (q₅, q₆): SP2 R(ω₅, q₅) R(ω₆, q₆) u = h, both signs of γ: (L, 2) → (L, 4).
+    w4x, w4y, w4z = c.w4
+    w5x, w5y, w5z = c.w5
+    e2 = 1e-18
+    kpu = w5x * ux + w5y * uy + w5z * uz
+    alpha = (c.c45 * kpu - c.kq) / c.den
+    beta = (c.c45 * c.kq - kpu) / c.den
+    pp = ux * ux + uy * uy + uz * uz
+    g2 = (pp - alpha * alpha - beta * beta - 2.0 * alpha * beta * c.c45) / c.n12
+    ok2 = g2 >= -TANGENT_TOLERANCE * np.maximum(pp, e2)
+    gamma = np.sqrt(np.maximum(g2, 0.0))
+    upx, upy, upz = ux - w5x * kpu, uy - w5y * kpu, uz - w5z * kpu  # u′ normal to ω₆
+    up_small = upx * upx + upy * upy + upz * upz <= e2
+    gs = (gamma[:, :, None] * np.array((1.0, -1.0))).reshape(L, 4)
+    alpha, beta, kpu, ux, uy, uz, upx, upy, upz, up_small = (
+        _spread(a, 2) for a in (alpha, beta, kpu, ux, uy, uz, upx, upy, upz, up_small)
+    )
+    k12x, k12y, k12z = c.k12
+    zx = alpha * w4x + beta * w5x + gs * k12x
+    zy = alpha * w4y + beta * w5y + gs * k12y
+    zz = alpha * w4z + beta * w5z + gs * k12z
+    kz = w5x * zx + w5y * zy + w5z * zz
+    bx, by, bz = zx - w5x * kz, zy - w5y * kz, zz - w5z * kz
+    fr6 = up_small | (bx * bx + by * by + bz * bz <= e2)
+    q6 = np.arctan2(
+        w5x * (upy * bz - upz * by) + w5y * (upz * bx - upx * bz) + w5z * (upx * by - upy * bx),
+        upx * bx + upy * by + upz * bz,
+    )
+    q6 = np.where(fr6, dflt[:, 5:6], q6)
+    c6, s6 = np.cos(q6), np.sin(q6)
+    f6 = kpu * (1.0 - c6)
+    yx = ux * c6 + (w5y * uz - w5z * uy) * s6 + w5x * f6
+    yy = uy * c6 + (w5z * ux - w5x * uz) * s6 + w5y * f6
+    yz = uz * c6 + (w5x * uy - w5y * ux) * s6 + w5z * f6
+    ky = w4x * yx + w4y * yy + w4z * yz
+    ax, ay, az = yx - w4x * ky, yy - w4y * ky, yz - w4z * ky
+    hpx, hpy, hpz = c.hp4
+    fr5 = (ax * ax + ay * ay + az * az <= e2) | (c.hp4n <= e2)
+    q5 = np.arctan2(
+        w4x * (ay * hpz - az * hpy) + w4y * (az * hpx - ax * hpz) + w4z * (ax * hpy - ay * hpx),
+        ax * hpx + ay * hpy + az * hpz,
+    )
+    q5 = np.where(fr5, dflt[:, 4:5], q5)
+    trace.fails.append(("wrist", _flag(ok2, L, 8)))
+    trace.frees.append(
+        ("wrist axes aligned (joint 6 parallel to joints 2-4)", _flag(fr5 | fr6, L, 8))
+    )
+    # θ₂₃₄ from z₁ = R(ω₆, −q₆) R(ω₅, −q₅) x.
+    c5, s5 = np.cos(q5), np.sin(q5)
+    f = c.w4x * (1.0 - c5)
+    x0 = c.x
+    zx = x0[0] * c5 - c.w4xx[0] * s5 + w4x * f
+    zy = x0[1] * c5 - c.w4xx[1] * s5 + w4y * f
+    zz = x0[2] * c5 - c.w4xx[2] * s5 + w4z * f
+    zx, zy, zz = _turn(c.w5, c6, -s6, zx, zy, zz)
+    X4 = [_spread(a, 2) for a in X1]
+    H4 = [_spread(a, 2) for a in H1]
+    t234 = np.arctan2(H4[0] * zx + H4[1] * zy + H4[2] * zz, X4[0] * zx + X4[1] * zy + X4[2] * zz)
+    # K r₄ = e₁⁻¹ G e₆⁻¹ e₅⁻¹ r₄
+    v, wxv, f = c.v43, c.w4xv, c.w4v * (1.0 - c5)
+    o = c.p4
+    o5 = c.p5
+    mx = (o[0] - o5[0]) + v[0] * c5 - wxv[0] * s5 + w4x * f
+    my = (o[1] - o5[1]) + v[1] * c5 - wxv[1] * s5 + w4y * f
+    mz = (o[2] - o5[2]) + v[2] * c5 - wxv[2] * s5 + w4z * f
+    mx, my, mz = _turn(c.w5, c6, -s6, mx, my, mz)
+    mx, my, mz = mx + o5[0], my + o5[1], mz + o5[2]
+    nx = R00 * mx + R01 * my + R02 * mz + (px - r0x)
+    ny = R10 * mx + R11 * my + R12 * mz + (py - r0y)
+    nz = R20 * mx + R21 * my + R22 * mz + (pz - r0z)
+    kx, ky, kz = _turn(c.w0, _spread(c1, 2), -_spread(s1, 2), nx, ny, nz)
+    r1 = c.p1
+    krx, kry, krz = kx + (r0x - r1[0]), ky + (r0y - r1[1]), kz + (r0z - r1[2])
+    # q₃: SP3 with constant p = r₄ − r₃, q = r₂ − r₃: (L, 4) → (L, 8).
+    delta2 = krx * krx + kry * kry + krz * krz - c.dk3 * c.dk3
+    q3, ok3, fr3 = sp.solve_trig(
+        np.float64(c.a3), np.float64(c.b3), 0.5 * (c.pq3 - delta2), dflt[:, 2:3], c.eL2
+    )
+    trace.fails.append(("elbow", _flag(ok3, L, 8)))
+    fr3 = np.broadcast_to(fr3, (L, 4))  # (a constant: a and b of this SP3 do not vary)
+    trace.frees.append(("joint 4's axis passes through joint 3's axis", _flag(fr3, L, 8)))
+    q3 = q3.reshape(L, 8)
+    # q₂ = SP1(ω₂, e₃ r₄ − r₂ → K r₄ − r₂); the projection of the latter is shared.
+    w1x, w1y, w1z = c.w1
+    kk = w1x * krx + w1y * kry + w1z * krz
+    bx, by, bz = krx - w1x * kk, kry - w1y * kk, krz - w1z * kk
+    b_small = bx * bx + by * by + bz * bz <= c.eLsq
+    bx, by, bz, b_small = (_spread(a, 2) for a in (bx, by, bz, b_small))
+    c3, s3_ = np.cos(q3), np.sin(q3)
+    v, wxv, v21, w2d = c.v32, c.w2xv, c.v21, c.w2
+    f = c.w2v * (1.0 - c3)
+    ex = v21[0] + v[0] * c3 + wxv[0] * s3_ + w2d[0] * f
+    ey = v21[1] + v[1] * c3 + wxv[1] * s3_ + w2d[1] * f
+    ez = v21[2] + v[2] * c3 + wxv[2] * s3_ + w2d[2] * f
+    ke = w1x * ex + w1y * ey + w1z * ez
+    ax, ay, az = ex - w1x * ke, ey - w1y * ke, ez - w1z * ke
+    fr4 = b_small | (ax * ax + ay * ay + az * az <= c.eLsq)
+    q2 = np.arctan2(
+        w1x * (ay * bz - az * by) + w1y * (az * bx - ax * bz) + w1z * (ax * by - ay * bx),
+        ax * bx + ay * by + az * bz,
+    )
+    q2 = np.where(fr4, dflt[:, 1:2], q2)
+    trace.frees.append(("the elbow point lies on joint 2's axis", fr4))
+    s2, s3, s4 = c.s
+    q4 = s4 * (_spread(t234, 2) - s2 * q2 - s3 * q3)
+    Q = np.stack((_spread(q1, 4), q2, q3, q4, _spread(q5, 2), _spread(q6, 2)), axis=-1)
+    ok = np.ones((L, 8), dtype=bool)
+    for _, fl in trace.fails:
+        ok &= fl
+    return Q, ok
+
+
+def _turn(
+    k: Vec, c: FloatArray, s: FloatArray, x: FloatArray, y: FloatArray, z: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """R(k, θ) (x, y, z) for a constant unit k, with c = cos θ, s = sin θ (component arrays)."""
+    k0, k1, k2 = k
+    f = (k0 * x + k1 * y + k2 * z) * (1.0 - c)
+    return (
+        x * c + (k1 * z - k2 * y) * s + k0 * f,
+        y * c + (k2 * x - k0 * z) * s + k1 * f,
+        z * c + (k0 * y - k1 * x) * s + k2 * f,
+    )

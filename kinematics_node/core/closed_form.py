@@ -258,11 +258,15 @@ def _solve_6r(
     p: FloatArray,
     dflt: FloatArray,
     trace: vector.Trace,
+    prepared: scalar.ThreeParallel | None = None,
 ) -> tuple[FloatArray, BoolArray]:
     """All (≤ 8) solutions of e₁ ⋯ e₆ = G = (R, p) for L lanes: Q (L, 8, 6) and ok (L, 8).
 
     `dflt` (L, 6) gives the value of an angle that the target leaves free (singular poses).
+    `prepared`: the constants of a three-parallel geometry g that is the same for every lane.
     """
+    if st.kind == "three_parallel" and prepared is not None:
+        return vector.solve_three_parallel_prepared(prepared, R, p, dflt, trace)
     if st.kind == "three_parallel":
         return vector.solve_three_parallel(g, R, p, dflt, trace)
     return vector.solve_spherical(st.case, g, R, p, dflt, trace)
@@ -321,20 +325,45 @@ class _Solver:
         self.M_inv_rows: list[list[float]] = self.M_inv.tolist()
         self.M_arr = M
         self.scale = float(max(1e-3, np.abs(r).max(), np.abs(M[:3, 3]).max()))
+        # Squared position error and squared ‖ΔR‖_F below which a candidate is exact to round-off
+        # (`_REFINE_ABOVE`; ‖ΔR‖_F² = 8 sin²(θ/2), see `pose_errors`).
+        self.exact_p2 = (_REFINE_ABOVE * self.scale) ** 2
+        self.exact_f = 8.0 * math.sin(0.5 * _REFINE_ABOVE) ** 2
         self.keep = [i for i in range(chain.dof) if i != held]
         self.geometry = _geometry(structure, w[None], r[None], self.scale) if held is None else None
         self.scalar_geometry = None if self.geometry is None else _lane(self.geometry, 0)
+        # The three-parallel solver with its constants prepared, for one target of a 6R arm.
+        self.three_parallel = (
+            scalar.ThreeParallel(self.scalar_geometry)
+            if self.scalar_geometry is not None and structure.kind == "three_parallel"
+            else None
+        )
         self.lower = [float(x) for x in chain.lower]
         self.upper = [float(x) for x in chain.upper]
+        # Every angle of [−π, π] lies within the limits (±π, ±2π, continuous joints).
+        self.holds_turn = all(
+            a <= -math.pi and b >= math.pi for a, b in zip(self.lower, self.upper, strict=True)
+        )
         self.info = self.family()
         self.lower_arr, self.upper_arr = np.asarray(chain.lower), np.asarray(chain.upper)
         self.continuous = ~(np.isfinite(self.lower_arr) | np.isfinite(self.upper_arr))
         self.default_seed = default_seed(chain)
+        self.default_seed_list: list[float] = self.default_seed.tolist()
         self.all_finite = bool(np.all(np.isfinite(self.lower_arr) & np.isfinite(self.upper_arr)))
         self.lo_wide, self.hi_wide = self.lower_arr - 1e-10, self.upper_arr + 1e-10
         self.lo_wide_list, self.hi_wide_list = self.lo_wide.tolist(), self.hi_wide.tolist()
+        # Angles strictly inside (one_lo, one_hi) lie within their limits and have no other
+        # whole-turn equivalent within the widened ones (x − 2π < lo − 1e-10, x + 2π > hi + 1e-10),
+        # kept 1e-9 away from where that changes (`_single_equivalents`).
+        self.one_lo = [
+            max(lo, b - TWO_PI) + 1e-9 for lo, b in zip(self.lower, self.hi_wide_list, strict=True)
+        ]
+        self.one_hi = [
+            min(hi, a + TWO_PI) - 1e-9 for hi, a in zip(self.upper, self.lo_wide_list, strict=True)
+        ]
         self.held_moves = None if held is None else self._held_moves()
         model = chain.solver_model  # the generated scalar FK, where joints are the internal ones
+        self.kernel = model.kernel
         self.fk_pose = model.kernel.fk_pose if model.to_internal is None else None
         self.fk_world = model.kernel.fk_world if model.to_internal is None else None
 
@@ -623,6 +652,21 @@ def _refine(
     return Q
 
 
+def _batch_fk_errors(
+    solver: _Solver, Q: FloatArray, T_t: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """`pose_errors(chain.fk(Q), T_t)` from the FK kernel's column layout (C[j, i] = R[i, j],
+    (3, 3, K)) without assembling (K, 4, 4) poses first (a fifth of the batch FK check's time)."""
+    if solver.fk_pose is None:  # joints other than the kernel's (mimic): the chain's own FK
+        return pose_errors(solver.chain.fk(Q), T_t)
+    C, p, *_ = solver.kernel.frames_batch(Q, False)
+    d = p - T_t[:, :3, 3].T
+    dp = np.sqrt(np.einsum("ik,ik->k", d, d))
+    D = C - T_t[:, :3, :3].transpose(2, 1, 0)
+    f = np.sqrt(np.einsum("jik,jik->k", D, D))
+    return dp, 2.0 * np.arcsin(np.minimum(f / (2.0 * math.sqrt(2.0)), 1.0))
+
+
 def _fk_check(
     solver: _Solver, Q: FloatArray, T_t: FloatArray, fix: Callable[[FloatArray], FloatArray]
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -631,7 +675,7 @@ def _fk_check(
     candidates' range), and the position [m] and rotation [rad] errors."""
     chain = solver.chain
     Q = Q.copy()
-    ep, er = pose_errors(chain.fk(Q), T_t)
+    ep, er = _batch_fk_errors(solver, Q, T_t)
     redo = (
         ((ep > _REFINE_ABOVE * solver.scale) | (er > _REFINE_ABOVE))
         & (ep < _REFINE_BELOW * solver.scale)
@@ -700,7 +744,8 @@ def _branches(
         G = _inverse(G)
         dflt = -dflt[:, ::-1]
     trace = vector.Trace()
-    Q6, ok = _solve_6r(st, g, G[:, :3, :3], G[:, :3, 3], dflt, trace)
+    prepared = solver.three_parallel if solver.held is None else None
+    Q6, ok = _solve_6r(st, g, G[:, :3, :3], G[:, :3, 3], dflt, trace, prepared)
     if st.reversed:
         Q6 = -Q6[..., ::-1]
     if held_lane is not None:
@@ -801,14 +846,16 @@ def _solve_arrays_once(
     sing_code = free_codes.reshape(-1)[keep]
     n_before = np.bincount(owner, minlength=N)
     if use_limits:
-        Qk, owner, sing_code = _within_limits(chain, Qk, owner, sing_code, seeds)
+        two = _within_limits_two(solver, Qk, owner, sing_code) if solver.all_finite else None
+        if two is None:
+            two = _within_limits(chain, Qk, owner, sing_code, seeds)
+        Qk, owner, sing_code = two
     # Sort by target, then by distance to that target's seed.
-    dist = np.linalg.norm(Qk - seeds[owner], axis=1) if Qk.size else np.zeros(0)
-    order = np.lexsort((dist, owner))
-    Qk, owner, sing_code = Qk[order], owner[order], sing_code[order]
     count = np.bincount(owner, minlength=N).astype(np.int64)
     offsets = np.zeros(N + 1, dtype=np.int64)
     np.cumsum(count, out=offsets[1:])
+    order = _order_within_targets(Qk, owner, seeds, count, offsets)
+    Qk, owner, sing_code = Qk.take(order, 0), owner.take(order), sing_code.take(order)
     singular = np.zeros(N, dtype=bool)
     singular[owner[sing_code >= 0]] = True
     # Reasons, for targets without a solution: the first stage at which every branch failed.
@@ -841,6 +888,26 @@ def _solve_arrays_once(
     )
 
 
+def _order_within_targets(
+    Q: FloatArray, owner: IntArray, seeds: FloatArray, count: IntArray, offsets: IntArray
+) -> IntArray:
+    """The order that sorts rows Q (K, n), grouped by target (`owner` nondecreasing, `count` rows
+    per target starting at `offsets`), by target and then by squared distance to the target's
+    seed, ties in row order: `np.lexsort((dist, owner))`. Sorted as a (targets × most rows)
+    table padded with inf, one short row sort per target (a third of lexsort's time)."""
+    K = Q.shape[0]
+    if not K:
+        return np.zeros(0, dtype=np.int64)
+    D = Q - seeds[owner]
+    dist = np.einsum("ij,ij->i", D, D)
+    m = int(count.max())
+    pos = np.arange(K) - offsets[owner]
+    table = np.full((count.shape[0], m), np.inf)
+    table[owner, pos] = dist
+    o = np.argsort(table, axis=1, kind="stable")
+    return (o + offsets[:-1, None])[np.arange(m) < count[:, None]]
+
+
 _STAGE_ORDER = {
     "three_parallel": ("shoulder", "wrist", "elbow"),
     "int12": ("elbow", "shoulder", "wrist"),
@@ -857,6 +924,10 @@ def _scalar_candidates(
     angles in (−π, π] (a 7R arm's held joint at `held_value`), unchecked, with the reasons of the
     angles the target left free (taken from `seed`), and the stages the branches passed."""
     st = solver.structure
+    if held_value is None and not st.reversed and solver.three_parallel is not None:
+        R, p = _times_inverse_home(T, solver.M_inv_rows)
+        stages = scalar.Stages(_STAGE_ORDER["three_parallel"])
+        return solver.three_parallel.solve(R, p, seed, stages), stages  # angles in (−π, π]
     if held_value is None and not st.reversed:  # one target of a 6R arm: G = T M⁻¹ on floats
         g = solver.scalar_geometry
         assert g is not None
@@ -888,6 +959,25 @@ def _scalar_candidates(
     return _candidates_of(solver, g, G.tolist(), d, held_value)
 
 
+def _times_inverse_home(
+    T: list[list[float]], Mi: list[list[float]]
+) -> tuple[scalar.Mat, scalar.Vec]:
+    """G = T M⁻¹ as the scalar solvers' (rotation rows, translation), from the rows of T and M⁻¹
+    (both rigid). Written out for speed: it runs once per single-target call."""
+    (m00, m01, m02, m03), (m10, m11, m12, m13), (m20, m21, m22, m23) = Mi[0], Mi[1], Mi[2]
+    rows = []
+    for a, b, c, t in T[:3]:
+        rows.append((
+            a * m00 + b * m10 + c * m20,
+            a * m01 + b * m11 + c * m21,
+            a * m02 + b * m12 + c * m22,
+            a * m03 + b * m13 + c * m23 + t,
+        ))  # fmt: skip
+    r0, r1, r2 = rows
+    R = ((r0[0], r0[1], r0[2]), (r1[0], r1[1], r1[2]), (r2[0], r2[1], r2[2]))
+    return R, (r0[3], r1[3], r2[3])
+
+
 def _candidates_of(
     solver: _Solver,
     g: scalar.Geometry,
@@ -904,7 +994,11 @@ def _candidates_of(
     p: scalar.Vec = (Gl[0][3], Gl[1][3], Gl[2][3])
     case = st.kind if st.kind == "three_parallel" else st.case
     stages = scalar.Stages(_STAGE_ORDER[case])
-    if st.kind == "three_parallel":
+    if st.kind == "three_parallel" and held_value is None and solver.three_parallel is not None:
+        raw = solver.three_parallel.solve(R, p, d, stages)  # g is solver.scalar_geometry
+        if not st.reversed:
+            return raw, stages  # angles already in (−π, π]
+    elif st.kind == "three_parallel":
         raw = scalar.three_parallel(g, R, p, d, stages)
     else:
         raw = scalar.spherical(st.case, g, R, p, d, stages)
@@ -933,38 +1027,73 @@ def _solve_single(
     chain = solver.chain
     cands, stages = _scalar_candidates(solver, T, seed, None)
     accepted: list[list[float]] = []
+    # (position, rotation) error of each, or (squared position error, ‖ΔR‖_F²) where `squared`
     errors: list[tuple[float, float]] = []
+    squared: list[bool] = []
     whys: set[str] = set()
-    for q, why in cands:  # one scalar FK each: ~7 µs, where a batched FK of 7 costs ~90 µs
-        ep, er = _fk_errors(solver, q, T)
-        if (
-            (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
-            and ep < _REFINE_BELOW * solver.scale
-            and er < _REFINE_BELOW
-        ):
-            qr = [_wrap1(x) for x in _refine_one(solver, q, T)]
-            ep_r, er_r = _fk_errors(solver, qr, T)
-            if max(ep_r / solver.scale, er_r) < max(ep / solver.scale, er):
-                q, ep, er = qr, ep_r, er_r
-        if ep > tol or er > tol:
-            continue
-        q2 = q[2]  # a cheap first test on one joint (branches often share the first joint)
-        if any(
-            (abs(q2 - o[2]) <= _SAME_SOLUTION or abs(abs(q2 - o[2]) - TWO_PI) <= _SAME_SOLUTION)
-            and _same(q, o)
-            for o in accepted
-        ):
+    fk = solver.fk_pose
+    # Candidates exact to round-off (the usual case) are accepted on the squared errors, without
+    # the square root and arcsine of `_fk_errors`, when that implies the tolerance (hand-written
+    # for speed: this loop runs for every candidate of every call).
+    quick = fk is not None and tol >= _REFINE_ABOVE * max(solver.scale, 1.0)
+    exact_p2, exact_f = solver.exact_p2, solver.exact_f
+    a0, a1, a2, a3 = T[0]
+    b0, b1, b2, b3 = T[1]
+    c0, c1, c2, c3 = T[2]
+    for q, why in cands:  # one scalar FK each: ~3 µs, where a batched FK of 7 costs ~90 µs
+        if quick:
+            t, _ = fk(q)  # type: ignore[misc]
+            dp2 = (t[9] - a3) ** 2 + (t[10] - b3) ** 2 + (t[11] - c3) ** 2
+            f = (
+                (t[0] - a0) ** 2 + (t[1] - a1) ** 2 + (t[2] - a2) ** 2
+                + (t[3] - b0) ** 2 + (t[4] - b1) ** 2 + (t[5] - b2) ** 2
+                + (t[6] - c0) ** 2 + (t[7] - c1) ** 2 + (t[8] - c2) ** 2
+            )  # fmt: skip
+            exact = dp2 <= exact_p2 and f <= exact_f
+            ep, er = (dp2, f) if exact else (math.sqrt(dp2), _chord_angle(f))
+        else:
+            exact = False
+            ep, er = _fk_errors(solver, q, T)
+        if not exact:
+            if (
+                (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
+                and ep < _REFINE_BELOW * solver.scale
+                and er < _REFINE_BELOW
+            ):
+                qr = [_wrap1(x) for x in _refine_one(solver, q, T)]
+                ep_r, er_r = _fk_errors(solver, qr, T)
+                if max(ep_r / solver.scale, er_r) < max(ep / solver.scale, er):
+                    q, ep, er = qr, ep_r, er_r
+            if ep > tol or er > tol:
+                continue
+        if _seen(q, accepted):
             continue
         accepted.append(q)
         errors.append((ep, er))
-        whys.update(why)
+        squared.append(exact)
+        if why:
+            whys.update(why)
     none = np.empty((0, chain.dof))
     if not accepted:
         return none, (math.inf, math.inf), "", _empty_reason(stages.first_dead(), 0)
     sols, first = _expand_sorted(solver, accepted, seed)
     if not sols.shape[0]:
         return none, (math.inf, math.inf), "", _empty_reason(None, len(accepted))
-    return sols, errors[first], "; ".join(sorted(whys)), ""
+    ep, er = errors[first]
+    if squared[first]:
+        ep, er = math.sqrt(ep), _chord_angle(er)
+    return sols, (ep, er), "; ".join(sorted(whys)), ""
+
+
+def _seen(q: list[float], accepted: list[list[float]]) -> bool:
+    """q equals (`_same`) one of `accepted`; a cheap first test on one joint (branches often
+    share the first joint)."""
+    q2 = q[2]
+    for o in accepted:
+        d = abs(q2 - o[2])
+        if (d <= _SAME_SOLUTION or abs(d - TWO_PI) <= _SAME_SOLUTION) and _same(q, o):
+            return True
+    return False
 
 
 def _same(a: list[float], b: list[float]) -> bool:
@@ -1058,11 +1187,51 @@ def _expand_sorted(
         if few is not None:
             return few
     seeds = np.array([seed])
+    if solver.all_finite:
+        two = _two_equivalents(solver, accepted, seeds)
+        if two is not None:
+            return two
     Qk, tag = _equivalents(solver, np.array(accepted), seeds)
     if not Qk.shape[0]:
         return Qk, 0
     order = np.argsort(((Qk - seeds) ** 2).sum(axis=1), kind="stable")
     return Qk[order], int(tag[order[0]])
+
+
+#: Per joint count n: 2π × the (2ⁿ, n) bits of 0 … 2ⁿ − 1, and the codes (`_two_equivalents`).
+_TURN_BITS: dict[int, tuple[FloatArray, IntArray]] = {}
+
+
+def _two_equivalents(
+    solver: _Solver, accepted: list[list[float]], seeds: FloatArray
+) -> tuple[FloatArray, int] | None:
+    """`_expand_sorted` when no angle has more than two whole-turn equivalents within the (finite)
+    limits, as with limits of ±2π; None otherwise. Solution i's equivalents are its lowest one
+    (angles + 2π k_lo) plus 2π b for the bit patterns b that are 0 wherever an angle has a single
+    equivalent: b & fixed = 0, an integer mask test. (`_equivalents` compares all mⁿ offsets per
+    joint instead; this, with `take` rather than fancy indexing, is ~4× faster for a UR5.)"""
+    n = len(seeds[0])
+    Q = np.array(accepted)
+    k_lo = np.ceil((solver.lo_wide - Q) * _INVTWO_PI)
+    cnt = np.floor((solver.hi_wide - Q) * _INVTWO_PI) - k_lo
+    if cnt.max() > 1.0:  # (cnt is the number of equivalents − 1)
+        return None
+    turns, codes = _turn_bits(n)
+    fixed = (cnt == 0.0) @ _powers_of_two(n)  # angles with one equivalent: their bit stays 0
+    ok = (codes[None, :] & fixed[:, None]) == 0
+    if cnt.min() < 0.0:  # an angle without any: no equivalent of the solution
+        ok &= (cnt >= 0.0).all(axis=1)[:, None]
+    ok = np.flatnonzero(ok)
+    keep = ok >> n  # ok = solution · 2ⁿ + code
+    out = (Q + TWO_PI * k_lo).take(keep, 0)
+    out += turns.take(ok & (2**n - 1), 0)
+    np.minimum(out, solver.upper_arr, out=out)  # (within 1e-10 of the limits: clip into them)
+    np.maximum(out, solver.lower_arr, out=out)
+    if not out.shape[0]:
+        return out, 0
+    D = out - seeds
+    order = np.argsort(np.einsum("ij,ij->i", D, D), kind="stable")
+    return out.take(order, 0), int(keep[order[0]])
 
 
 def _single_equivalents(
@@ -1075,19 +1244,36 @@ def _single_equivalents(
     widened by 1e-10 rad, values then clipped into them."""
     lo, hi = solver.lo_wide_list, solver.hi_wide_list
     rows: list[tuple[float, list[float], int]] = []  # (squared distance to the seed, q, source)
+    clip = False  # some angle lies in the 1e-10 margin outside a limit
     for i, q in enumerate(accepted):
-        for x, a, b in zip(q, lo, hi, strict=True):
+        # First the usual case on one test per angle: inside `solver.one_lo/one_hi` an angle is
+        # within its limits and has no other equivalent (hand-written for speed).
+        dist = 0.0
+        for x, z, a, b in zip(q, seed, solver.one_lo, solver.one_hi, strict=True):
+            if not a < x < b:
+                break
+            dist += (x - z) * (x - z)
+        else:
+            rows.append((dist, q, i))
+            continue
+        dist = 0.0
+        for x, a, b, z, lo_j, hi_j in zip(q, lo, hi, seed, solver.lower, solver.upper, strict=True):
             if x - TWO_PI >= a or x + TWO_PI <= b:
                 return None
             if not a <= x <= b:
                 break  # no equivalent of this angle within the limits
+            if x < lo_j or x > hi_j:
+                clip = True
+            dist += (x - z) * (x - z)
         else:
-            rows.append((sum((x - z) * (x - z) for x, z in zip(q, seed, strict=True)), q, i))
+            rows.append((dist, q, i))
     if not rows:
         return np.empty((0, len(seed))), 0
     rows.sort(key=lambda r: r[0])  # stable, as the vectorised argsort
     Q = np.array([r[1] for r in rows])
-    return np.clip(Q, solver.lower_arr, solver.upper_arr), rows[0][2]
+    if clip:
+        Q = np.clip(Q, solver.lower_arr, solver.upper_arr)
+    return Q, rows[0][2]
 
 
 _COMBOS: dict[tuple[int, int], IntArray] = {}
@@ -1195,6 +1381,71 @@ def _insert(Q6: FloatArray, j: int, values: FloatArray) -> FloatArray:
     L = Q6.shape[0]
     col = np.broadcast_to(values[:, None, None], (L, 8, 1))
     return np.concatenate((Q6[..., :j], col, Q6[..., j:]), axis=2)
+
+
+def _within_limits_two(
+    solver: _Solver, Q: FloatArray, owner: IntArray, tag: IntArray
+) -> tuple[FloatArray, IntArray, IntArray] | None:
+    """`_within_limits` for finite limits where no angle has more than two whole-turn equivalents
+    (limits of ±2π: each solution has up to 2⁵ equivalents), in one gather instead of one per
+    joint: row r's equivalents are its lowest one plus 2π b for the bit patterns b with
+    b & fixed_r = 0 (`_two_equivalents`, vectorised over rows). None if the rule does not apply.
+    Rows stay grouped by target, in the order of `_within_limits`."""
+    if not Q.shape[0]:
+        return None
+    n = Q.shape[1]
+    # The same arithmetic as `_within_limits` (the results must not depend on the passes).
+    k_lo = np.ceil((solver.lo_wide - Q) / TWO_PI)
+    cnt = np.floor((solver.hi_wide - Q) / TWO_PI) - k_lo  # equivalents − 1
+    most = cnt.max()
+    if most > 1.0 or n > 16:
+        return None
+    if most < 1.0:  # one equivalent or none per angle (limits of ±π): no product to take
+        out = Q + TWO_PI * k_lo
+        if cnt.min() < 0.0:
+            rows = np.flatnonzero((cnt >= 0.0).all(axis=1))
+            out, owner, tag = out.take(rows, 0), owner.take(rows), tag.take(rows)
+        if (out < solver.lower_arr).any() or (out > solver.upper_arr).any():
+            np.minimum(out, solver.upper_arr, out=out)
+            np.maximum(out, solver.lower_arr, out=out)
+        return out, owner, tag
+    turns, codes = _turn_bits(n)
+    fixed = (cnt == 0.0) @ _powers_of_two(n)  # angles with one equivalent: their bit stays 0
+    ok: BoolArray = (codes[None, :] & fixed[:, None]) == 0
+    if cnt.min() < 0.0:
+        ok &= np.asarray((cnt >= 0.0).all(axis=1))[
+            :, None
+        ]  # an angle without any: none of the solution
+    flat = np.flatnonzero(ok)
+    rows = flat >> n  # flat = row · 2ⁿ + code
+    k = k_lo.take(rows, 0)
+    k += turns.take(flat & (2**n - 1), 0) * (1.0 / TWO_PI)  # (the bits, exactly)
+    out = Q.take(rows, 0)
+    out += TWO_PI * k
+    # Clip into the limits (the widening by 1e-10) only where some equivalent lies outside them
+    # (elsewhere clipping changes nothing).
+    lowest, highest = Q + TWO_PI * k_lo, Q + TWO_PI * (k_lo + cnt)  # (as `out` is computed)
+    if (lowest < solver.lower_arr).any() or (highest > solver.upper_arr).any():
+        np.minimum(out, solver.upper_arr, out=out)
+        np.maximum(out, solver.lower_arr, out=out)
+    return out, owner.take(rows), tag.take(rows)
+
+
+@functools.lru_cache(maxsize=4)
+def _powers_of_two(n: int) -> IntArray:
+    """1, 2, 4, …, 2ⁿ⁻¹ (read-only)."""
+    out = 1 << np.arange(n, dtype=np.int64)
+    out.setflags(write=False)
+    return out
+
+
+def _turn_bits(n: int) -> tuple[FloatArray, IntArray]:
+    """2π × the (2ⁿ, n) bits of 0 … 2ⁿ − 1 and those codes (cached per n)."""
+    if n not in _TURN_BITS:
+        all_codes = np.arange(2**n, dtype=np.int64)
+        bits = ((all_codes[:, None] >> np.arange(n)) & 1).astype(np.float64)
+        _TURN_BITS[n] = (TWO_PI * bits, all_codes)
+    return _TURN_BITS[n]
 
 
 def _within_limits(
@@ -1367,6 +1618,9 @@ def _check_tolerance(tolerance: float) -> float:
     return float(tolerance)
 
 
+_NO_HELD_VALUES = readonly(np.empty(0))
+
+
 def solve_all(
     chain: KinematicChain,
     T_target: ArrayLike,
@@ -1406,14 +1660,15 @@ def solve_all(
             )
         Tl = _orthonormal(T[None])[0].tolist()
     if q_seed is None:
-        seed = solver.default_seed
+        seed, seed_list = solver.default_seed, solver.default_seed_list
     else:
         seed = check_seed(chain, q_seed, "q_seed", None)
-    held_arr = _held_values(solver, held, None)
+        seed_list = seed.tolist()
+    held_arr = None if held is None and solver.held is None else _held_values(solver, held, None)
     family = solver.info
     if solver.held is None:
-        sol_arr, (ep, er), singular_why, reason = _solve_single(solver, Tl, seed.tolist(), tol)
-        held_used = np.empty(0)
+        sol_arr, (ep, er), singular_why, reason = _solve_single(solver, Tl, seed_list, tol)
+        held_used = _NO_HELD_VALUES
     else:
         out = _solve_arrays(solver, np.array([Tl]), seed[None], held_arr, tol)
         sol_arr, held_used = out.solutions, out.held_values
@@ -1423,8 +1678,9 @@ def solve_all(
         if sol_arr.shape[0]:
             ep, er = _pose_errors_list(chain.fk(sol_arr[0]).tolist(), Tl)
     k = sol_arr.shape[0]
+    sol_arr.setflags(write=False)
     if k:
-        q = sol_arr[0]
+        q = sol_arr[0]  # a read-only view
         msg = f"{k} solution{'s' if k > 1 else ''} ({family.name}), nearest the seed first"
         if held_arr is not None:
             msg += f"; {held_arr.size} value{'s' if held_arr.size > 1 else ''} of {family.held_joint} swept"
@@ -1434,12 +1690,11 @@ def solve_all(
                 "were taken from the seed"
             )
     else:
-        q = seed
-        ep, er = _fk_errors(solver, seed.tolist(), Tl)
+        q = readonly(seed)
+        ep, er = _fk_errors(solver, seed_list, Tl)
         msg = reason
-    sol_arr.setflags(write=False)
     return ClosedFormResult(
-        q=readonly(q),
+        q=q,
         success=bool(k),
         position_error=float(ep),
         orientation_error=float(er),
@@ -1449,7 +1704,7 @@ def solve_all(
         message=msg,
         singular=bool(singular_why),
         family=family.name,
-        held_values=readonly(held_used),
+        held_values=held_used if held_used is _NO_HELD_VALUES else readonly(held_used),
     )
 
 
@@ -1541,6 +1796,46 @@ def _nearest_turn(
         k = min(max(round((s - x) * _INVTWO_PI), k_lo), k_hi)
         out.append(min(max(x + TWO_PI * k, lo_j), hi_j))
     return out
+
+
+def _ranked(
+    cands: list[scalar.Candidate], seed: list[float], solver: _Solver, w: list[float]
+) -> list[tuple[float, list[float]]]:
+    """The candidates' `_nearest_turn` equivalents with their weighted distances Σ wⱼ (qⱼ − sⱼ)²
+    to the seed, nearest first (those without an equivalent within the limits left out).
+
+    Written out for speed (it runs on every candidate of every `ik` call): an angle within π of
+    the seed and within the limits is its own nearest equivalent, so only the others go through
+    `_nearest_turn`."""
+    ranked: list[tuple[float, list[float]]] = []
+    lo, hi = solver.lower, solver.upper
+    for q, _ in cands:
+        dist = 0.0
+        if solver.holds_turn:  # no test of the limits per angle
+            for x, s, wj in zip(q, seed, w, strict=True):
+                d = x - s
+                if not -math.pi < d < math.pi:
+                    break
+                dist += wj * (d * d)
+            else:
+                ranked.append((dist, q))
+                continue
+        else:
+            for x, s, a, b, wj in zip(q, seed, lo, hi, w, strict=True):
+                d = x - s
+                if not (-math.pi < d < math.pi and a <= x <= b):
+                    break
+                dist += wj * (d * d)
+            else:
+                ranked.append((dist, q))
+                continue
+        qn = _nearest_turn(q, seed, lo, hi)
+        if qn is not None:
+            ranked.append(
+                (sum(wj * (a - b) ** 2 for wj, a, b in zip(w, qn, seed, strict=True)), qn)
+            )
+    ranked.sort(key=lambda item: item[0])
+    return ranked
 
 
 def nearest(
@@ -1639,14 +1934,7 @@ def _nearest_at(
     """`nearest` for one value of the held joint (None for a 6R arm): the solutions with their
     (position, rotation) errors, and why there are none ("" if there are)."""
     cands, stages = _scalar_candidates(solver, Tl, seed, held_value)
-    ranked: list[tuple[float, list[float]]] = []
-    for q, _ in cands:
-        qn = _nearest_turn(q, seed, solver.lower, solver.upper)
-        if qn is not None:
-            ranked.append(
-                (sum(wj * (a - b) ** 2 for wj, a, b in zip(w, qn, seed, strict=True)), qn)
-            )
-    ranked.sort(key=lambda item: item[0])
+    ranked = _ranked(cands, seed, solver, w)
     found: list[tuple[FloatArray, tuple[float, float]]] = []
     for _, q in ranked:
         if any(np.abs(np.asarray(q) - f).max() <= separation for f, _ in found):

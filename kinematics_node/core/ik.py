@@ -320,14 +320,15 @@ def _closed_form_result(
     if k < opts.num_solutions:
         msg += f" ({opts.num_solutions} requested; the arm has no more within the limits)"
     ep, er = found.errors[0]
+    solutions = tuple(readonly(s) for s in found.solutions)
     return IKResult(
-        q=readonly(found.solutions[0]),
+        q=solutions[0],  # read-only: q may be the same array as solutions[0]
         success=True,
         position_error=ep,
         orientation_error=er,
         iterations=0,
         restarts=0,
-        solutions=tuple(readonly(s) for s in found.solutions),
+        solutions=solutions,
         message=msg,
     )
 

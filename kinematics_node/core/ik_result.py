@@ -6,6 +6,7 @@ use them while `ik` calls the closed form: no import circle.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -86,11 +87,27 @@ def check_seed(
     if q_seed is None:
         s = default_seed(chain)
         return s if batch is None else np.tile(s, (batch, 1))
+    if (
+        batch is None
+        and isinstance(q_seed, np.ndarray)
+        and q_seed.dtype == np.float64
+        and q_seed.shape == (chain.dof,)
+        and _finite_within(q_seed.tolist(), chain.lower.tolist(), chain.upper.tolist())
+    ):
+        return q_seed.copy()  # the common case, checked on floats (~1 µs instead of ~6)
     q = chain.check_q(q_seed, name)
     want = (chain.dof,) if batch is None else (batch, chain.dof)
     if q.shape != want:
         raise InvalidInputError(f"{name} must have shape {want}, got shape {q.shape}")
     return np.clip(q, chain.lower, chain.upper)  # a seed outside the limits is clamped
+
+
+def _finite_within(q: list[float], lower: list[float], upper: list[float]) -> bool:
+    """Every value finite and within its limits (then clamping changes nothing)."""
+    for x, a, b in zip(q, lower, upper, strict=True):
+        if not (a <= x <= b and -math.inf < x < math.inf):
+            return False
+    return True
 
 
 __all__: Sequence[str] = ["IKBatchResult", "IKResult", "check_seed", "default_seed"]

@@ -1,0 +1,288 @@
+"""The single-target paths of the closed form (`ik_all` on one target) against the general ones.
+
+The prepared three-parallel solver (`_closed_form_scalar.ThreeParallel`) must give the candidates
+of the reference scalar solver (`three_parallel`, itself the twin of the vectorised one), and one
+`ik_all` call the solutions of `ik_all_batch`, also with whole-turn equivalents (limits ±2π).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from kin_testing import erd_path, random_q
+
+from kinematics_node.core import SerialChain, se3
+from kinematics_node.core import _closed_form_scalar as scalar
+from kinematics_node.core import closed_form as cf
+from kinematics_node.robots import load_robot
+
+FK_TOL = 1e-9
+
+
+def ur5(limited: bool) -> SerialChain:
+    name = "ur5_joint_limited_robot.urdf" if limited else "ur5_robot.urdf"
+    return SerialChain.from_urdf(erd_path(f"ur_description/urdf/{name}"), None, "tool0")
+
+
+def moved_base(chain: SerialChain) -> SerialChain:
+    """The same arm on a base turned and shifted off the coordinate axes: S′ = Ad(B) S, M′ = B M,
+    so no axis direction or point has zero components."""
+    rng = np.random.default_rng(11)
+    B = se3.exp(rng.normal(size=6) * 0.7)
+    S = se3.adjoint(B) @ np.asarray(chain.S)
+    return SerialChain.from_poe(S, B @ np.asarray(chain.M), lower=chain.lower, upper=chain.upper)
+
+
+def reversed_arm(chain: SerialChain) -> SerialChain:
+    """The arm read from the tip (its three-parallel structure is then found reversed)."""
+    Mi = se3.inverse(chain.M)
+    S = se3.adjoint(Mi) @ np.asarray(chain.S)[:, ::-1]
+    return SerialChain.from_poe(S, Mi, lower=-chain.upper[::-1], upper=-chain.lower[::-1])
+
+
+def mixed_limits(chain: SerialChain) -> SerialChain:
+    """The arm with limits of mixed widths: ±2π, a narrow range (many solutions have no angle
+    within it), 3π off-centre (one or two equivalents), a turn exactly."""
+    lower = np.array([-2 * np.pi, -1.0, 0.0, -2 * np.pi, -np.pi, -2 * np.pi])
+    upper = np.array([2 * np.pi, 2.0, 3 * np.pi, 2 * np.pi, np.pi, 2 * np.pi])
+    return SerialChain.from_poe(np.asarray(chain.S), np.asarray(chain.M), lower=lower, upper=upper)
+
+
+def narrow_limits(chain: SerialChain) -> SerialChain:
+    """Limits within a turn, two of them narrow: no angle has a second equivalent, and many
+    solutions have none within the limits."""
+    lower = np.array([-np.pi, -1.0, -np.pi, -2.0, -np.pi, -np.pi])
+    upper = np.array([np.pi, 2.0, np.pi, 0.5, np.pi, np.pi])
+    return SerialChain.from_poe(np.asarray(chain.S), np.asarray(chain.M), lower=lower, upper=upper)
+
+
+ARMS = {
+    "ur5-limited": lambda: ur5(True),
+    "ur5": lambda: ur5(False),
+    "ur5e": lambda: load_robot("ur5e"),
+    "ur5 on a moved base": lambda: moved_base(ur5(True)),
+    "ur5 reversed": lambda: reversed_arm(ur5(True)),
+    "ur5 mixed limits": lambda: mixed_limits(ur5(True)),
+    "ur5 narrow limits": lambda: narrow_limits(ur5(True)),
+}
+
+
+def wrapped_gap(a: list[float], b: list[float]) -> float:
+    return max(abs((x - y + math.pi) % (2 * math.pi) - math.pi) for x, y in zip(a, b, strict=True))
+
+
+@pytest.mark.parametrize("arm", list(ARMS))
+def test_prepared_three_parallel_solver_equals_the_reference(arm):
+    chain = ARMS[arm]()
+    solver = cf._solver(chain)
+    assert solver is not None and solver.structure.kind == "three_parallel"
+    assert solver.three_parallel is not None
+    g = solver.scalar_geometry
+    rng = np.random.default_rng(5)
+    q = random_q(chain, rng, 400)
+    # Exactly singular rows: wrist aligned (q₅ = 0), elbow straight (q₃ = 0), both.
+    q[:40, 4] = 0.0
+    q[40:80, 2] = 0.0
+    q[80:100, [2, 4]] = 0.0
+    T = chain.fk(q)
+    stage_names = cf._STAGE_ORDER["three_parallel"]
+    regular_gap = singular_gap = 0.0
+    for i in range(len(q)):
+        G = T[i] @ solver.M_inv
+        if solver.structure.reversed:
+            G = se3.inverse(G)
+        R = tuple(tuple(row) for row in G[:3, :3].tolist())
+        p = tuple(G[:3, 3].tolist())
+        d = rng.uniform(-4.0, 4.0, 6).tolist()  # defaults of free angles, beyond ±π too
+        ref_stages, fast_stages = scalar.Stages(stage_names), scalar.Stages(stage_names)
+        ref = scalar.three_parallel(g, R, p, d, ref_stages)
+        fast = solver.three_parallel.solve(R, p, d, fast_stages)
+        assert fast_stages.passed == ref_stages.passed
+        assert len(fast) == len(ref)
+        for (qr, why_r), (qf, why_f) in zip(ref, fast, strict=True):
+            assert why_f == why_r
+            assert all(-math.pi < x <= math.pi for x in qf)
+            gap = wrapped_gap(qr, qf)
+            if i < 100:
+                singular_gap = max(singular_gap, gap)
+            else:
+                regular_gap = max(regular_gap, gap)
+    assert regular_gap <= 1e-9
+    # At the singular rows the subproblems meet at a tangent (a square root of round-off):
+    # regrouped products differ there by ~√ε; the FK check and refinement restore precision.
+    assert singular_gap <= 1e-6
+
+
+@pytest.mark.parametrize(
+    "arm",
+    ["ur5", "ur5e", "ur5 on a moved base", "ur5 reversed", "ur5 mixed limits", "ur5 narrow limits"],
+)
+def test_single_call_equals_batch_with_whole_turn_equivalents(arm):
+    chain = ARMS[arm]()
+    rng = np.random.default_rng(6)
+    q = random_q(chain, rng, 40)
+    seeds = random_q(chain, rng, 40)
+    T = chain.fk(q)
+    batch = chain.ik_all_batch(T, seeds)
+    for i in range(len(q)):
+        res = chain.ik_all(T[i], seeds[i])
+        sols = np.array(res.solutions)
+        assert res.success and sols.shape == batch.solutions_of(i).shape
+        np.testing.assert_allclose(sols, batch.solutions_of(i), atol=1e-9)
+        assert np.abs(sols - q[i]).max(axis=1).min() < 1e-9  # q itself is among them
+        assert chain.within_limits(sols).all()
+        err = np.abs(chain.fk(sols) - T[i]).max()
+        assert err <= FK_TOL
+        d = np.linalg.norm(sols - seeds[i], axis=1)
+        assert np.all(np.diff(d) >= -1e-12)
+        assert res.position_error <= FK_TOL and res.orientation_error <= FK_TOL
+
+
+@pytest.mark.parametrize("arm", ["ur5-limited", "ur5 on a moved base", "ur5 reversed"])
+def test_prepared_vectorised_three_parallel_solver_equals_the_reference(arm):
+    """`solve_three_parallel_prepared` (ik_all_batch) against `solve_three_parallel`: same
+    branches, same flags and reasons, angles equal to round-off (√ε at exact tangents)."""
+    from kinematics_node.core import _closed_form_vector as vector
+
+    chain = ARMS[arm]()
+    solver = cf._solver(chain)
+    rng = np.random.default_rng(12)
+    q = random_q(chain, rng, 600)
+    q[:60, 4] = 0.0
+    q[60:120, 2] = 0.0
+    q[120:150, [2, 4]] = 0.0
+    T = chain.fk(q)
+    T[150:200, :3, 3] *= 3.0  # out of reach: branches fail at some stage
+    G = T @ solver.M_inv
+    if solver.structure.reversed:
+        G = np.stack([se3.inverse(x) for x in G])
+    dflt = rng.uniform(-4.0, 4.0, (len(q), 6))
+    ref_trace, fast_trace = vector.Trace(), vector.Trace()
+    Q_ref, ok_ref = vector.solve_three_parallel(
+        solver.geometry, G[:, :3, :3], G[:, :3, 3], dflt, ref_trace
+    )
+    Q_fast, ok_fast = vector.solve_three_parallel_prepared(
+        solver.three_parallel, G[:, :3, :3], G[:, :3, 3], dflt, fast_trace
+    )
+    np.testing.assert_array_equal(ok_fast, ok_ref)
+    assert not ok_ref[150:200].all()
+    for (name_r, f_r), (name_f, f_f) in zip(
+        ref_trace.fails + ref_trace.frees, fast_trace.fails + fast_trace.frees, strict=True
+    ):
+        assert name_f == name_r
+        np.testing.assert_array_equal(f_f, f_r, err_msg=name_r)
+    gap = np.abs(cf._wrap(Q_fast - Q_ref))
+    gap = np.where(ok_ref[..., None], gap, 0.0).max(axis=(1, 2))
+    assert gap[150:].max() <= 1e-9
+    assert gap[:150].max() <= 1e-6
+    assert np.isfinite(Q_fast).all()
+
+
+def test_order_within_targets_equals_lexsort():
+    """The batch's per-target sort is `np.lexsort((dist, owner))`, ties (equal distances, e.g.
+    ±π twins) in row order, for targets with no rows, one row or many."""
+    rng = np.random.default_rng(13)
+    N, n = 300, 6
+    count = rng.choice([0, 1, 3, 8, 40], size=N).astype(np.int64)
+    offsets = np.zeros(N + 1, dtype=np.int64)
+    np.cumsum(count, out=offsets[1:])
+    owner = np.repeat(np.arange(N), count)
+    Q = rng.choice([-np.pi, -1.0, 0.0, 0.5, np.pi], size=(owner.size, n))  # many ties
+    seeds = rng.uniform(-1.0, 1.0, (N, n))
+    seeds[::3] = 0.0
+    order = cf._order_within_targets(Q, owner, seeds, count, offsets)
+    D = Q - seeds[owner]
+    expected = np.lexsort((np.einsum("ij,ij->i", D, D), owner))
+    np.testing.assert_array_equal(order, expected)
+
+
+def test_the_written_out_rigid_check_agrees_with_numpy():
+    """`rigid_on_floats` (written out on floats) against the same criteria in NumPy: finite, last
+    row (0, 0, 0, 1) within the row tolerance, |RᵀR − I| within the rotation tolerance, det R > 0;
+    and `_exact_transform` (tolerances 1e-13 and 0) accepts exactly those transforms."""
+    from kinematics_node.core._checks import rigid_on_floats
+
+    def numpy_rigid(A: np.ndarray, rot_tol: float, row_tol: float) -> bool:
+        if not np.isfinite(A).all():
+            return False
+        if np.abs(A[3] - (0.0, 0.0, 0.0, 1.0)).max() > row_tol:
+            return False
+        R = A[:3, :3]
+        return bool(np.abs(R.T @ R - np.eye(3)).max() <= rot_tol and np.linalg.det(R) > 0)
+
+    rng = np.random.default_rng(14)
+    chain = ur5(True)
+    for T in chain.fk(random_q(chain, rng, 200)):
+        for bad in (None, "rot", "row", "nan", "inf", "mirror", "scaled"):
+            A = T.copy()
+            if bad == "rot":
+                A[rng.integers(3), rng.integers(3)] += 10.0 ** rng.uniform(-15, -5)
+            elif bad == "row":
+                A[3, rng.integers(4)] += 10.0 ** rng.uniform(-12, -6)
+            elif bad == "nan":
+                A[rng.integers(4), rng.integers(4)] = np.nan
+            elif bad == "inf":
+                A[rng.integers(3), 3] = -np.inf
+            elif bad == "mirror":
+                A[:3, 0] *= -1.0
+            elif bad == "scaled":
+                A[:3, :3] *= 1.0 + 10.0 ** rng.uniform(-9, -5)
+            for rot_tol, row_tol in ((1e-6, 1e-9), (1e-13, 0.0)):
+                got = rigid_on_floats(A.tolist(), rot_tol, row_tol)
+                want = numpy_rigid(A, rot_tol, row_tol)
+                # (the two may round |RᵀR − I| differently right at the tolerance)
+                near = (
+                    np.isfinite(A).all()
+                    and abs(np.abs(A[:3, :3].T @ A[:3, :3] - np.eye(3)).max() - rot_tol) < 1e-15
+                )
+                assert got == want or near, (bad, rot_tol)
+            assert (cf._exact_transform(A) is not None) == rigid_on_floats(A.tolist(), 1e-13, 0.0)
+
+
+@pytest.mark.parametrize("arm", ["ur5", "ur5-limited", "ur5 narrow limits", "ur5 mixed limits"])
+def test_ik_closed_form_is_the_weighted_nearest_member_of_the_set(arm):
+    """`ik` ranks the candidates by their nearest whole-turn equivalent (with or without a test of
+    the limits per angle): its answer is the member of `ik_all` with the least weighted distance."""
+    from kinematics_node.core import IKOptions
+
+    chain = ARMS[arm]()
+    rng = np.random.default_rng(15)
+    w = (3.0, 1.0, 0.5, 1.0, 2.0, 1.0)
+    opts = IKOptions(method="closed_form", joint_weights=w)
+    for q, seed in zip(random_q(chain, rng, 40), random_q(chain, rng, 40), strict=True):
+        T = chain.fk(q)
+        res = chain.ik(T, seed, opts)
+        every = np.array(chain.ik_all(T, seed).solutions)
+        cost = ((every - seed) ** 2 * np.array(w)).sum(axis=1)
+        assert res.success
+        assert float(((res.q - seed) ** 2 * np.array(w)).sum()) == pytest.approx(
+            cost.min(), abs=1e-9
+        )
+        assert np.abs(chain.fk(res.q) - T).max() <= FK_TOL
+
+
+def test_check_seed_on_floats_equals_the_array_rules():
+    """The float fast path of `check_seed` returns what clamping returns, and anything it does not
+    accept (outside the limits, NaN, inf, other dtypes or shapes) takes the array rules."""
+    from kinematics_node.core import InvalidInputError
+    from kinematics_node.core.ik_result import check_seed
+
+    chain = ARMS["ur5 narrow limits"]()
+    rng = np.random.default_rng(16)
+    for s in [
+        *random_q(chain, rng, 20),
+        rng.uniform(-4, 4, 6),
+        chain.lower.copy(),
+        chain.upper.copy(),
+    ]:
+        got = check_seed(chain, s, "q_seed", None)
+        np.testing.assert_array_equal(got, np.clip(s, chain.lower, chain.upper))
+        assert got is not s
+    np.testing.assert_array_equal(
+        check_seed(chain, [0, 0, 0, 0, 0, 0], "q_seed", None), np.zeros(6)
+    )
+    for bad in (np.full(6, np.nan), np.array([0, 0, np.inf, 0, 0, 0.0]), np.zeros(5)):
+        with pytest.raises(InvalidInputError):
+            check_seed(chain, bad, "q_seed", None)
