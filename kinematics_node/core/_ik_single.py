@@ -37,14 +37,22 @@ from .model import TWO_PI
 
 FloatArray = NDArray[np.float64]
 
-def _lm_step(Jt: FloatArray, r: FloatArray, lam: float, eye: FloatArray) -> list[float] | None:
-    """Δq = Jᵀ(J Jᵀ + λI)⁻¹ r from Jt = Jᵀ (n × m), as a list; None if the factorisation fails.
-    `eye` is the m × m identity (adding λ·eye is cheaper than updating A's diagonal in place)."""
+def _lm_step(
+    Jt: FloatArray, r: FloatArray, lam: float, eye: FloatArray
+) -> tuple[list[float], FloatArray | None] | None:
+    """Δq = Jᵀ(J Jᵀ + λI)⁻¹ r from Jt = Jᵀ (n × m), as a list, and Jᵀr if it came for free (else
+    None); None if the factorisation fails. With fewer joints than error rows (n < m) the same
+    step is solved as (JᵀJ + λI) Δq = Jᵀr, n × n, which also gives Jᵀr for the gain ratio.
+    `eye` is the identity of the system's size (adding λ·eye is cheaper than updating A's diagonal
+    in place)."""
+    if eye.shape[0] < Jt.shape[1]:
+        g = Jt @ r
+        _, dq, info = dposv(Jt @ Jt.T + lam * eye, g)
+        return None if info != 0 else (dq.tolist(), g)
     _, y, info = dposv(Jt.T @ Jt + lam * eye, r)
     if info != 0:
         return None
-    dq: list[float] = (Jt @ y).tolist()
-    return dq
+    return (Jt @ y).tolist(), None
 
 
 @dataclass
@@ -109,6 +117,7 @@ class SingleSolver:
         # The default (full pose, unit weights) has its own short evaluation.
         plain = self.coupled and self.unit_weights
         self.evaluate = self._evaluate_plain if plain else self._evaluate_weighted
+        self.eye = np.eye(min(len(self.lower), problem.m))  # the damped system's size
         self.iterations = 0
         self.best: tuple[float, list[float], float, float] | None = None  # (E, q, pos, ori)
 
@@ -247,7 +256,8 @@ class SingleSolver:
         spare = self.spare  # redundant degrees of freedom
         lower, upper, periodic, pinnable = self.lower, self.upper, self.periodic, self.pinnable
         edge = [i for i, v in enumerate(q) if v <= lower[i] or v >= upper[i]]  # joints at a limit
-        eye = np.eye(len(e))
+        eye = self.eye
+        small = eye.shape[0] < Jt.shape[1]  # fewer joints than error rows: the n × n system
         perf = time.perf_counter
         for _ in range(self.opts.max_iterations):
             if perf() > deadline:
@@ -255,11 +265,19 @@ class SingleSolver:
             self.iterations += 1
             r = self.residual(e, t)
             Ju = Jt  # the Jacobian the step was computed with
-            dq = _lm_step(Jt, r, lam, eye)
-            if dq is not None and edge:
+            # `_lm_step`, inlined (this is the hot path)
+            if small:
+                g_arr: FloatArray | None = Jt @ r
+                _, x, info = dposv(Jt @ Jt.T + lam * eye, g_arr)
+                step = None if info != 0 else (x.tolist(), g_arr)
+            else:
+                _, x, info = dposv(Jt.T @ Jt + lam * eye, r)
+                step = None if info != 0 else ((Jt @ x).tolist(), None)
+            if step is not None and edge:
                 # Joints at a limit that the step pushes outwards are frozen (their rows of Jᵀ
                 # zeroed) and the step is recomputed, so the other joints compensate. A periodic
                 # joint is not blocked if a whole turn takes it back inside.
+                dq = step[0]
                 blocked = [
                     i
                     for i in edge
@@ -270,8 +288,9 @@ class SingleSolver:
                 if blocked:
                     Ju = Jt.copy()
                     Ju[blocked] = 0.0
-                    dq = _lm_step(Ju, r, lam, eye)
-            if dq is not None:
+                    step = _lm_step(Ju, r, lam, eye)
+            if step is not None:
+                dq, g_arr = step
                 big = max(map(abs, dq))
                 if big > MAX_STEP:
                     dq = [d * (MAX_STEP / big) for d in dq]
@@ -287,7 +306,7 @@ class SingleSolver:
                 E_try, e_try, pos_t, ori_t, ok, t_try, axes_try = self.evaluate(q_try)
                 if E_try < E:  # False for NaN: a non-finite trial is rejected
                     # gain ratio ρ = actual / predicted decrease, predicted = Δqᵀ(λΔq + Jᵀr)
-                    g = (Ju @ r).tolist()
+                    g = (Ju @ r if g_arr is None else g_arr).tolist()
                     predicted = sum([d * (lam * d + gi) for d, gi in zip(dq, g, strict=True)])
                     rho = (E - E_try) / predicted if predicted > 0.0 else 0.0
                     stall = stall + 1 if E - E_try < STALL_FRACTION * E else 0
