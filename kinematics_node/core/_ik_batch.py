@@ -49,15 +49,20 @@ class BatchOutcome:
 def _lm_steps(
     J: FloatArray, r: FloatArray, lam: FloatArray, eye: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
-    """Batched Δq = Jᵀ(J Jᵀ + λI)⁻¹ r (k, n) and the predicted decrease Δqᵀ(λΔq + Jᵀr) (k,)."""
+    """Batched Δq = Jᵀ(J Jᵀ + λI)⁻¹ r (k, n) and the predicted decrease Δqᵀ(λΔq + Jᵀr) (k,).
+    With fewer joints than error rows (n < m), the same step as (JᵀJ + λI)Δq = Jᵀr, n × n; `eye`
+    is the identity of the system's size."""
     JT = np.swapaxes(J, 1, 2)
-    A = J @ JT + lam[:, None, None] * eye
+    g = (JT @ r[:, :, None])[:, :, 0]
+    small = eye.shape[0] < J.shape[1]
+    A = (JT @ J if small else J @ JT) + lam[:, None, None] * eye
+    rhs = g if small else r
     try:
-        y = np.linalg.solve(A, r[:, :, None])
+        y = np.linalg.solve(A, rhs[:, :, None])
     except np.linalg.LinAlgError:  # an exactly singular member: least squares for all
-        y = np.linalg.pinv(A) @ r[:, :, None]
-    dq = (JT @ y)[:, :, 0]
-    predicted = np.einsum("kn,kn->k", dq, lam[:, None] * dq + (JT @ r[:, :, None])[:, :, 0])
+        y = np.linalg.pinv(A) @ rhs[:, :, None]
+    dq = np.asarray(y[:, :, 0] if small else (JT @ y)[:, :, 0], dtype=np.float64)
+    predicted = np.einsum("kn,kn->k", dq, lam[:, None] * dq + g)
     return dq, predicted
 
 
@@ -103,7 +108,7 @@ class BatchSolver:
         N = seeds.shape[0]
         self.lo, self.hi = sample_bounds(problem.lower, problem.upper, seeds)
         self.rng = np.random.default_rng(problem.opts.rng_seed)
-        self.eye = np.eye(problem.m)
+        self.eye = np.eye(min(problem.m, seeds.shape[1]))  # the damped system's size
         self.success = np.zeros(N, dtype=bool)
         self.q_sol = seeds.copy()
         self.sol_pos, self.sol_ori = np.full(N, np.inf), np.full(N, np.inf)

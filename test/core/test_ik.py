@@ -658,3 +658,23 @@ def test_lm_step_is_the_damped_least_squares_step_in_either_form(n: int) -> None
         if n < 6:
             assert g is not None
             np.testing.assert_allclose(g, Jt @ r, rtol=1e-12)
+
+
+@pytest.mark.parametrize("n", [3, 4, 7])
+def test_batched_lm_steps_are_the_damped_least_squares_steps(n: int) -> None:
+    """`_ik_batch._lm_steps` in either form: each step minimises ‖JΔq − r‖² + λ‖Δq‖², and the
+    predicted decrease is Δqᵀ(λΔq + Jᵀr)."""
+    from kinematics_node.core._ik_batch import _lm_steps
+
+    rng = np.random.default_rng(10 + n)
+    k = 5
+    J = rng.normal(size=(k, 6, n))
+    r = rng.normal(size=(k, 6))
+    lam = np.array([1e-12, 1e-3, 1e-2, 1.0, 10.0]) if n < 6 else np.full(k, 1e-2)
+    dq, predicted = _lm_steps(J, r, lam, np.eye(min(n, 6)))
+    for i in range(k):
+        stacked = np.vstack((J[i], math.sqrt(lam[i]) * np.eye(n)))
+        expected = np.linalg.lstsq(stacked, np.r_[r[i], np.zeros(n)], rcond=None)[0]
+        np.testing.assert_allclose(dq[i], expected, rtol=1e-6, atol=1e-9)
+        g = J[i].T @ r[i]
+        assert predicted[i] == pytest.approx(dq[i] @ (lam[i] * dq[i] + g), rel=1e-9)
