@@ -79,36 +79,25 @@ class SingleSolver:
         R, p = T_target[:3, :3], T_target[:3, 3]
         self.target = tuple(R.ravel().tolist() + p.tolist())
         self.seed: list[float] = seed.tolist()
-        self.lower: list[float] = problem.lower.tolist()
-        self.upper: list[float] = problem.upper.tolist()
-        self.periodic: list[bool] = problem.periodic.tolist()
-        self.pinnable: list[bool] = problem.pinnable.tolist()
-        self.joint_weights: list[float] = problem.joint_weights.tolist()
+        c = problem.scalar  # plain-Python constants, shared by the problem's calls: read only
+        self.lower, self.upper, self.periodic, self.pinnable = c.lower, c.upper, c.periodic, c.pinnable
+        self.joint_weights = c.joint_weights
         self.spare = problem.spare
         self._sampler: tuple[np.random.Generator, FloatArray, FloatArray] | None = None
 
         # The error and its weights, as `problem` defines them (plain floats for this solver).
         self.position_only = problem.position_only
         self.coupled = problem.coupled
-        self.axis_tol: list[float] | None = (
-            None if problem.axis_tol is None else problem.axis_tol.tolist()
-        )
-        self.w: list[float] = problem.w.tolist()
+        self.axis_tol = c.axis_tol
+        self.w = c.w
         self.sw = problem.sw
-        self.pos_mask: list[bool] = problem.pos_mask.tolist()
-        self.ori_mask: list[bool] = problem.ori_mask.tolist()
-        self.all_ori = all(self.ori_mask)
+        self.pos_mask, self.ori_mask, self.all_ori = c.pos_mask, c.ori_mask, c.all_ori
         self.tol_p = opts.position_tolerance
         self.tol_o = opts.orientation_tolerance
-        # Speed-ups of this solver, chosen once; none changes the step:
-        self.unit_weights = all(x == 1.0 for x in self.w)
-        # The LM step Δq = Jᵀ(JJᵀ + λI)⁻¹r is unchanged when J's rows and r are rotated together
-        # (an orthogonal change of task-space axes). With weights that are equal within the
-        # rotation block and within the translation block, J and r are therefore expressed in
-        # base axes: J's columns need no rotation into the tip frame (7 × 18 multiplications
-        # saved per Jacobian), only r is rotated (18).
-        blocks = [self.w] if self.position_only else [self.w[:3], self.w[3:]]
-        self.base_axes = all(len(set(b)) == 1 for b in blocks)
+        # Speed-ups of this solver, chosen once per problem; none changes the step: unit weights,
+        # and J and r in base axes (`IKProblem.scalar`).
+        self.unit_weights = c.unit_weights
+        self.base_axes = c.base_axes
         # Coupled error in base axes: J is the world Jacobian at the tip, which the generated
         # kernel returns directly; otherwise it is assembled from the joint axes.
         world_columns = self.coupled and self.base_axes
@@ -117,7 +106,7 @@ class SingleSolver:
         # The default (full pose, unit weights) has its own short evaluation.
         plain = self.coupled and self.unit_weights
         self.evaluate = self._evaluate_plain if plain else self._evaluate_weighted
-        self.eye = np.eye(min(len(self.lower), problem.m))  # the damped system's size
+        self.eye = c.eye  # the damped system's size
         self.iterations = 0
         self.best: tuple[float, list[float], float, float] | None = None  # (E, q, pos, ori)
 
