@@ -6,10 +6,11 @@ batched NumPy kernel, solves the (k, m, m) damped normal equations with one batc
 stuck or out of iterations restart from random configurations together.
 
 Work is organised in *lanes*: one lane = one attempt for one target. At first there is one lane per
-target (starting at its seed). When fewer than `MIN_LANES` lanes are still running, unsolved
-targets get extra lanes from random configurations, so the slow tail of hard targets runs several
-restarts in parallel instead of one after another at a high per-iteration overhead. A target is
-solved by its first converged lane; its other lanes are dropped.
+target (starting at its seed). When fewer than `min_lanes` lanes (256; 384 in a batch of 640
+targets or more) are still running, unsolved targets get extra lanes from random configurations,
+so the slow tail of hard targets runs several restarts in parallel instead of one after another at
+a high per-iteration overhead. A target is solved by its first converged lane; its other lanes are
+dropped.
 """
 
 from __future__ import annotations
@@ -66,7 +67,9 @@ def _lm_steps(
     return dq, predicted
 
 
-MIN_LANES = 256  # top up the running attempts to this many while targets remain unsolved
+MIN_LANES = 256  # top up the running attempts to this many while targets remain unsolved ...
+MIN_LANES_LARGE = 384  # ... and to this many in a batch of at least LARGE_BATCH targets
+LARGE_BATCH = 640
 
 
 @dataclass
@@ -106,6 +109,7 @@ class BatchSolver:
         self.R_t, self.p_t = T[:, :3, :3], T[:, :3, 3]
         self.seeds = seeds
         N = seeds.shape[0]
+        self.min_lanes = MIN_LANES_LARGE if N >= LARGE_BATCH else MIN_LANES
         self.lo, self.hi = sample_bounds(problem.lower, problem.upper, seeds)
         self.rng = np.random.default_rng(problem.opts.rng_seed)
         self.eye = np.eye(min(problem.m, seeds.shape[1]))  # the damped system's size
@@ -147,15 +151,15 @@ class BatchSolver:
         return lanes
 
     def _top_up(self, lanes: _Lanes) -> _Lanes:
-        """Add random-restart lanes for unsolved targets with restarts left, up to `MIN_LANES`
+        """Add random-restart lanes for unsolved targets with restarts left, up to `min_lanes`
         lanes: round-robin over those targets in index order, at most `max_restarts` each."""
-        if lanes.tgt.size >= MIN_LANES:
+        if lanes.tgt.size >= self.min_lanes:
             return lanes
         max_restarts = self.problem.opts.max_restarts
         open_t = np.flatnonzero(~self.success & (self.restarts < max_restarts))
         if not open_t.size:
             return lanes
-        k = MIN_LANES - lanes.tgt.size
+        k = self.min_lanes - lanes.tgt.size
         cand = np.tile(open_t, -(-k // open_t.size))[:k]
         counts = np.bincount(cand, minlength=self.seeds.shape[0])
         allowed = np.minimum(counts, max_restarts - self.restarts)
