@@ -2,6 +2,11 @@
 
     python benchmarks/ik_benchmark.py [--targets 2000] [--peer-targets 500] [--slow-targets 100]
                                       [--arms ur5,panda,iiwa] [--seed 12345] [--json out.json]
+                                      [--peers kdl,pinocchio,rtb,mr,ikpy] [--numeric]
+
+`--arms repo-ur5e,repo-panda,repo-iiwa14,repo-scara,repo-planar3r` measures the repository's own
+bundled arms (`load_robot`); scara and planar3r have no closed form, so their `ik` is the numeric
+search. `--numeric` also times `IKOptions(method="numeric")` on arms that have a closed form.
 
 Protocol (Beeson & Ames, TRAC-IK, 2015): targets are FK of configurations drawn uniformly within
 the joint limits; every solver starts from the middle of the limits; the full 6-D pose must match
@@ -44,6 +49,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from kinematics_node.core import IKOptions, SerialChain, so3  # noqa: E402
 from kinematics_node.core.model import middle_of_limits  # noqa: E402
+from kinematics_node.robots import default_chain_links, load_robot, robot_path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _pinocchio import chain_setup  # noqa: E402
@@ -51,6 +57,10 @@ from _pinocchio import chain_setup  # noqa: E402
 ERD = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
 TOL = 1e-5
 BUDGET = 0.005
+# The repository's bundled arms (config/robots), `--arms repo-<name>`; scara and planar3r have no
+# closed form, so their `ik` is the numeric search.
+REPO_ARMS = ("ur5e", "panda", "iiwa14", "scara", "planar3r")
+ALL_PEERS = ("kdl", "pinocchio", "rtb", "mr", "ikpy")
 
 
 def arm_paths() -> dict[str, tuple[Path | None, str | None, str]]:
@@ -73,7 +83,16 @@ def arm_paths() -> dict[str, tuple[Path | None, str | None, str]]:
         out["iiwa"] = (p, "lbr_iiwa_link_7", "pybullet_data kuka_iiwa/model.urdf")
     except ImportError:
         out["iiwa"] = (None, None, "pybullet not installed (pip install pybullet)")
+    for robot in REPO_ARMS:  # the repository's bundled arms, as `load_robot` builds them
+        out[f"repo-{robot}"] = (robot_path(robot), default_chain_links(robot)[1], "load_robot")
     return out
+
+
+def load_arm(name: str, path: Path, tip: str | None) -> SerialChain:
+    """The chain of arm `name` (a bundled arm through `load_robot`, with its default base)."""
+    if name.startswith("repo-"):
+        return load_robot(name.removeprefix("repo-"))
+    return SerialChain.from_urdf(path, tip_link=tip)
 
 
 # ---------------------------------------------------------------------- verification
@@ -215,7 +234,10 @@ def peer_rtb(chain: SerialChain) -> Callable[[np.ndarray], np.ndarray | None] | 
     A = chain.solver_model.kernel.A
     ets = ET.SE3(A[0])
     for k, prism in enumerate(chain.solver_model.kernel.prismatic):
-        lim = [float(chain.lower[k]), float(chain.upper[k])]
+        # rtb draws its restarts within the limits and refuses infinite ones: a continuous
+        # joint gets [−π, π], the range its targets are drawn from
+        lo, hi = float(chain.lower[k]), float(chain.upper[k])
+        lim = [lo if np.isfinite(lo) else -np.pi, hi if np.isfinite(hi) else np.pi]
         ets = ets * (ET.tz(qlim=lim) if prism else ET.Rz(qlim=lim)) * ET.SE3(A[k + 1])
     robot = rtb.Robot(ets)
     mid = middle_of_limits(chain.lower, chain.upper)
@@ -296,7 +318,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--peer-targets", type=int, default=500, help="targets for KDL/Pinocchio/rtb")
     ap.add_argument("--slow-targets", type=int, default=100, help="targets for MR and ikpy")
     ap.add_argument(
-        "--arms", default="ur5,panda,iiwa", help="any of ur5,panda,iiwa,ur10,z1,kinova,xarm7"
+        "--arms",
+        default="ur5,panda,iiwa",
+        help="any of ur5,panda,iiwa,ur10,z1,kinova,xarm7 and the bundled arms "
+        + ",".join(f"repo-{a}" for a in REPO_ARMS),
+    )
+    ap.add_argument("--peers", default=",".join(ALL_PEERS), help=f"subset of {','.join(ALL_PEERS)}")
+    ap.add_argument(
+        "--numeric", action="store_true", help="also time method='numeric' on every arm"
     )
     ap.add_argument(
         "--seed", type=int, default=12345, help="seed of the random target configurations"
@@ -315,7 +344,7 @@ def main(argv: list[str] | None = None) -> int:
         if path is None or not path.exists():
             print(f"[{name}] skipped: {note}")
             continue
-        chain = SerialChain.from_urdf(path, tip_link=tip)
+        chain = load_arm(name, path, tip)
         rng = np.random.default_rng(args.seed)
         lo = np.where(np.isfinite(chain.lower), chain.lower, -np.pi)  # continuous: [−π, π]
         hi = np.where(np.isfinite(chain.upper), chain.upper, np.pi)
@@ -342,7 +371,8 @@ def main(argv: list[str] | None = None) -> int:
             return np.asarray(c.ik(Tk, s, o).q)
 
         ours = run_solver(chain, ours_solve, T)
-        if family is not None:  # the numeric search alone, for comparison
+        with_numeric = family is not None or args.numeric
+        if with_numeric:  # the numeric search alone, for comparison
             num = replace(opts, method="numeric")
             arm_res["ours numeric"] = res_num = run_solver(
                 chain, lambda Tk, c=chain, s=mid, o=num: np.asarray(c.ik(Tk, s, o).q), T
@@ -356,20 +386,31 @@ def main(argv: list[str] | None = None) -> int:
         ours["batch_success_pct"] = 100.0 * n_ok / len(T)
         arm_res["ours"] = ours
         rows.append((name, "ours (ik)", ours))
-        if family is not None:
+        if with_numeric:
             rows.append((name, "ours (ik, numeric)", res_num))
 
         peers: list[tuple[str, object, int]] = []
-        kdl = peer_kdl(chain)
-        if isinstance(kdl, str):
-            peers.append(("KDL", kdl, 0))
-        else:
-            peers += [(k, v, args.peer_targets) for k, v in kdl.items()]
-        peers.append(("Pinocchio DLS", peer_pinocchio(path, chain), args.peer_targets))
-        peers.append(("rtb ik_LM", peer_rtb(chain), args.peer_targets))
+        chosen = set(args.peers.split(","))
+        if "kdl" in chosen:
+            kdl = peer_kdl(chain)
+            if isinstance(kdl, str):
+                peers.append(("KDL", kdl, 0))
+            else:
+                peers += [(k, v, args.peer_targets) for k, v in kdl.items()]
+        if "pinocchio" in chosen:
+            pin_peer = (
+                "the bundled arm's chain does not start at the URDF root"
+                if name.startswith("repo-")
+                else peer_pinocchio(path, chain)
+            )
+            peers.append(("Pinocchio DLS", pin_peer, args.peer_targets))
+        if "rtb" in chosen:
+            peers.append(("rtb ik_LM", peer_rtb(chain), args.peer_targets))
         if args.slow_targets > 0:
-            peers.append(("MR IKinSpace", peer_mr(chain), args.slow_targets))
-            peers.append(("ikpy", peer_ikpy(chain), args.slow_targets))
+            if "mr" in chosen:
+                peers.append(("MR IKinSpace", peer_mr(chain), args.slow_targets))
+            if "ikpy" in chosen:
+                peers.append(("ikpy", peer_ikpy(chain), args.slow_targets))
         for pname, solver, count in peers:
             if isinstance(solver, str):
                 print(f"  {pname}: skipped: {solver}")
@@ -387,7 +428,7 @@ def main(argv: list[str] | None = None) -> int:
 
     print()
     hdr = (
-        f"{'arm':6} {'solver':22} {'targets':>7} {'success%':>9} {'limits%':>8} "
+        f"{'arm':13} {'solver':22} {'targets':>7} {'success%':>9} {'limits%':>8} "
         f"{'median ms':>10} {'p95 ms':>8} {'max ms':>8} {'median/ours':>12}"
     )
     print(hdr)
@@ -396,7 +437,7 @@ def main(argv: list[str] | None = None) -> int:
         ref = results[arm_name]["ours"]["median_ms"]  # type: ignore[index]
         ratio = r["median_ms"] / ref
         print(
-            f"{arm_name:6} {pname:22} {r['targets']:7d} {r['success_pct']:9.2f} "
+            f"{arm_name:13} {pname:22} {r['targets']:7d} {r['success_pct']:9.2f} "
             f"{r['within_limits_pct']:8.2f} {r['median_ms']:10.3f} {r['p95_ms']:8.3f} "
             f"{r['max_ms']:8.2f} {ratio:12.2f}"
         )
@@ -404,7 +445,7 @@ def main(argv: list[str] | None = None) -> int:
     for arm_name, res in results.items():
         o = res["ours"]
         print(
-            f"{arm_name:6} ours (ik_batch): {o['batch_solutions_per_s']:,.0f} verified "  # type: ignore[index]
+            f"{arm_name:13} ours (ik_batch): {o['batch_solutions_per_s']:,.0f} verified "  # type: ignore[index]
             f"solutions/s, success {o['batch_success_pct']:.2f} %"  # type: ignore[index]
         )
     print(f"\nmachine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}")

@@ -6,10 +6,11 @@ batched NumPy kernel, solves the (k, m, m) damped normal equations with one batc
 stuck or out of iterations restart from random configurations together.
 
 Work is organised in *lanes*: one lane = one attempt for one target. At first there is one lane per
-target (starting at its seed). When fewer than `MIN_LANES` lanes are still running, unsolved
-targets get extra lanes from random configurations, so the slow tail of hard targets runs several
-restarts in parallel instead of one after another at a high per-iteration overhead. A target is
-solved by its first converged lane; its other lanes are dropped.
+target (starting at its seed). When fewer than `min_lanes` lanes (256; 384 in a batch of 640
+targets or more) are still running, unsolved targets get extra lanes from random configurations,
+so the slow tail of hard targets runs several restarts in parallel instead of one after another at
+a high per-iteration overhead. A target is solved by its first converged lane; its other lanes are
+dropped.
 """
 
 from __future__ import annotations
@@ -49,19 +50,26 @@ class BatchOutcome:
 def _lm_steps(
     J: FloatArray, r: FloatArray, lam: FloatArray, eye: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
-    """Batched Δq = Jᵀ(J Jᵀ + λI)⁻¹ r (k, n) and the predicted decrease Δqᵀ(λΔq + Jᵀr) (k,)."""
+    """Batched Δq = Jᵀ(J Jᵀ + λI)⁻¹ r (k, n) and the predicted decrease Δqᵀ(λΔq + Jᵀr) (k,).
+    With fewer joints than error rows (n < m), the same step as (JᵀJ + λI)Δq = Jᵀr, n × n; `eye`
+    is the identity of the system's size."""
     JT = np.swapaxes(J, 1, 2)
-    A = J @ JT + lam[:, None, None] * eye
+    g = (JT @ r[:, :, None])[:, :, 0]
+    small = eye.shape[0] < J.shape[1]
+    A = (JT @ J if small else J @ JT) + lam[:, None, None] * eye
+    rhs = g if small else r
     try:
-        y = np.linalg.solve(A, r[:, :, None])
+        y = np.linalg.solve(A, rhs[:, :, None])
     except np.linalg.LinAlgError:  # an exactly singular member: least squares for all
-        y = np.linalg.pinv(A) @ r[:, :, None]
-    dq = (JT @ y)[:, :, 0]
-    predicted = np.einsum("kn,kn->k", dq, lam[:, None] * dq + (JT @ r[:, :, None])[:, :, 0])
+        y = np.linalg.pinv(A) @ rhs[:, :, None]
+    dq = np.asarray(y[:, :, 0] if small else (JT @ y)[:, :, 0], dtype=np.float64)
+    predicted = np.einsum("kn,kn->k", dq, lam[:, None] * dq + g)
     return dq, predicted
 
 
-MIN_LANES = 256  # top up the running attempts to this many while targets remain unsolved
+MIN_LANES = 256  # top up the running attempts to this many while targets remain unsolved ...
+MIN_LANES_LARGE = 384  # ... and to this many in a batch of at least LARGE_BATCH targets
+LARGE_BATCH = 640
 
 
 @dataclass
@@ -101,9 +109,10 @@ class BatchSolver:
         self.R_t, self.p_t = T[:, :3, :3], T[:, :3, 3]
         self.seeds = seeds
         N = seeds.shape[0]
+        self.min_lanes = MIN_LANES_LARGE if N >= LARGE_BATCH else MIN_LANES
         self.lo, self.hi = sample_bounds(problem.lower, problem.upper, seeds)
         self.rng = np.random.default_rng(problem.opts.rng_seed)
-        self.eye = np.eye(problem.m)
+        self.eye = np.eye(min(problem.m, seeds.shape[1]))  # the damped system's size
         self.success = np.zeros(N, dtype=bool)
         self.q_sol = seeds.copy()
         self.sol_pos, self.sol_ori = np.full(N, np.inf), np.full(N, np.inf)
@@ -142,15 +151,15 @@ class BatchSolver:
         return lanes
 
     def _top_up(self, lanes: _Lanes) -> _Lanes:
-        """Add random-restart lanes for unsolved targets with restarts left, up to `MIN_LANES`
+        """Add random-restart lanes for unsolved targets with restarts left, up to `min_lanes`
         lanes: round-robin over those targets in index order, at most `max_restarts` each."""
-        if lanes.tgt.size >= MIN_LANES:
+        if lanes.tgt.size >= self.min_lanes:
             return lanes
         max_restarts = self.problem.opts.max_restarts
         open_t = np.flatnonzero(~self.success & (self.restarts < max_restarts))
         if not open_t.size:
             return lanes
-        k = MIN_LANES - lanes.tgt.size
+        k = self.min_lanes - lanes.tgt.size
         cand = np.tile(open_t, -(-k // open_t.size))[:k]
         counts = np.bincount(cand, minlength=self.seeds.shape[0])
         allowed = np.minimum(counts, max_restarts - self.restarts)

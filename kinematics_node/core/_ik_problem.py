@@ -17,6 +17,8 @@ or every component within its bound. The Levenberg–Marquardt tuning constants 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -40,6 +42,25 @@ STALL_STEPS = 2  # ... this many times in a row ends the attempt (a local minimu
 # Panda this ends ~2/3 of the attempts that would fail, ~5 steps earlier, and ~5 % of attempts
 # that would succeed; net, the share of targets needing > 80 iterations halves (1.8 % → 0.9 %).
 PINNED_STEPS = 2
+
+
+class ScalarView(NamedTuple):
+    """`IKProblem`'s constants as plain Python values for `_ik_single` (shared by every call of
+    the problem: read only). `unit_weights`, `base_axes`: see `IKProblem.scalar`."""
+
+    lower: list[float]
+    upper: list[float]
+    periodic: list[bool]
+    pinnable: list[bool]
+    joint_weights: list[float]
+    axis_tol: list[float] | None
+    w: list[float]
+    pos_mask: list[bool]
+    ori_mask: list[bool]
+    all_ori: bool
+    unit_weights: bool
+    base_axes: bool
+    eye: FloatArray  # identity of the damped system's size, min(n, m)
 
 
 @dataclass(frozen=True)
@@ -130,6 +151,35 @@ class IKProblem:
             m=m,
             spare=max(chain.dof - m, 0),
             all_weighted=bool(np.all(w > 0)),
+        )
+
+    @cached_property
+    def scalar(self) -> ScalarView:
+        """The constants of the scalar solver, made once per problem rather than once per call."""
+        w: list[float] = self.w.tolist()
+        # The LM step Δq = Jᵀ(JJᵀ + λI)⁻¹r is unchanged when J's rows and r are rotated together
+        # (an orthogonal change of task-space axes). With weights that are equal within the
+        # rotation block and within the translation block, J and r are therefore expressed in
+        # base axes: J's columns need no rotation into the tip frame (7 × 18 multiplications
+        # saved per Jacobian), only r is rotated (18).
+        blocks = [w] if self.position_only else [w[:3], w[3:]]
+        eye = np.eye(min(self.lower.shape[0], self.m))
+        eye.flags.writeable = False
+        ori_mask: list[bool] = self.ori_mask.tolist()
+        return ScalarView(
+            lower=self.lower.tolist(),
+            upper=self.upper.tolist(),
+            periodic=self.periodic.tolist(),
+            pinnable=self.pinnable.tolist(),
+            joint_weights=self.joint_weights.tolist(),
+            axis_tol=None if self.axis_tol is None else self.axis_tol.tolist(),
+            w=w,
+            pos_mask=self.pos_mask.tolist(),
+            ori_mask=ori_mask,
+            all_ori=all(ori_mask),
+            unit_weights=all(x == 1.0 for x in w),
+            base_axes=all(len(set(b)) == 1 for b in blocks),
+            eye=eye,
         )
 
     def evaluate_batch(

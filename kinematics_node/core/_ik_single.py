@@ -9,6 +9,12 @@ pose error from `_pose_error` (scalar SE(3)/SO(3) log), and only the m×m damped
 they are solved by Cholesky with LAPACK's `dposv` called directly through SciPy (~1.3 µs on a 6×6,
 against ~4.5 µs for `numpy.linalg.solve`'s generic wrapper, and far less than a Cholesky in
 interpreted Python); a failed factorisation is a rejected step.
+
+Random restarts run one after another. Advancing them together as lanes of one vectorised LM on
+the one target was measured slower on scara (TRAC-IK protocol, 5 ms; 23 % of targets need a
+restart): serial restarts are short (~6 iterations, ~30 µs each) while a lock-step of K lanes costs
+~300 µs in NumPy even with a dedicated kernel (`BatchSolver` itself: ~1 ms), so the lanes were
+slower on the targets that need them (p95 1.9–2.1 → 3.5–5.9 ms) and missed more deadlines.
 """
 
 from __future__ import annotations
@@ -37,14 +43,22 @@ from .model import TWO_PI
 
 FloatArray = NDArray[np.float64]
 
-def _lm_step(Jt: FloatArray, r: FloatArray, lam: float, eye: FloatArray) -> list[float] | None:
-    """Δq = Jᵀ(J Jᵀ + λI)⁻¹ r from Jt = Jᵀ (n × m), as a list; None if the factorisation fails.
-    `eye` is the m × m identity (adding λ·eye is cheaper than updating A's diagonal in place)."""
+def _lm_step(
+    Jt: FloatArray, r: FloatArray, lam: float, eye: FloatArray
+) -> tuple[list[float], FloatArray | None] | None:
+    """Δq = Jᵀ(J Jᵀ + λI)⁻¹ r from Jt = Jᵀ (n × m), as a list, and Jᵀr if it came for free (else
+    None); None if the factorisation fails. With fewer joints than error rows (n < m) the same
+    step is solved as (JᵀJ + λI) Δq = Jᵀr, n × n, which also gives Jᵀr for the gain ratio.
+    `eye` is the identity of the system's size (adding λ·eye is cheaper than updating A's diagonal
+    in place)."""
+    if eye.shape[0] < Jt.shape[1]:
+        g = Jt @ r
+        _, dq, info = dposv(Jt @ Jt.T + lam * eye, g)
+        return None if info != 0 else (dq.tolist(), g)
     _, y, info = dposv(Jt.T @ Jt + lam * eye, r)
     if info != 0:
         return None
-    dq: list[float] = (Jt @ y).tolist()
-    return dq
+    return (Jt @ y).tolist(), None
 
 
 @dataclass
@@ -71,36 +85,25 @@ class SingleSolver:
         R, p = T_target[:3, :3], T_target[:3, 3]
         self.target = tuple(R.ravel().tolist() + p.tolist())
         self.seed: list[float] = seed.tolist()
-        self.lower: list[float] = problem.lower.tolist()
-        self.upper: list[float] = problem.upper.tolist()
-        self.periodic: list[bool] = problem.periodic.tolist()
-        self.pinnable: list[bool] = problem.pinnable.tolist()
-        self.joint_weights: list[float] = problem.joint_weights.tolist()
+        c = problem.scalar  # plain-Python constants, shared by the problem's calls: read only
+        self.lower, self.upper, self.periodic, self.pinnable = c.lower, c.upper, c.periodic, c.pinnable
+        self.joint_weights = c.joint_weights
         self.spare = problem.spare
         self._sampler: tuple[np.random.Generator, FloatArray, FloatArray] | None = None
 
         # The error and its weights, as `problem` defines them (plain floats for this solver).
         self.position_only = problem.position_only
         self.coupled = problem.coupled
-        self.axis_tol: list[float] | None = (
-            None if problem.axis_tol is None else problem.axis_tol.tolist()
-        )
-        self.w: list[float] = problem.w.tolist()
+        self.axis_tol = c.axis_tol
+        self.w = c.w
         self.sw = problem.sw
-        self.pos_mask: list[bool] = problem.pos_mask.tolist()
-        self.ori_mask: list[bool] = problem.ori_mask.tolist()
-        self.all_ori = all(self.ori_mask)
+        self.pos_mask, self.ori_mask, self.all_ori = c.pos_mask, c.ori_mask, c.all_ori
         self.tol_p = opts.position_tolerance
         self.tol_o = opts.orientation_tolerance
-        # Speed-ups of this solver, chosen once; none changes the step:
-        self.unit_weights = all(x == 1.0 for x in self.w)
-        # The LM step Δq = Jᵀ(JJᵀ + λI)⁻¹r is unchanged when J's rows and r are rotated together
-        # (an orthogonal change of task-space axes). With weights that are equal within the
-        # rotation block and within the translation block, J and r are therefore expressed in
-        # base axes: J's columns need no rotation into the tip frame (7 × 18 multiplications
-        # saved per Jacobian), only r is rotated (18).
-        blocks = [self.w] if self.position_only else [self.w[:3], self.w[3:]]
-        self.base_axes = all(len(set(b)) == 1 for b in blocks)
+        # Speed-ups of this solver, chosen once per problem; none changes the step: unit weights,
+        # and J and r in base axes (`IKProblem.scalar`).
+        self.unit_weights = c.unit_weights
+        self.base_axes = c.base_axes
         # Coupled error in base axes: J is the world Jacobian at the tip, which the generated
         # kernel returns directly; otherwise it is assembled from the joint axes.
         world_columns = self.coupled and self.base_axes
@@ -109,6 +112,7 @@ class SingleSolver:
         # The default (full pose, unit weights) has its own short evaluation.
         plain = self.coupled and self.unit_weights
         self.evaluate = self._evaluate_plain if plain else self._evaluate_weighted
+        self.eye = c.eye  # the damped system's size
         self.iterations = 0
         self.best: tuple[float, list[float], float, float] | None = None  # (E, q, pos, ori)
 
@@ -247,7 +251,8 @@ class SingleSolver:
         spare = self.spare  # redundant degrees of freedom
         lower, upper, periodic, pinnable = self.lower, self.upper, self.periodic, self.pinnable
         edge = [i for i, v in enumerate(q) if v <= lower[i] or v >= upper[i]]  # joints at a limit
-        eye = np.eye(len(e))
+        eye = self.eye
+        small = eye.shape[0] < Jt.shape[1]  # fewer joints than error rows: the n × n system
         perf = time.perf_counter
         for _ in range(self.opts.max_iterations):
             if perf() > deadline:
@@ -255,11 +260,19 @@ class SingleSolver:
             self.iterations += 1
             r = self.residual(e, t)
             Ju = Jt  # the Jacobian the step was computed with
-            dq = _lm_step(Jt, r, lam, eye)
-            if dq is not None and edge:
+            # `_lm_step`, inlined (this is the hot path)
+            if small:
+                g_arr: FloatArray | None = Jt @ r
+                _, x, info = dposv(Jt @ Jt.T + lam * eye, g_arr)
+                step = None if info != 0 else (x.tolist(), g_arr)
+            else:
+                _, x, info = dposv(Jt.T @ Jt + lam * eye, r)
+                step = None if info != 0 else ((Jt @ x).tolist(), None)
+            if step is not None and edge:
                 # Joints at a limit that the step pushes outwards are frozen (their rows of Jᵀ
                 # zeroed) and the step is recomputed, so the other joints compensate. A periodic
                 # joint is not blocked if a whole turn takes it back inside.
+                dq = step[0]
                 blocked = [
                     i
                     for i in edge
@@ -270,8 +283,9 @@ class SingleSolver:
                 if blocked:
                     Ju = Jt.copy()
                     Ju[blocked] = 0.0
-                    dq = _lm_step(Ju, r, lam, eye)
-            if dq is not None:
+                    step = _lm_step(Ju, r, lam, eye)
+            if step is not None:
+                dq, g_arr = step
                 big = max(map(abs, dq))
                 if big > MAX_STEP:
                     dq = [d * (MAX_STEP / big) for d in dq]
@@ -287,7 +301,7 @@ class SingleSolver:
                 E_try, e_try, pos_t, ori_t, ok, t_try, axes_try = self.evaluate(q_try)
                 if E_try < E:  # False for NaN: a non-finite trial is rejected
                     # gain ratio ρ = actual / predicted decrease, predicted = Δqᵀ(λΔq + Jᵀr)
-                    g = (Ju @ r).tolist()
+                    g = (Ju @ r if g_arr is None else g_arr).tolist()
                     predicted = sum([d * (lam * d + gi) for d, gi in zip(dq, g, strict=True)])
                     rho = (E - E_try) / predicted if predicted > 0.0 else 0.0
                     stall = stall + 1 if E - E_try < STALL_FRACTION * E else 0

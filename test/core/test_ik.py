@@ -631,3 +631,50 @@ def test_relative_pose_is_inverse_times_target() -> None:
     A, B = se3.exp(rng.normal(size=6)), se3.exp(rng.normal(size=6))
     want = se3.inverse(A) @ B
     np.testing.assert_allclose(relative_pose(_pose12(A), _pose12(B)), _pose12(want), atol=1e-14)
+
+
+@pytest.mark.parametrize("n", [3, 4, 6, 7])
+def test_lm_step_is_the_damped_least_squares_step_in_either_form(n: int) -> None:
+    """Δq = Jᵀ(JJᵀ + λI)⁻¹r, also when fewer joints than rows make the solver use the n × n form
+    (JᵀJ + λI)Δq = Jᵀr; that form returns Jᵀr too, and a zeroed (frozen) joint does not move.
+    Reference: the minimiser of ‖JΔq − r‖² + λ‖Δq‖², by least squares on the stacked system
+    (well conditioned even where JJᵀ + λI is not, i.e. n < 6 with a tiny λ)."""
+    from kinematics_node.core._ik_single import _lm_step
+
+    rng = np.random.default_rng(n)
+    # 1e-12 only for the n × n form: the 6 × 6 one is then as ill-conditioned as JJᵀ (rank 5
+    # here, with the frozen joint)
+    for lam in (1e-12, 1e-2, 10.0) if n < 6 else (1e-2, 10.0):
+        Jt = rng.normal(size=(n, 6))
+        Jt[0] = 0.0  # a joint frozen at its limit
+        r = rng.normal(size=6)
+        stacked = np.vstack((Jt.T, math.sqrt(lam) * np.eye(n)))
+        expected = np.linalg.lstsq(stacked, np.r_[r, np.zeros(n)], rcond=None)[0]
+        out = _lm_step(Jt, r, lam, np.eye(min(n, 6)))
+        assert out is not None
+        dq, g = out
+        np.testing.assert_allclose(dq, expected, rtol=1e-6, atol=1e-9)
+        assert dq[0] == 0.0
+        if n < 6:
+            assert g is not None
+            np.testing.assert_allclose(g, Jt @ r, rtol=1e-12)
+
+
+@pytest.mark.parametrize("n", [3, 4, 7])
+def test_batched_lm_steps_are_the_damped_least_squares_steps(n: int) -> None:
+    """`_ik_batch._lm_steps` in either form: each step minimises ‖JΔq − r‖² + λ‖Δq‖², and the
+    predicted decrease is Δqᵀ(λΔq + Jᵀr)."""
+    from kinematics_node.core._ik_batch import _lm_steps
+
+    rng = np.random.default_rng(10 + n)
+    k = 5
+    J = rng.normal(size=(k, 6, n))
+    r = rng.normal(size=(k, 6))
+    lam = np.array([1e-12, 1e-3, 1e-2, 1.0, 10.0]) if n < 6 else np.full(k, 1e-2)
+    dq, predicted = _lm_steps(J, r, lam, np.eye(min(n, 6)))
+    for i in range(k):
+        stacked = np.vstack((J[i], math.sqrt(lam[i]) * np.eye(n)))
+        expected = np.linalg.lstsq(stacked, np.r_[r[i], np.zeros(n)], rcond=None)[0]
+        np.testing.assert_allclose(dq[i], expected, rtol=1e-6, atol=1e-9)
+        g = J[i].T @ r[i]
+        assert predicted[i] == pytest.approx(dq[i] @ (lam[i] * dq[i] + g), rel=1e-9)
