@@ -276,3 +276,19 @@ def test_a_worker_solves_until_a_margin_before_the_deadline_that_short_timeouts_
     assert ik_pool._solve_until(10.0, 10.0 - 1.0) == pytest.approx(10.0 - margin)
     assert ik_pool._solve_until(10.0, 10.0 - 0.002) == pytest.approx(10.0 - 0.002 * 0.1)
     assert ik_pool._solve_until(10.0, 10.5) == 10.0  # already past: nothing taken off
+
+
+def test_a_worker_exempts_its_inherited_heap_from_the_cyclic_gc():
+    """A full collection of a worker's inherited heap took most of a 50 ms IK timeout; a worker
+    starts by freezing that heap (here in a fresh interpreter, as the fork server's child)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import gc; import kinematics_node.core; from kinematics_node import ik_pool; "
+        "before = gc.get_freeze_count(); ik_pool._init_worker(0); "
+        "print(before, gc.get_freeze_count())"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    before, after = (int(v) for v in out.stdout.split())
+    assert before == 0 and after > 10_000
