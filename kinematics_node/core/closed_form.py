@@ -56,6 +56,7 @@ from .model import TWO_PI, KinematicChain, readonly
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 IntArray = NDArray[np.int64]
+Rows = list[list[float]]
 
 #: Axes closer to parallel than this count as parallel [rad].
 ANGLE_TOLERANCE = 1e-5
@@ -69,6 +70,10 @@ _REFINE_BELOW = 1e-2
 #: ~1e-15; near a singularity the subproblems lose digits in a square root (SP2's γ when the
 #: middle point nearly lies in the plane of the two axes), which one Newton step restores.
 _REFINE_ABOVE = 1e-12
+#: `nearest` (`ik`, which returns one solution) refines only above this: real URDFs whose axes
+#: meet to ~1e-13 leave every candidate of some arms a few 1e-13 off (Kinova j2s6s200: 2 in 3
+#: targets), and a refinement (~40 µs) to 1e-16 there buys nothing against the 1e-9 guaranteed.
+_NEAREST_REFINE_ABOVE = 1e-10
 #: A solution counts once: two that agree to this [rad] in every joint (modulo 2π) are one.
 _SAME_SOLUTION = 1e-9
 _INVTWO_PI = 1.0 / TWO_PI
@@ -338,6 +343,12 @@ class _Solver:
             if self.scalar_geometry is not None and structure.kind == "three_parallel"
             else None
         )
+        # The spherical-wrist solver with its constants prepared, for one target of a 6R arm.
+        self.spherical = (
+            scalar.Spherical(structure.case, self.scalar_geometry)
+            if self.scalar_geometry is not None and structure.kind == "spherical_wrist"
+            else None
+        )
         self.lower = [float(x) for x in chain.lower]
         self.upper = [float(x) for x in chain.upper]
         # Every angle of [−π, π] lies within the limits (±π, ±2π, continuous joints).
@@ -362,6 +373,13 @@ class _Solver:
             min(hi, a + TWO_PI) - 1e-9 for hi, a in zip(self.upper, self.lo_wide_list, strict=True)
         ]
         self.held_moves = None if held is None else self._held_moves()
+        # A 7R arm, per value of the held joint: (geometry, its prepared spherical-wrist solver or
+        # None, the rows of M⁻¹ E⁻¹); see `held_prepared`. A plain dict (a lost race only
+        # recomputes an entry), emptied when full.
+        self._held_cache: dict[float, tuple[scalar.Geometry, scalar.Spherical | None, Rows]] = {}
+        self._held_static = self.held_moves is not None and not any(
+            any(flags) for flags in self.held_moves.values()
+        )
         model = chain.solver_model  # the generated scalar FK, where joints are the internal ones
         self.kernel = model.kernel
         self.fk_pose = model.kernel.fk_pose if model.to_internal is None else None
@@ -461,6 +479,40 @@ class _Solver:
         E_inv = [[cols[0][i], cols[1][i], cols[2][i], o[i] - Ro[i]] for i in range(3)]
         E_inv.append([0.0, 0.0, 0.0, 1.0])
         return g, E_inv
+
+    def held_prepared(
+        self, theta: float
+    ) -> tuple[scalar.Geometry, scalar.Spherical | None, Rows]:
+        """For the held joint at θ: the scalar geometry, its prepared spherical-wrist solver (None
+        for a three-parallel structure) and the rows of M⁻¹ E⁻¹ (so G = T M⁻¹ E⁻¹), kept per θ:
+        `ik` tries the seed's value and then fixed values of `held_order`, the same for every
+        target. Requires `held_moves`. When no part of the geometry moves with the held joint
+        (Panda, xArm7: the held joint is the last) the geometry and solver are built once."""
+        got = self._held_cache.get(theta)
+        if got is not None:
+            return got
+        g, E_inv = self.held_scalar_geometry(theta)
+        prep: scalar.Spherical | None = None
+        if self.structure.kind == "spherical_wrist":
+            prep = (
+                self._held_static_solver
+                if self._held_static
+                else scalar.Spherical(self.structure.case, g)
+            )
+        Mi = self.M_inv_rows
+        K = [
+            [sum(Mi[i][k] * E_inv[k][j] for k in range(4)) for j in range(4)] for i in range(4)
+        ]
+        got = (g, prep, K)
+        if len(self._held_cache) >= 256:
+            self._held_cache.clear()
+        self._held_cache[theta] = got
+        return got
+
+    @functools.cached_property
+    def _held_static_solver(self) -> scalar.Spherical:
+        """The prepared solver of a held geometry that does not move with the held joint."""
+        return scalar.Spherical(self.structure.case, self._held_base)
 
     def lo_eff(self, seed: FloatArray) -> FloatArray:
         """Lower bounds for the equivalents: the limit, or seed − π for an unbounded side."""
@@ -938,6 +990,28 @@ def _scalar_candidates(
             for a, b, c, t in T[:3]
         ]  # fmt: skip
         return _candidates_of(solver, g, Gl, seed, held_value)
+    if (held_value is None and solver.spherical is not None) or (
+        held_value is not None and solver.held_moves is not None
+    ):  # G = T M⁻¹ (E⁻¹) and its inverse on floats (hand-written for speed: every `ik` call)
+        if held_value is None:
+            g, prep = solver.scalar_geometry, solver.spherical
+            assert g is not None
+            R, p = _times_inverse_home(T, solver.M_inv_rows)
+            d = seed
+        else:
+            g, prep, K = solver.held_prepared(held_value)
+            R, p = _times_inverse_home(T, K)
+            d = [seed[i] for i in solver.keep]
+        if st.reversed:  # G⁻¹ = (Rᵀ, −Rᵀp)
+            (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = R
+            R = ((a0, b0, c0), (a1, b1, c1), (a2, b2, c2))
+            p = (
+                -(a0 * p[0] + b0 * p[1] + c0 * p[2]),
+                -(a1 * p[0] + b1 * p[1] + c1 * p[2]),
+                -(a2 * p[0] + b2 * p[1] + c2 * p[2]),
+            )
+            d = [-x for x in reversed(d)]
+        return _candidates_rp(solver, g, prep, R, p, d, held_value)
     Ta = np.array(T)
     if held_value is None:
         g = solver.scalar_geometry
@@ -987,11 +1061,26 @@ def _candidates_of(
 ) -> tuple[list[scalar.Candidate], scalar.Stages]:
     """`_scalar_candidates` once the 6R problem is set: geometry g, the pose G (rows) the six
     joints must produce from their home, the default angles d."""
-    st = solver.structure
     R: scalar.Mat = (
         (Gl[0][0], Gl[0][1], Gl[0][2]), (Gl[1][0], Gl[1][1], Gl[1][2]), (Gl[2][0], Gl[2][1], Gl[2][2])
     )  # fmt: skip
     p: scalar.Vec = (Gl[0][3], Gl[1][3], Gl[2][3])
+    prep = solver.spherical if held_value is None else None
+    return _candidates_rp(solver, g, prep, R, p, d, held_value)
+
+
+def _candidates_rp(
+    solver: _Solver,
+    g: scalar.Geometry,
+    prep: scalar.Spherical | None,
+    R: scalar.Mat,
+    p: scalar.Vec,
+    d: list[float],
+    held_value: float | None,
+) -> tuple[list[scalar.Candidate], scalar.Stages]:
+    """`_candidates_of` given G as rotation rows R and translation p, and the prepared
+    spherical-wrist solver of g (None: the general one)."""
+    st = solver.structure
     case = st.kind if st.kind == "three_parallel" else st.case
     stages = scalar.Stages(_STAGE_ORDER[case])
     if st.kind == "three_parallel" and held_value is None and solver.three_parallel is not None:
@@ -1000,6 +1089,8 @@ def _candidates_of(
             return raw, stages  # angles already in (−π, π]
     elif st.kind == "three_parallel":
         raw = scalar.three_parallel(g, R, p, d, stages)
+    elif prep is not None:
+        raw = prep.solve(R, p, d, stages)
     else:
         raw = scalar.spherical(st.case, g, R, p, d, stages)
     out: list[scalar.Candidate] = []
@@ -1876,7 +1967,7 @@ def nearest(
     found: list[tuple[FloatArray, tuple[float, float]]] = []
     first_reason = ""
     tried = 0
-    for value in held_order(chain, q_seed[None], tries)[0].tolist():
+    for value in _held_order_one(solver, seed[j], tries):
         if tried and time.perf_counter() > deadline:
             break
         found, reason = _nearest_at(solver, Tl, T_target, seed, value, 1, tols, w, separation)
@@ -1941,7 +2032,7 @@ def _nearest_at(
             continue  # the same solution as one already taken (branches may coincide)
         ep, er = _fk_errors(solver, q, Tl)
         if (
-            (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
+            (ep > _NEAREST_REFINE_ABOVE * solver.scale or er > _NEAREST_REFINE_ABOVE)
             and ep < _REFINE_BELOW * solver.scale
             and er < _REFINE_BELOW
         ):
@@ -2061,6 +2152,35 @@ def held_order(chain: KinematicChain, q_seeds: FloatArray, count: int) -> FloatA
         out[i, 1 : 1 + rest.size] = rest
         out[i, 1 + rest.size :] = out[i, rest.size]  # (only with a tiny count: repeat the last)
     return out
+
+
+def _held_order_one(solver: _Solver, s: float, count: int) -> list[float]:
+    """`held_order` for one seed whose held joint is at s, on floats (the same values; ~10 µs
+    less per `ik` call than the array version)."""
+    j = solver.held
+    assert j is not None
+    lo, hi = solver.lower[j], solver.upper[j]
+    fractions = _spread_fraction_list(count)
+    if math.isfinite(lo) and math.isfinite(hi) and hi - lo <= TWO_PI:
+        span = hi - lo
+        cand = [lo + span * f for f in fractions]
+    else:
+        span = TWO_PI
+        cand = [(s - math.pi) + span * f for f in fractions]
+    out = [s]
+    for c in cand:
+        if len(out) >= count:
+            break
+        if abs(c - s) > span / 72.0:
+            out.append(c)
+    while len(out) < count:  # (only with a tiny count: repeat the last)
+        out.append(out[-1])
+    return out
+
+
+@functools.lru_cache(maxsize=8)
+def _spread_fraction_list(count: int) -> list[float]:
+    return [float(f) for f in _spread_fractions(count)]
 
 
 @functools.lru_cache(maxsize=8)
