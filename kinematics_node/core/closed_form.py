@@ -1940,6 +1940,7 @@ def nearest(
     separation: float,
     deadline: float,
     tries: int = 1 + DEFAULT_HELD_SAMPLES,
+    first: int = 0,
 ) -> Nearest | None:
     """The `count` solutions nearest `q_seed` of one target, in closed form; None if the chain has
     no closed-form family. For `ik`: its inputs are already checked (T_target a rigid (4, 4)
@@ -1949,7 +1950,8 @@ def nearest(
     equivalent within the limits, and checked by forward kinematics in that order (near misses
     refined, as in `solve_all`) until `count` pass, so one call usually runs one FK. A 7R arm holds
     its held joint at up to `tries` values of `held_order` (the seed's first) until one gives a
-    solution or `deadline` (`time.perf_counter`) passes.
+    solution or `deadline` (`time.perf_counter`) passes, starting at value `first` of them (the
+    earlier ones already tried, as by `ik_batch`).
     """
     solver = _solver(chain)
     if solver is None:
@@ -1967,7 +1969,7 @@ def nearest(
     found: list[tuple[FloatArray, tuple[float, float]]] = []
     first_reason = ""
     tried = 0
-    for value in _held_order_one(solver, seed[j], tries):
+    for value in _held_order_one(solver, seed[j], tries)[first:]:
         if tried and time.perf_counter() > deadline:
             break
         found, reason = _nearest_at(solver, Tl, T_target, seed, value, 1, tols, w, separation)
