@@ -701,6 +701,8 @@ class Spherical:
         self.pp_w = dot(w5, w5)
         self.w5p4 = _project(W[4], w5)  # ω₆ projected normal to ω₅ (the first SP1's p′)
         self.w4xw5, self.w4w5 = cross(W[4], w5), dot(W[4], w5)
+        self.xp5 = _project(w5, g.x)  # x projected normal to ω₆ (q₆'s SP1 p′)
+        self.x_small = dot(self.xp5, self.xp5) <= 1e-18
 
     def _arms(
         self, R: Mat, p: Vec, d: Sequence[float], stages: Stages
@@ -798,30 +800,35 @@ class Spherical:
         a_small = apx * apx + apy * apy + apz * apz <= 1e-18
         uxw, uw = self.w4xw5, self.w4w5
         d3, d4, d5 = d[3], d[4], d[5]
+        w5x, w5y, w5z = w5
+        xpx, xpy, xpz = self.xp5
+        x_small = self.x_small
         for q1, q2, q3, why in arms:
             # v₆ and y₀: Rω₆ and Rx turned by −q₁ about ω₁, −q₂ about ω₂, −q₃ about ω₃.
             c1, s1 = cos(q1), -sin(q1)
             c2, s2 = cos(q2), -sin(q2)
             c3, s3 = cos(q3), -sin(q3)
             v6 = _rot(w2, c3, s3, _rot(w1, c2, s2, _rot(w0, c1, s1, Rw5)))
-            y0 = _rot(w2, c3, s3, _rot(w1, c2, s2, _rot(w0, c1, s1, Rx)))
+            y0x, y0y, y0z = _rot(w2, c3, s3, _rot(w1, c2, s2, _rot(w0, c1, s1, Rx)))
+            v6x, v6y, v6z = v6
             # SP2 (ω₄, ω₅) of p = ω₆ onto q = v₆ (`sp2` written out, p fixed).
-            kq = w3x * v6[0] + w3y * v6[1] + w3z * v6[2]
+            kq = w3x * v6x + w3y * v6y + w3z * v6z
             alpha = (c34 * kp - kq) / den
             beta = (c34 * kq - kp) / den
             g2 = (pp - alpha * alpha - beta * beta - 2.0 * alpha * beta * c34) / n12
             if g2 < -TANGENT_TOLERANCE * max(pp, 1e-18):
                 continue
             gamma = sqrt(max(g2, 0.0))
+            # v₆ projected normal to ω₄ (the target of q₄'s SP1), shared by both branches
+            bvx, bvy, bvz = v6x - w3x * kq, v6y - w3y * kq, v6z - w3z * kq
+            bv_small = bvx * bvx + bvy * bvy + bvz * bvz <= 1e-18
             for gs in (gamma, -gamma):
-                z = (
-                    alpha * w3x + beta * w4x + gs * k12x,
-                    alpha * w3y + beta * w4y + gs * k12y,
-                    alpha * w3z + beta * w4z + gs * k12z,
-                )
+                zx = alpha * w3x + beta * w4x + gs * k12x
+                zy = alpha * w3y + beta * w4y + gs * k12y
+                zz = alpha * w3z + beta * w4z + gs * k12z
                 # q₅ = SP1(ω₅, ω₆ → z), the projection of ω₆ stored
-                kz = w4x * z[0] + w4y * z[1] + w4z * z[2]
-                bx, by, bz = z[0] - w4x * kz, z[1] - w4y * kz, z[2] - w4z * kz
+                kz = w4x * zx + w4y * zy + w4z * zz
+                bx, by, bz = zx - w4x * kz, zy - w4y * kz, zz - w4z * kz
                 if a_small or bx * bx + by * by + bz * bz <= 1e-18:
                     q5, f2 = d4, True
                 else:
@@ -835,15 +842,43 @@ class Spherical:
                 # q₄ = SP1(ω₄, R(ω₅, q₅) ω₆ → v₆)
                 c5, s5 = cos(q5), sin(q5)
                 f = uw * (1.0 - c5)
-                r5 = (
-                    w5[0] * c5 + uxw[0] * s5 + w4x * f,
-                    w5[1] * c5 + uxw[1] * s5 + w4y * f,
-                    w5[2] * c5 + uxw[2] * s5 + w4z * f,
-                )
-                q4, f1 = sp1(w3, r5, v6, d3, 1e-9)
+                rx = w5x * c5 + uxw[0] * s5 + w4x * f
+                ry = w5y * c5 + uxw[1] * s5 + w4y * f
+                rz = w5z * c5 + uxw[2] * s5 + w4z * f
+                kr = w3x * rx + w3y * ry + w3z * rz
+                ax, ay, az = rx - w3x * kr, ry - w3y * kr, rz - w3z * kr
+                if ax * ax + ay * ay + az * az <= 1e-18 or bv_small:
+                    q4, f1 = d3, True
+                else:
+                    q4 = atan2(
+                        w3x * (ay * bvz - az * bvy)
+                        + w3y * (az * bvx - ax * bvz)
+                        + w3z * (ax * bvy - ay * bvx),
+                        ax * bvx + ay * bvy + az * bvz,
+                    )
+                    f1 = False
                 stages.passed["wrist"] += 1
-                y = _rot(w4, c5, -s5, rotate(w3, -q4, y0))
-                q6, _ = sp1(w5, x, y, d5, 1e-9)
+                # y = R(ω₅, −q₅) R(ω₄, −q₄) y₀, then q₆ = SP1(ω₆, x → y) (x′ stored)
+                c4, s4 = cos(q4), -sin(q4)
+                f = (w3x * y0x + w3y * y0y + w3z * y0z) * (1.0 - c4)
+                ux = y0x * c4 + (w3y * y0z - w3z * y0y) * s4 + w3x * f
+                uy = y0y * c4 + (w3z * y0x - w3x * y0z) * s4 + w3y * f
+                uz = y0z * c4 + (w3x * y0y - w3y * y0x) * s4 + w3z * f
+                f = (w4x * ux + w4y * uy + w4z * uz) * (1.0 - c5)
+                yx = ux * c5 - (w4y * uz - w4z * uy) * s5 + w4x * f
+                yy = uy * c5 - (w4z * ux - w4x * uz) * s5 + w4y * f
+                yz = uz * c5 - (w4x * uy - w4y * ux) * s5 + w4z * f
+                ky = w5x * yx + w5y * yy + w5z * yz
+                bx, by, bz = yx - w5x * ky, yy - w5y * ky, yz - w5z * ky
+                if x_small or bx * bx + by * by + bz * bz <= 1e-18:
+                    q6 = d5
+                else:
+                    q6 = atan2(
+                        w5x * (xpy * bz - xpz * by)
+                        + w5y * (xpz * bx - xpx * bz)
+                        + w5z * (xpx * by - xpy * bx),
+                        xpx * bx + xpy * by + xpz * bz,
+                    )
                 w = why + ("wrist axes aligned (joints 4 and 6 coincide)",) if f1 or f2 else why
                 out.append(([q1, q2, q3, q4, q5, q6], w))
         return out

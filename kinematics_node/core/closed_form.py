@@ -980,7 +980,7 @@ def _scalar_candidates(
         R, p = _times_inverse_home(T, solver.M_inv_rows)
         stages = scalar.Stages(_STAGE_ORDER["three_parallel"])
         return solver.three_parallel.solve(R, p, seed, stages), stages  # angles in (−π, π]
-    if held_value is None and not st.reversed:  # one target of a 6R arm: G = T M⁻¹ on floats
+    if held_value is None and not st.reversed and solver.spherical is None:  # G = T M⁻¹ on floats
         g = solver.scalar_geometry
         assert g is not None
         Mi = solver.M_inv_rows
@@ -1096,7 +1096,10 @@ def _candidates_rp(
     out: list[scalar.Candidate] = []
     for q6, why in raw:
         q = [-x for x in reversed(q6)] if st.reversed else q6
-        q = [x - TWO_PI * math.ceil((x - math.pi) * _INVTWO_PI) for x in q]  # into (−π, π]
+        q = [  # into (−π, π] (most angles already are: tested first, for speed)
+            x if -math.pi < x <= math.pi else x - TWO_PI * math.ceil((x - math.pi) * _INVTWO_PI)
+            for x in q
+        ]
         if held_value is not None:
             q.insert(solver.held or 0, held_value)
         out.append((q, why))
@@ -1920,6 +1923,22 @@ def _ranked(
             else:
                 ranked.append((dist, q))
                 continue
+        # Each angle at its whole-turn equivalent nearest the seed (the first step of
+        # `_nearest_turn`, written out); `_nearest_turn` itself only when that leaves the limits.
+        qn = []
+        dist = 0.0
+        for x, s, a, b, wj in zip(q, seed, lo, hi, w, strict=True):
+            d = x - s
+            if not -math.pi < d < math.pi:
+                x = x + TWO_PI * round(-d * _INVTWO_PI)
+                d = x - s
+            if not a <= x <= b:
+                break
+            qn.append(x)
+            dist += wj * (d * d)
+        else:
+            ranked.append((dist, qn))
+            continue
         qn = _nearest_turn(q, seed, lo, hi)
         if qn is not None:
             ranked.append(
