@@ -1925,7 +1925,7 @@ def _ranked(
                 continue
         # Each angle at its whole-turn equivalent nearest the seed (the first step of
         # `_nearest_turn`, written out); `_nearest_turn` itself only when that leaves the limits.
-        qn = []
+        turned: list[float] = []
         dist = 0.0
         for x, s, a, b, wj in zip(q, seed, lo, hi, w, strict=True):
             d = x - s
@@ -1934,10 +1934,10 @@ def _ranked(
                 d = x - s
             if not a <= x <= b:
                 break
-            qn.append(x)
+            turned.append(x)
             dist += wj * (d * d)
         else:
-            ranked.append((dist, qn))
+            ranked.append((dist, turned))
             continue
         qn = _nearest_turn(q, seed, lo, hi)
         if qn is not None:
