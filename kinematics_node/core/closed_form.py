@@ -263,18 +263,19 @@ def _solve_6r(
     p: FloatArray,
     dflt: FloatArray,
     trace: vector.Trace,
-    prepared: scalar.ThreeParallel | None = None,
+    prepared: scalar.ThreeParallel | scalar.Spherical | None = None,
 ) -> tuple[FloatArray, BoolArray]:
     """All (≤ 8) solutions of e₁ ⋯ e₆ = G = (R, p) for L lanes: Q (L, 8, 6) and ok (L, 8).
 
     `dflt` (L, 6) gives the value of an angle that the target leaves free (singular poses).
-    `prepared`: the constants of a three-parallel geometry g that is the same for every lane.
+    `prepared`: the constants of a geometry g that is the same for every lane (three-parallel or
+    spherical-wrist).
     """
-    if st.kind == "three_parallel" and prepared is not None:
+    if isinstance(prepared, scalar.ThreeParallel):
         return vector.solve_three_parallel_prepared(prepared, R, p, dflt, trace)
     if st.kind == "three_parallel":
         return vector.solve_three_parallel(g, R, p, dflt, trace)
-    return vector.solve_spherical(st.case, g, R, p, dflt, trace)
+    return vector.solve_spherical(st.case, g, R, p, dflt, trace, prepared)
 
 
 # ---------------------------------------------------------------------- detection
@@ -796,7 +797,11 @@ def _branches(
         G = _inverse(G)
         dflt = -dflt[:, ::-1]
     trace = vector.Trace()
-    prepared = solver.three_parallel if solver.held is None else None
+    prepared: scalar.ThreeParallel | scalar.Spherical | None = None
+    if solver.held is None:
+        prepared = solver.three_parallel or solver.spherical
+    elif solver._held_static and st.kind == "spherical_wrist":  # every lane has the same geometry
+        prepared = solver._held_static_solver
     Q6, ok = _solve_6r(st, g, G[:, :3, :3], G[:, :3, 3], dflt, trace, prepared)
     if st.reversed:
         Q6 = -Q6[..., ::-1]

@@ -233,3 +233,45 @@ def test_ik_answers_reproduce_the_target_and_are_in_the_set(arm):
     far[:3, 3] *= 10.0
     res = chain.ik(far, None, opts)
     assert not res.success and "unreachable" in res.message
+
+
+@pytest.mark.parametrize("arm", [*ARMS_6R, "panda", "panda on a moved base"])
+def test_prepared_vectorised_spherical_wrist_equals_the_general_one(arm):
+    """`solve_spherical` with the prepared wrist (`_wrist_prepared`, ik_batch / ik_all_batch)
+    against the general one: same branches, flags and reasons, angles equal to round-off."""
+    from kinematics_node.core import _closed_form_vector as vector
+
+    chain = (ARMS_6R | ARMS_7R)[arm]()
+    solver = cf._solver(chain)
+    st = solver.structure
+    rng = np.random.default_rng(25)
+    wrist = (1 if st.reversed else 5) if solver.held is not None else (1 if st.reversed else 4)
+    T, n_singular = targets(chain, rng, wrist)
+    if solver.held is None:
+        g, prep, G = solver.geometry, solver.spherical, T @ solver.M_inv
+    else:
+        assert solver._held_static  # Panda: the held joint is the last, nothing moves with it
+        theta = rng.uniform(chain.lower[solver.held], chain.upper[solver.held], len(T))
+        g, E = solver.held_lanes(theta)
+        prep = solver._held_static_solver
+        G = T @ solver.M_inv @ cf._inverse(E)
+    if st.reversed:
+        G = np.stack([se3.inverse(x) for x in G])
+    dflt = rng.uniform(-4.0, 4.0, (len(T), 6))
+    ref_trace, fast_trace = vector.Trace(), vector.Trace()
+    Q_ref, ok_ref = vector.solve_spherical(st.case, g, G[:, :3, :3], G[:, :3, 3], dflt, ref_trace)
+    Q_fast, ok_fast = vector.solve_spherical(
+        st.case, g, G[:, :3, :3], G[:, :3, 3], dflt, fast_trace, prep
+    )
+    np.testing.assert_array_equal(ok_fast, ok_ref)
+    assert (~ok_ref[60:100]).all(axis=1).sum() >= 20  # (most) out of reach
+    for (name_r, f_r), (name_f, f_f) in zip(
+        ref_trace.fails + ref_trace.frees, fast_trace.fails + fast_trace.frees, strict=True
+    ):
+        assert name_f == name_r
+        np.testing.assert_array_equal(f_f, f_r, err_msg=name_r)
+    gap = np.abs(cf._wrap(Q_fast - Q_ref))
+    gap = np.where(ok_ref[..., None], gap, 0.0).max(axis=(1, 2))
+    assert gap[n_singular:].max() <= 1e-9
+    assert gap[:n_singular].max() <= 1e-6
+    assert np.isfinite(Q_fast).all()
