@@ -803,13 +803,18 @@ class Spherical:
         w5x, w5y, w5z = w5
         xpx, xpy, xpz = self.xp5
         x_small = self.x_small
+        last_q1 = None
         for q1, q2, q3, why in arms:
-            # v₆ and y₀: Rω₆ and Rx turned by −q₁ about ω₁, −q₂ about ω₂, −q₃ about ω₃.
-            c1, s1 = cos(q1), -sin(q1)
+            # v₆ and y₀: Rω₆ and Rx turned by −q₁ about ω₁, −q₂ about ω₂, −q₃ about ω₃ (the
+            # first turn shared by consecutive arms with the same q₁: par23, int23).
+            if q1 != last_q1:
+                c1, s1 = cos(q1), -sin(q1)
+                v1, x1 = _rot(w0, c1, s1, Rw5), _rot(w0, c1, s1, Rx)
+                last_q1 = q1
             c2, s2 = cos(q2), -sin(q2)
             c3, s3 = cos(q3), -sin(q3)
-            v6 = _rot(w2, c3, s3, _rot(w1, c2, s2, _rot(w0, c1, s1, Rw5)))
-            y0x, y0y, y0z = _rot(w2, c3, s3, _rot(w1, c2, s2, _rot(w0, c1, s1, Rx)))
+            v6 = _rot(w2, c3, s3, _rot(w1, c2, s2, v1))
+            y0x, y0y, y0z = _rot(w2, c3, s3, _rot(w1, c2, s2, x1))
             v6x, v6y, v6z = v6
             # SP2 (ω₄, ω₅) of p = ω₆ onto q = v₆ (`sp2` written out, p fixed).
             kq = w3x * v6x + w3y * v6y + w3z * v6z
