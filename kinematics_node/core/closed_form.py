@@ -481,9 +481,7 @@ class _Solver:
         E_inv.append([0.0, 0.0, 0.0, 1.0])
         return g, E_inv
 
-    def held_prepared(
-        self, theta: float
-    ) -> tuple[scalar.Geometry, scalar.Spherical | None, Rows]:
+    def held_prepared(self, theta: float) -> tuple[scalar.Geometry, scalar.Spherical | None, Rows]:
         """For the held joint at θ: the scalar geometry, its prepared spherical-wrist solver (None
         for a three-parallel structure) and the rows of M⁻¹ E⁻¹ (so G = T M⁻¹ E⁻¹), kept per θ:
         `ik` tries the seed's value and then fixed values of `held_order`, the same for every
@@ -501,9 +499,7 @@ class _Solver:
                 else scalar.Spherical(self.structure.case, g)
             )
         Mi = self.M_inv_rows
-        K = [
-            [sum(Mi[i][k] * E_inv[k][j] for k in range(4)) for j in range(4)] for i in range(4)
-        ]
+        K = [[sum(Mi[i][k] * E_inv[k][j] for k in range(4)) for j in range(4)] for i in range(4)]
         got = (g, prep, K)
         if len(self._held_cache) >= 256:
             self._held_cache.clear()

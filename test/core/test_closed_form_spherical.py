@@ -194,7 +194,9 @@ def test_held_values_on_floats_equal_held_order(arm):
         lower, upper = base.lower.copy(), base.upper.copy()
         if lo_j is not None:
             lower[j], upper[j] = lo_j, hi_j
-        chain = SerialChain.from_poe(np.asarray(base.S), np.asarray(base.M), lower=lower, upper=upper)
+        chain = SerialChain.from_poe(
+            np.asarray(base.S), np.asarray(base.M), lower=lower, upper=upper
+        )
         s = cf._solver(chain)
         for seed in random_q(chain, rng, 30):
             for count in (1, 2, 4, 37):
