@@ -472,14 +472,22 @@ class _Solver:
         h = d(g0.h, m["h"][0])
         x = scalar.perpendicular(h if self.structure.kind == "three_parallel" else w[5])
         g = scalar.Geometry(w, r, pt(g0.c, m["c"][0]), pt(g0.b, m["b"][0]), h, x, g0.s, self.scale)
-        # E⁻¹ = e^{−[S_j]θ}: columns R(k, −θ) eᵢ, translation o − R o.
+        return g, self._held_inverse(theta)
+
+    def _held_inverse(self, theta: float) -> list[list[float]]:
+        """E⁻¹ = e^{−[S_j]θ} of the held joint j (4 × 4 lists): columns R(k, −θ) eᵢ, translation
+        o − R o."""
+        j = self.held
+        assert j is not None
+        k = (float(self.w_all[j, 0]), float(self.w_all[j, 1]), float(self.w_all[j, 2]))
+        o = (float(self.r_all[j, 0]), float(self.r_all[j, 1]), float(self.r_all[j, 2]))
         cols = [
             scalar.rotate(k, -theta, e) for e in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
         ]
         Ro = scalar.rotate(k, -theta, o)
         E_inv = [[cols[0][i], cols[1][i], cols[2][i], o[i] - Ro[i]] for i in range(3)]
         E_inv.append([0.0, 0.0, 0.0, 1.0])
-        return g, E_inv
+        return E_inv
 
     def held_prepared(self, theta: float) -> tuple[scalar.Geometry, scalar.Spherical | None, Rows]:
         """For the held joint at θ: the scalar geometry, its prepared spherical-wrist solver (None
@@ -490,7 +498,10 @@ class _Solver:
         got = self._held_cache.get(theta)
         if got is not None:
             return got
-        g, E_inv = self.held_scalar_geometry(theta)
+        if self._held_static:  # nothing moves: the geometry at θ = 0; only E⁻¹ changes
+            g, E_inv = self._held_base, self._held_inverse(theta)
+        else:
+            g, E_inv = self.held_scalar_geometry(theta)
         prep: scalar.Spherical | None = None
         if self.structure.kind == "spherical_wrist":
             prep = (
@@ -498,8 +509,18 @@ class _Solver:
                 if self._held_static
                 else scalar.Spherical(self.structure.case, g)
             )
-        Mi = self.M_inv_rows
-        K = [[sum(Mi[i][k] * E_inv[k][j] for k in range(4)) for j in range(4)] for i in range(4)]
+        # K = M⁻¹ E⁻¹, written out (E⁻¹'s last row is 0, 0, 0, 1): a miss costs this per call
+        # when the seed's value of the held joint changes from call to call.
+        (e00, e01, e02, e03), (e10, e11, e12, e13), (e20, e21, e22, e23) = E_inv[:3]
+        K = [
+            [
+                m0 * e00 + m1 * e10 + m2 * e20,
+                m0 * e01 + m1 * e11 + m2 * e21,
+                m0 * e02 + m1 * e12 + m2 * e22,
+                m0 * e03 + m1 * e13 + m2 * e23 + m3,
+            ]
+            for m0, m1, m2, m3 in self.M_inv_rows
+        ]
         got = (g, prep, K)
         if len(self._held_cache) >= 256:
             self._held_cache.clear()
