@@ -602,3 +602,315 @@ TWO_PI = 2.0 * pi
 def wrap(a: float) -> float:
     """One angle into (−π, π] (as `closed_form._wrap`)."""
     return a - TWO_PI * ceil((a - pi) / TWO_PI)
+
+
+class _SP2:
+    """The target-independent part of SP2 about two fixed axes k₁, k₂ (`sp2`): kᵢᵀkⱼ, k₁ × k₂, …"""
+
+    __slots__ = ("k1", "k2", "c", "k12", "den", "n12")
+
+    def __init__(self, k1: Vec, k2: Vec) -> None:
+        self.k1, self.k2 = k1, k2
+        self.c = dot(k1, k2)
+        self.k12 = cross(k1, k2)
+        self.den = self.c * self.c - 1.0
+        self.n12 = dot(self.k12, self.k12)
+
+    def solve(
+        self, p: Vec, q: Vec, default1: float, default2: float, eps: float
+    ) -> list[tuple[float, float, bool]]:
+        """`sp2(k1, k2, p, q, default1, default2, eps)`, same equations and branch order."""
+        k1, k2, c, k12 = self.k1, self.k2, self.c, self.k12
+        kp = k2[0] * p[0] + k2[1] * p[1] + k2[2] * p[2]
+        kq = k1[0] * q[0] + k1[1] * q[1] + k1[2] * q[2]
+        alpha = (c * kp - kq) / self.den
+        beta = (c * kq - kp) / self.den
+        pp = p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
+        g2 = (pp - alpha * alpha - beta * beta - 2.0 * alpha * beta * c) / self.n12
+        if g2 < -TANGENT_TOLERANCE * max(pp, eps * eps):
+            return []
+        gamma = sqrt(max(g2, 0.0))
+        out = []
+        for g in (gamma, -gamma):
+            z = (
+                alpha * k1[0] + beta * k2[0] + g * k12[0],
+                alpha * k1[1] + beta * k2[1] + g * k12[1],
+                alpha * k1[2] + beta * k2[2] + g * k12[2],
+            )
+            t2, f2 = sp1(k2, p, z, default2, eps)
+            t1, f1 = sp1(k1, rotate(k2, t2, p), q, default1, eps)
+            out.append((t1, t2, f1 or f2))
+        return out
+
+
+class _SP3:
+    """SP3 ‖R(k, θ) p − q‖ = δ with k, p and q fixed (`sp3`): only δ comes with the target."""
+
+    __slots__ = ("a", "b", "pq", "dk2")
+
+    def __init__(self, k: Vec, p: Vec, q: Vec) -> None:
+        pp, qp = _project(k, p), _project(k, q)
+        dk = dot(k, sub(p, q))
+        self.a, self.b = dot(pp, qp), dot(k, cross(pp, qp))
+        self.pq, self.dk2 = dot(pp, pp) + dot(qp, qp), dk * dk
+
+    def solve(
+        self, delta2: float, default: float, eps: float
+    ) -> tuple[tuple[float, float], bool, bool]:
+        """`sp3(k, p, q, δ, default, eps)` given δ² (the same up to the rounding of √ then ²)."""
+        return solve_trig(self.a, self.b, 0.5 * (self.pq - (delta2 - self.dk2)), default, eps)
+
+
+class Spherical:
+    """`spherical` for one fixed geometry (a 6R arm, or a 7R arm with its held joint at one value),
+    with every quantity that does not depend on the target computed once here.
+
+    Hand-written for speed: an `ik` call on a 7R arm runs the 6R solve at up to four values of the
+    held joint, and `spherical` spent most of its time in recomputing the constant parts of its
+    subproblems (projections of fixed vectors, the SP2 basis of fixed axes) and in trigonometric
+    functions of the same angle. Here those are stored, the three rotations that take the target's
+    wrist axis and reference vector back to the wrist are applied with one cos/sin each, and the
+    wrist SP2 (fixed p = ω₆) is written out. Same equations, branch order, tolerances, stages and
+    reasons as `spherical` (the tests compare the two); results agree to round-off (δ² is used
+    where `spherical` squares ‖·‖).
+    """
+
+    def __init__(self, case: str, g: Geometry) -> None:
+        W, P, c, b, h = g.w, g.r, g.c, g.b, g.h
+        self.case, self.g = case, g
+        self.W, self.P, self.c, self.b, self.h, self.x = W, P, c, b, h, g.x
+        self.eL, self.eL2 = g.eL, g.eL2
+        if case == "par23":
+            # q₁: SP4 about ω₁ of pc − r₁ against h (a = hᵀv − (hᵀω₁)(ω₁ᵀv), b = (h × ω₁)ᵀv).
+            self.hw0, self.hxw0, self.d1 = dot(h, W[0]), cross(h, W[0]), dot(h, sub(c, P[0]))
+            self.sp3 = _SP3(W[2], sub(c, P[2]), sub(P[1], P[2]))
+        elif case == "int12":
+            self.sp3 = _SP3(W[2], sub(c, P[2]), sub(b, P[2]))
+            self.sp2 = _SP2(W[0], W[1])
+        elif case == "int23":
+            self.delta2 = dot(sub(c, b), sub(c, b))
+            self.cb = sub(c, b)
+            self.sp2 = _SP2(W[1], W[2])
+        # x = R(ω₃, q₃)(c − r₃) + r₃ (par23, int12, par12): c − r₃, ω₃ × (c − r₃), ω₃ᵀ(c − r₃).
+        v = sub(c, P[2])
+        self.v3, self.w2xv, self.w2v = v, cross(W[2], v), dot(W[2], v)
+        # The wrist: SP2 (ω₄, ω₅) of ω₆ onto v₆; then SP1 about ω₆ of x.
+        self.wsp2 = _SP2(W[3], W[4])
+        w5 = W[5]
+        self.kp_w = dot(W[4], w5)
+        self.pp_w = dot(w5, w5)
+        self.w5p4 = _project(W[4], w5)  # ω₆ projected normal to ω₅ (the first SP1's p′)
+        self.w4xw5, self.w4w5 = cross(W[4], w5), dot(W[4], w5)
+        self.xp5 = _project(w5, g.x)  # x projected normal to ω₆ (q₆'s SP1 p′)
+        self.x_small = dot(self.xp5, self.xp5) <= 1e-18
+
+    def _arms(
+        self, R: Mat, p: Vec, d: Sequence[float], stages: Stages
+    ) -> list[tuple[float, float, float, tuple[str, ...]]]:
+        """(q1, q2, q3, why) of the position part, as in `spherical`."""
+        W, P, c, b = self.W, self.P, self.c, self.b
+        eL, eL2 = self.eL, self.eL2
+        pc = (
+            R[0][0] * c[0] + R[0][1] * c[1] + R[0][2] * c[2] + p[0],
+            R[1][0] * c[0] + R[1][1] * c[1] + R[1][2] * c[2] + p[1],
+            R[2][0] * c[0] + R[2][1] * c[1] + R[2][2] * c[2] + p[2],
+        )
+        arms: list[tuple[float, float, float, tuple[str, ...]]] = []
+        case = self.case
+        if case == "par23":
+            v = sub(pc, P[0])
+            kp = dot(W[0], v)
+            th1, okA, frA = solve_trig(
+                dot(self.h, v) - self.hw0 * kp, dot(self.hxw0, v), self.d1 - self.hw0 * kp,
+                -d[0], eL,
+            )  # fmt: skip
+            if okA:
+                stages.passed["shoulder"] += 2
+                for phi in th1:
+                    q1 = -phi
+                    wp = rotate_about(W[0], P[0], -q1, pc)
+                    e = sub(wp, P[1])
+                    th3, okB, frB = self.sp3.solve(dot(e, e), d[2], eL2)
+                    if not okB:
+                        continue
+                    stages.passed["elbow"] += 2
+                    for q3 in th3:
+                        x = self._elbow(q3)
+                        q2, frC = sp1(W[1], sub(x, P[1]), e, d[1], eL)
+                        why = _why((frA, "the wrist centre lies on joint 1's axis"),
+                                   (frB, "the wrist centre lies on joint 3's axis"),
+                                   (frC, "the wrist centre lies on joint 2's axis"))  # fmt: skip
+                        arms.append((q1, q2, q3, why))
+        elif case == "int12":
+            e = sub(pc, b)
+            th3, okA, frA = self.sp3.solve(dot(e, e), d[2], eL2)
+            if okA:
+                stages.passed["elbow"] += 2
+                for q3 in th3:
+                    x = self._elbow(q3)
+                    for q1, q2, frB in self.sp2.solve(sub(x, b), e, d[0], d[1], eL):
+                        stages.passed["shoulder"] += 1
+                        why = _why((frA, "the wrist centre lies on joint 3's axis"),
+                                   (frB, "the wrist centre lies on joint 1's axis"))  # fmt: skip
+                        arms.append((q1, q2, q3, why))
+        elif case == "int23":
+            # (p = pc − r₁ changes with the target: the general SP3)
+            th1, okA, frA = sp3(W[0], sub(pc, P[0]), sub(b, P[0]), sqrt(self.delta2), -d[0], eL2)
+            if okA:
+                stages.passed["shoulder"] += 2
+                for phi in th1:
+                    q1 = -phi
+                    wp = rotate_about(W[0], P[0], -q1, pc)
+                    for q2, q3, frB in self.sp2.solve(self.cb, sub(wp, b), d[1], d[2], eL):
+                        stages.passed["elbow"] += 1
+                        why = _why((frA, "the wrist centre lies on joint 1's axis"),
+                                   (frB, "the wrist centre lies on joint 2's axis"))  # fmt: skip
+                        arms.append((q1, q2, q3, why))
+        else:  # "par12": the general subproblems (no constant SP3 here)
+            return _spherical_arms(case, self.g, R, p, d, stages)
+        return arms
+
+    def _elbow(self, q3: float) -> Vec:
+        """x = r₃ + R(ω₃, q₃)(c − r₃)."""
+        c3, s3 = cos(q3), sin(q3)
+        v, u, k, r = self.v3, self.w2xv, self.W[2], self.P[2]
+        f = self.w2v * (1.0 - c3)
+        return (
+            r[0] + v[0] * c3 + u[0] * s3 + k[0] * f,
+            r[1] + v[1] * c3 + u[1] * s3 + k[1] * f,
+            r[2] + v[2] * c3 + u[2] * s3 + k[2] * f,
+        )
+
+    def solve(self, R: Mat, p: Vec, d: Sequence[float], stages: Stages) -> list[Candidate]:
+        """The candidates of `spherical(case, g, R, p, d, stages)` (angles not wrapped)."""
+        arms = self._arms(R, p, d, stages)
+        out: list[Candidate] = []
+        if not arms:
+            return out
+        W, x = self.W, self.x
+        w0, w1, w2, w3, w4, w5 = W
+        Rw5, Rx = matvec(R, w5), matvec(R, x)
+        sp2w = self.wsp2
+        c34, den, n12 = sp2w.c, sp2w.den, sp2w.n12
+        k12x, k12y, k12z = sp2w.k12
+        w3x, w3y, w3z = w3
+        w4x, w4y, w4z = w4
+        kp, pp = self.kp_w, self.pp_w
+        apx, apy, apz = self.w5p4
+        a_small = apx * apx + apy * apy + apz * apz <= 1e-18
+        uxw, uw = self.w4xw5, self.w4w5
+        d3, d4, d5 = d[3], d[4], d[5]
+        w5x, w5y, w5z = w5
+        xpx, xpy, xpz = self.xp5
+        x_small = self.x_small
+        last_q1 = None
+        for q1, q2, q3, why in arms:
+            # v₆ and y₀: Rω₆ and Rx turned by −q₁ about ω₁, −q₂ about ω₂, −q₃ about ω₃ (the
+            # first turn shared by consecutive arms with the same q₁: par23, int23).
+            if q1 != last_q1:
+                c1, s1 = cos(q1), -sin(q1)
+                v1, x1 = _rot(w0, c1, s1, Rw5), _rot(w0, c1, s1, Rx)
+                last_q1 = q1
+            c2, s2 = cos(q2), -sin(q2)
+            c3, s3 = cos(q3), -sin(q3)
+            v6 = _rot(w2, c3, s3, _rot(w1, c2, s2, v1))
+            y0x, y0y, y0z = _rot(w2, c3, s3, _rot(w1, c2, s2, x1))
+            v6x, v6y, v6z = v6
+            # SP2 (ω₄, ω₅) of p = ω₆ onto q = v₆ (`sp2` written out, p fixed).
+            kq = w3x * v6x + w3y * v6y + w3z * v6z
+            alpha = (c34 * kp - kq) / den
+            beta = (c34 * kq - kp) / den
+            g2 = (pp - alpha * alpha - beta * beta - 2.0 * alpha * beta * c34) / n12
+            if g2 < -TANGENT_TOLERANCE * max(pp, 1e-18):
+                continue
+            gamma = sqrt(max(g2, 0.0))
+            # v₆ projected normal to ω₄ (the target of q₄'s SP1), shared by both branches
+            bvx, bvy, bvz = v6x - w3x * kq, v6y - w3y * kq, v6z - w3z * kq
+            bv_small = bvx * bvx + bvy * bvy + bvz * bvz <= 1e-18
+            for gs in (gamma, -gamma):
+                zx = alpha * w3x + beta * w4x + gs * k12x
+                zy = alpha * w3y + beta * w4y + gs * k12y
+                zz = alpha * w3z + beta * w4z + gs * k12z
+                # q₅ = SP1(ω₅, ω₆ → z), the projection of ω₆ stored
+                kz = w4x * zx + w4y * zy + w4z * zz
+                bx, by, bz = zx - w4x * kz, zy - w4y * kz, zz - w4z * kz
+                if a_small or bx * bx + by * by + bz * bz <= 1e-18:
+                    q5, f2 = d4, True
+                else:
+                    q5 = atan2(
+                        w4x * (apy * bz - apz * by)
+                        + w4y * (apz * bx - apx * bz)
+                        + w4z * (apx * by - apy * bx),
+                        apx * bx + apy * by + apz * bz,
+                    )
+                    f2 = False
+                # q₄ = SP1(ω₄, R(ω₅, q₅) ω₆ → v₆)
+                c5, s5 = cos(q5), sin(q5)
+                f = uw * (1.0 - c5)
+                rx = w5x * c5 + uxw[0] * s5 + w4x * f
+                ry = w5y * c5 + uxw[1] * s5 + w4y * f
+                rz = w5z * c5 + uxw[2] * s5 + w4z * f
+                kr = w3x * rx + w3y * ry + w3z * rz
+                ax, ay, az = rx - w3x * kr, ry - w3y * kr, rz - w3z * kr
+                if ax * ax + ay * ay + az * az <= 1e-18 or bv_small:
+                    q4, f1 = d3, True
+                else:
+                    q4 = atan2(
+                        w3x * (ay * bvz - az * bvy)
+                        + w3y * (az * bvx - ax * bvz)
+                        + w3z * (ax * bvy - ay * bvx),
+                        ax * bvx + ay * bvy + az * bvz,
+                    )
+                    f1 = False
+                stages.passed["wrist"] += 1
+                # y = R(ω₅, −q₅) R(ω₄, −q₄) y₀, then q₆ = SP1(ω₆, x → y) (x′ stored)
+                c4, s4 = cos(q4), -sin(q4)
+                f = (w3x * y0x + w3y * y0y + w3z * y0z) * (1.0 - c4)
+                ux = y0x * c4 + (w3y * y0z - w3z * y0y) * s4 + w3x * f
+                uy = y0y * c4 + (w3z * y0x - w3x * y0z) * s4 + w3y * f
+                uz = y0z * c4 + (w3x * y0y - w3y * y0x) * s4 + w3z * f
+                f = (w4x * ux + w4y * uy + w4z * uz) * (1.0 - c5)
+                yx = ux * c5 - (w4y * uz - w4z * uy) * s5 + w4x * f
+                yy = uy * c5 - (w4z * ux - w4x * uz) * s5 + w4y * f
+                yz = uz * c5 - (w4x * uy - w4y * ux) * s5 + w4z * f
+                ky = w5x * yx + w5y * yy + w5z * yz
+                bx, by, bz = yx - w5x * ky, yy - w5y * ky, yz - w5z * ky
+                if x_small or bx * bx + by * by + bz * bz <= 1e-18:
+                    q6 = d5
+                else:
+                    q6 = atan2(
+                        w5x * (xpy * bz - xpz * by)
+                        + w5y * (xpz * bx - xpx * bz)
+                        + w5z * (xpx * by - xpy * bx),
+                        xpx * bx + xpy * by + xpz * bz,
+                    )
+                w = why + ("wrist axes aligned (joints 4 and 6 coincide)",) if f1 or f2 else why
+                out.append(([q1, q2, q3, q4, q5, q6], w))
+        return out
+
+
+def _spherical_arms(
+    case: str, g: Geometry, R: Mat, p: Vec, d: Sequence[float], stages: Stages
+) -> list[tuple[float, float, float, tuple[str, ...]]]:
+    """The position part of `spherical` (par12 only is used by `Spherical`)."""
+    W, P, c, h = g.w, g.r, g.c, g.h
+    eL, eL2 = g.eL, g.eL2
+    pc = add(matvec(R, c), p)
+    arms: list[tuple[float, float, float, tuple[str, ...]]] = []
+    th3, okA, frA = sp4(W[2], sub(c, P[2]), h, dot(h, sub(pc, P[2])), d[2], eL)
+    if okA:
+        stages.passed["shoulder"] += 2
+        for q3 in th3:
+            x = rotate_about(W[2], P[2], q3, c)
+            th2, okB, frB = sp3(W[1], sub(x, P[1]), sub(P[0], P[1]), norm(sub(pc, P[0])), d[1], eL2)
+            if not okB:
+                continue
+            stages.passed["elbow"] += 2
+            for q2 in th2:
+                y = rotate_about(W[1], P[1], q2, x)
+                q1, frC = sp1(W[0], sub(y, P[0]), sub(pc, P[0]), d[0], eL)
+                why = _why((frA, "the wrist centre lies on joint 3's axis"),
+                           (frB, "the wrist centre lies on joint 2's axis"),
+                           (frC, "the wrist centre lies on joint 1's axis"))  # fmt: skip
+                arms.append((q1, q2, q3, why))
+    return arms

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from . import subproblems as sp
-from ._closed_form_scalar import ThreeParallel, Vec
+from ._closed_form_scalar import Spherical, ThreeParallel, Vec
 from .subproblems import TANGENT_TOLERANCE
 
 FloatArray = NDArray[np.float64]
@@ -140,8 +140,17 @@ def _grow(a: NDArray, n: int) -> NDArray:
 
 
 def solve_spherical(
-    case: str, g: Geometry, R: FloatArray, p: FloatArray, dflt: FloatArray, trace: Trace
+    case: str,
+    g: Geometry,
+    R: FloatArray,
+    p: FloatArray,
+    dflt: FloatArray,
+    trace: Trace,
+    prepared: Spherical | None = None,
 ) -> tuple[FloatArray, BoolArray]:
+    """All 8 branches of a spherical-wrist 6R arm. `prepared`: the constants of a geometry g that
+    is the same for every lane (`_closed_form_scalar.Spherical`): the wrist then runs on them
+    (`_wrist_prepared`)."""
     w, r, c, b, h = g.w, g.r, g.c, g.b, g.h
     eL, eL2 = 1e-9 * g.scale, 1e-12 * g.scale**2
     W = [_v(w[:, i]) for i in range(6)]  # (L, 1, 3): broadcast over branches
@@ -211,6 +220,11 @@ def solve_spherical(
             ("the wrist centre lies on joint 1's axis", frC),
         ]
 
+    if prepared is not None:
+        q1, q2, q3 = (_grow(a, 8) for a in (q1, q2, q3))
+        q4, q5, q6, okC, frD = _wrist_prepared(prepared, R, q1, q2, q3, dflt)
+        return _finish(trace, fails, frees, okC, frD, L, (q1, q2, q3, q4, q5, q6))
+
     # Orientation R₄R₅R₆ = R_w = R₃ᵀR₂ᵀR₁ᵀR_G: R₄R₅ ω₆ = R_w ω₆ (SP2), R₆ x = (R₄R₅)ᵀR_w x (SP1).
     def to_wrist(v: FloatArray, q1: FloatArray, q2: FloatArray, q3: FloatArray) -> FloatArray:
         v = sp.rotate(W[0], -q1, v)
@@ -225,15 +239,131 @@ def solve_spherical(
     y = to_wrist(_apply(R, x6), q1, q2, q3)
     y = sp.rotate(W[4], -q5, sp.rotate(W[3], -q4, y))
     q6, _ = sp.sp1(W[5], x6, y, d[5], 1e-9)
+    return _finish(trace, fails, frees, okC, frD, L, (q1, q2, q3, q4, q5, q6))
+
+
+def _finish(
+    trace: Trace,
+    fails: list[tuple[str, NDArray]],
+    frees: list[tuple[str, NDArray]],
+    okC: NDArray,
+    frD: NDArray,
+    L: int,
+    angles: tuple[FloatArray, ...],
+) -> tuple[FloatArray, BoolArray]:
+    """`solve_spherical`'s trace and result from its flags and the six (L, 8) angles."""
     for name, f in fails + [("wrist", okC)]:
         trace.fails.append((name, _flag(f, L, 8)))
     for name, f in frees + [("wrist axes aligned (joints 4 and 6 coincide)", frD)]:
         trace.frees.append((name, _flag(f, L, 8)))
-    Q = np.stack((q1, q2, q3, q4, q5, q6), axis=-1)
+    Q = np.stack(angles, axis=-1)
     ok = np.ones((L, 8), dtype=bool)
     for _, f in trace.fails:
         ok &= f
     return Q, ok
+
+
+def _wrist_prepared(
+    c: Spherical, R: FloatArray, q1: FloatArray, q2: FloatArray, q3: FloatArray, dflt: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray, BoolArray]:
+    """The wrist of `solve_spherical` (q₄, q₅, q₆ (L, 8), ok (L, 4), free (L, 8)) for a geometry
+    whose constants `c` were prepared once (`_closed_form_scalar.Spherical.solve`'s wrist, on
+    arrays).
+
+    Hand-written for speed (`ik_batch` on Panda runs it for every held value tried): vectors are
+    three (L, b) component arrays and the axes floats, so a rotation costs a few scaled sums
+    instead of cross products of stacked (L, b, 3) arrays. Same equations, branch layout, flags
+    and tolerances as the general wrist (‖x‖ ≤ ε tested as ‖x‖² ≤ ε²; the tests compare them).
+    """
+    w0, w1, w2, w3, w4, w5 = c.W
+    sp2w = c.wsp2
+    c34, den, n12 = sp2w.c, sp2w.den, sp2w.n12
+    k12x, k12y, k12z = sp2w.k12
+    w3x, w3y, w3z = w3
+    w4x, w4y, w4z = w4
+    w5x, w5y, w5z = w5
+    L = R.shape[0]
+    Rc = [[R[:, i, j][:, None] for j in range(3)] for i in range(3)]
+
+    def applied(v: Vec) -> tuple[FloatArray, FloatArray, FloatArray]:
+        return tuple(Rc[i][0] * v[0] + Rc[i][1] * v[1] + Rc[i][2] * v[2] for i in range(3))  # type: ignore[return-value]
+
+    def turn(
+        k: Vec, cs: FloatArray, sn: FloatArray, vx: FloatArray, vy: FloatArray, vz: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """R(k, θ) v with cos θ, sin θ given (Rodrigues on components)."""
+        k0, k1, k2 = k
+        f = (k0 * vx + k1 * vy + k2 * vz) * (1.0 - cs)
+        return (
+            vx * cs + (k1 * vz - k2 * vy) * sn + k0 * f,
+            vy * cs + (k2 * vx - k0 * vz) * sn + k1 * f,
+            vz * cs + (k0 * vy - k1 * vx) * sn + k2 * f,
+        )
+
+    # v₆ and y₀: Rω₆ and Rx turned by −q₁, −q₂, −q₃ (per arm: the branches' pairs share them).
+    a1, a2, a3 = q1[:, ::2], q2[:, ::2], q3[:, ::2]  # (L, 4)
+    cs1, sn1 = np.cos(a1), -np.sin(a1)
+    cs2, sn2 = np.cos(a2), -np.sin(a2)
+    cs3, sn3 = np.cos(a3), -np.sin(a3)
+    v = turn(w2, cs3, sn3, *turn(w1, cs2, sn2, *turn(w0, cs1, sn1, *applied(w5))))
+    y = turn(w2, cs3, sn3, *turn(w1, cs2, sn2, *turn(w0, cs1, sn1, *applied(c.x))))
+    # SP2 (ω₄, ω₅) of p = ω₆ onto q = v₆.
+    kp, pp = c.kp_w, c.pp_w
+    kq = w3x * v[0] + w3y * v[1] + w3z * v[2]
+    alpha = (c34 * kp - kq) / den
+    beta = (c34 * kq - kp) / den
+    g2 = (pp - alpha * alpha - beta * beta - 2.0 * alpha * beta * c34) / n12
+    ok = g2 >= -TANGENT_TOLERANCE * max(pp, 1e-18)
+    gamma = np.sqrt(np.maximum(g2, 0.0))
+    gs = np.stack((gamma, -gamma), axis=-1).reshape(L, 8)
+
+    def two(a: FloatArray) -> FloatArray:
+        return np.repeat(a, 2, axis=1)
+
+    alpha, beta, kq = two(alpha), two(beta), two(kq)
+    vx, vy, vz = (two(a) for a in v)
+    y0x, y0y, y0z = (two(a) for a in y)
+    # q₅ = SP1(ω₅, ω₆ → z), z = α ω₄ + β ω₅ + γ (ω₄ × ω₅)
+    zx = alpha * w3x + beta * w4x + gs * k12x
+    zy = alpha * w3y + beta * w4y + gs * k12y
+    zz = alpha * w3z + beta * w4z + gs * k12z
+    kz = w4x * zx + w4y * zy + w4z * zz
+    bx, by, bz = zx - w4x * kz, zy - w4y * kz, zz - w4z * kz
+    apx, apy, apz = c.w5p4
+    a_small = apx * apx + apy * apy + apz * apz <= 1e-18
+    fr5 = (bx * bx + by * by + bz * bz <= 1e-18) | a_small
+    q5 = np.arctan2(
+        w4x * (apy * bz - apz * by) + w4y * (apz * bx - apx * bz) + w4z * (apx * by - apy * bx),
+        apx * bx + apy * by + apz * bz,
+    )
+    q5 = np.where(fr5, dflt[:, 4:5], q5)
+    # q₄ = SP1(ω₄, R(ω₅, q₅) ω₆ → v₆)
+    cs5, sn5 = np.cos(q5), np.sin(q5)
+    uxw, f = c.w4xw5, c.w4w5 * (1.0 - cs5)
+    rx = w5x * cs5 + uxw[0] * sn5 + w4x * f
+    ry = w5y * cs5 + uxw[1] * sn5 + w4y * f
+    rz = w5z * cs5 + uxw[2] * sn5 + w4z * f
+    kr = w3x * rx + w3y * ry + w3z * rz
+    ax, ay, az = rx - w3x * kr, ry - w3y * kr, rz - w3z * kr
+    bvx, bvy, bvz = vx - w3x * kq, vy - w3y * kq, vz - w3z * kq
+    fr4 = (ax * ax + ay * ay + az * az <= 1e-18) | (bvx * bvx + bvy * bvy + bvz * bvz <= 1e-18)
+    q4 = np.arctan2(
+        w3x * (ay * bvz - az * bvy) + w3y * (az * bvx - ax * bvz) + w3z * (ax * bvy - ay * bvx),
+        ax * bvx + ay * bvy + az * bvz,
+    )
+    q4 = np.where(fr4, dflt[:, 3:4], q4)
+    # y = R(ω₅, −q₅) R(ω₄, −q₄) y₀; q₆ = SP1(ω₆, x → y)
+    yx, yy, yz = turn(w4, cs5, -sn5, *turn(w3, np.cos(q4), -np.sin(q4), y0x, y0y, y0z))
+    ky = w5x * yx + w5y * yy + w5z * yz
+    bx, by, bz = yx - w5x * ky, yy - w5y * ky, yz - w5z * ky
+    xpx, xpy, xpz = c.xp5
+    fr6 = (bx * bx + by * by + bz * bz <= 1e-18) | c.x_small
+    q6 = np.arctan2(
+        w5x * (xpy * bz - xpz * by) + w5y * (xpz * bx - xpx * bz) + w5z * (xpx * by - xpy * bx),
+        xpx * bx + xpy * by + xpz * bz,
+    )
+    q6 = np.where(fr6, dflt[:, 5:6], q6)
+    return q4, q5, q6, ok, fr4 | fr5
 
 
 def solve_three_parallel_prepared(

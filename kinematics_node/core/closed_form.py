@@ -56,6 +56,7 @@ from .model import TWO_PI, KinematicChain, readonly
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 IntArray = NDArray[np.int64]
+Rows = list[list[float]]
 
 #: Axes closer to parallel than this count as parallel [rad].
 ANGLE_TOLERANCE = 1e-5
@@ -69,6 +70,10 @@ _REFINE_BELOW = 1e-2
 #: ~1e-15; near a singularity the subproblems lose digits in a square root (SP2's γ when the
 #: middle point nearly lies in the plane of the two axes), which one Newton step restores.
 _REFINE_ABOVE = 1e-12
+#: `nearest` (`ik`, which returns one solution) refines only above this: real URDFs whose axes
+#: meet to ~1e-13 leave every candidate of some arms a few 1e-13 off (Kinova j2s6s200: 2 in 3
+#: targets), and a refinement (~40 µs) to 1e-16 there buys nothing against the 1e-9 guaranteed.
+_NEAREST_REFINE_ABOVE = 1e-10
 #: A solution counts once: two that agree to this [rad] in every joint (modulo 2π) are one.
 _SAME_SOLUTION = 1e-9
 _INVTWO_PI = 1.0 / TWO_PI
@@ -258,18 +263,19 @@ def _solve_6r(
     p: FloatArray,
     dflt: FloatArray,
     trace: vector.Trace,
-    prepared: scalar.ThreeParallel | None = None,
+    prepared: scalar.ThreeParallel | scalar.Spherical | None = None,
 ) -> tuple[FloatArray, BoolArray]:
     """All (≤ 8) solutions of e₁ ⋯ e₆ = G = (R, p) for L lanes: Q (L, 8, 6) and ok (L, 8).
 
     `dflt` (L, 6) gives the value of an angle that the target leaves free (singular poses).
-    `prepared`: the constants of a three-parallel geometry g that is the same for every lane.
+    `prepared`: the constants of a geometry g that is the same for every lane (three-parallel or
+    spherical-wrist).
     """
-    if st.kind == "three_parallel" and prepared is not None:
+    if isinstance(prepared, scalar.ThreeParallel):
         return vector.solve_three_parallel_prepared(prepared, R, p, dflt, trace)
     if st.kind == "three_parallel":
         return vector.solve_three_parallel(g, R, p, dflt, trace)
-    return vector.solve_spherical(st.case, g, R, p, dflt, trace)
+    return vector.solve_spherical(st.case, g, R, p, dflt, trace, prepared)
 
 
 # ---------------------------------------------------------------------- detection
@@ -338,6 +344,12 @@ class _Solver:
             if self.scalar_geometry is not None and structure.kind == "three_parallel"
             else None
         )
+        # The spherical-wrist solver with its constants prepared, for one target of a 6R arm.
+        self.spherical = (
+            scalar.Spherical(structure.case, self.scalar_geometry)
+            if self.scalar_geometry is not None and structure.kind == "spherical_wrist"
+            else None
+        )
         self.lower = [float(x) for x in chain.lower]
         self.upper = [float(x) for x in chain.upper]
         # Every angle of [−π, π] lies within the limits (±π, ±2π, continuous joints).
@@ -362,6 +374,13 @@ class _Solver:
             min(hi, a + TWO_PI) - 1e-9 for hi, a in zip(self.upper, self.lo_wide_list, strict=True)
         ]
         self.held_moves = None if held is None else self._held_moves()
+        # A 7R arm, per value of the held joint: (geometry, its prepared spherical-wrist solver or
+        # None, the rows of M⁻¹ E⁻¹); see `held_prepared`. A plain dict (a lost race only
+        # recomputes an entry), emptied when full.
+        self._held_cache: dict[float, tuple[scalar.Geometry, scalar.Spherical | None, Rows]] = {}
+        self._held_static = self.held_moves is not None and not any(
+            any(flags) for flags in self.held_moves.values()
+        )
         model = chain.solver_model  # the generated scalar FK, where joints are the internal ones
         self.kernel = model.kernel
         self.fk_pose = model.kernel.fk_pose if model.to_internal is None else None
@@ -453,14 +472,65 @@ class _Solver:
         h = d(g0.h, m["h"][0])
         x = scalar.perpendicular(h if self.structure.kind == "three_parallel" else w[5])
         g = scalar.Geometry(w, r, pt(g0.c, m["c"][0]), pt(g0.b, m["b"][0]), h, x, g0.s, self.scale)
-        # E⁻¹ = e^{−[S_j]θ}: columns R(k, −θ) eᵢ, translation o − R o.
+        return g, self._held_inverse(theta)
+
+    def _held_inverse(self, theta: float) -> list[list[float]]:
+        """E⁻¹ = e^{−[S_j]θ} of the held joint j (4 × 4 lists): columns R(k, −θ) eᵢ, translation
+        o − R o."""
+        j = self.held
+        assert j is not None
+        k = (float(self.w_all[j, 0]), float(self.w_all[j, 1]), float(self.w_all[j, 2]))
+        o = (float(self.r_all[j, 0]), float(self.r_all[j, 1]), float(self.r_all[j, 2]))
         cols = [
             scalar.rotate(k, -theta, e) for e in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
         ]
         Ro = scalar.rotate(k, -theta, o)
         E_inv = [[cols[0][i], cols[1][i], cols[2][i], o[i] - Ro[i]] for i in range(3)]
         E_inv.append([0.0, 0.0, 0.0, 1.0])
-        return g, E_inv
+        return E_inv
+
+    def held_prepared(self, theta: float) -> tuple[scalar.Geometry, scalar.Spherical | None, Rows]:
+        """For the held joint at θ: the scalar geometry, its prepared spherical-wrist solver (None
+        for a three-parallel structure) and the rows of M⁻¹ E⁻¹ (so G = T M⁻¹ E⁻¹), kept per θ:
+        `ik` tries the seed's value and then fixed values of `held_order`, the same for every
+        target. Requires `held_moves`. When no part of the geometry moves with the held joint
+        (Panda, xArm7: the held joint is the last) the geometry and solver are built once."""
+        got = self._held_cache.get(theta)
+        if got is not None:
+            return got
+        if self._held_static:  # nothing moves: the geometry at θ = 0; only E⁻¹ changes
+            g, E_inv = self._held_base, self._held_inverse(theta)
+        else:
+            g, E_inv = self.held_scalar_geometry(theta)
+        prep: scalar.Spherical | None = None
+        if self.structure.kind == "spherical_wrist":
+            prep = (
+                self._held_static_solver
+                if self._held_static
+                else scalar.Spherical(self.structure.case, g)
+            )
+        # K = M⁻¹ E⁻¹, written out (E⁻¹'s last row is 0, 0, 0, 1): a miss costs this per call
+        # when the seed's value of the held joint changes from call to call.
+        (e00, e01, e02, e03), (e10, e11, e12, e13), (e20, e21, e22, e23) = E_inv[:3]
+        K = [
+            [
+                m0 * e00 + m1 * e10 + m2 * e20,
+                m0 * e01 + m1 * e11 + m2 * e21,
+                m0 * e02 + m1 * e12 + m2 * e22,
+                m0 * e03 + m1 * e13 + m2 * e23 + m3,
+            ]
+            for m0, m1, m2, m3 in self.M_inv_rows
+        ]
+        got = (g, prep, K)
+        if len(self._held_cache) >= 256:
+            self._held_cache.clear()
+        self._held_cache[theta] = got
+        return got
+
+    @functools.cached_property
+    def _held_static_solver(self) -> scalar.Spherical:
+        """The prepared solver of a held geometry that does not move with the held joint."""
+        return scalar.Spherical(self.structure.case, self._held_base)
 
     def lo_eff(self, seed: FloatArray) -> FloatArray:
         """Lower bounds for the equivalents: the limit, or seed − π for an unbounded side."""
@@ -744,7 +814,11 @@ def _branches(
         G = _inverse(G)
         dflt = -dflt[:, ::-1]
     trace = vector.Trace()
-    prepared = solver.three_parallel if solver.held is None else None
+    prepared: scalar.ThreeParallel | scalar.Spherical | None = None
+    if solver.held is None:
+        prepared = solver.three_parallel or solver.spherical
+    elif solver._held_static and st.kind == "spherical_wrist":  # every lane has the same geometry
+        prepared = solver._held_static_solver
     Q6, ok = _solve_6r(st, g, G[:, :3, :3], G[:, :3, 3], dflt, trace, prepared)
     if st.reversed:
         Q6 = -Q6[..., ::-1]
@@ -928,7 +1002,7 @@ def _scalar_candidates(
         R, p = _times_inverse_home(T, solver.M_inv_rows)
         stages = scalar.Stages(_STAGE_ORDER["three_parallel"])
         return solver.three_parallel.solve(R, p, seed, stages), stages  # angles in (−π, π]
-    if held_value is None and not st.reversed:  # one target of a 6R arm: G = T M⁻¹ on floats
+    if held_value is None and not st.reversed and solver.spherical is None:  # G = T M⁻¹ on floats
         g = solver.scalar_geometry
         assert g is not None
         Mi = solver.M_inv_rows
@@ -938,6 +1012,28 @@ def _scalar_candidates(
             for a, b, c, t in T[:3]
         ]  # fmt: skip
         return _candidates_of(solver, g, Gl, seed, held_value)
+    if (held_value is None and solver.spherical is not None) or (
+        held_value is not None and solver.held_moves is not None
+    ):  # G = T M⁻¹ (E⁻¹) and its inverse on floats (hand-written for speed: every `ik` call)
+        if held_value is None:
+            g, prep = solver.scalar_geometry, solver.spherical
+            assert g is not None
+            R, p = _times_inverse_home(T, solver.M_inv_rows)
+            d = seed
+        else:
+            g, prep, K = solver.held_prepared(held_value)
+            R, p = _times_inverse_home(T, K)
+            d = [seed[i] for i in solver.keep]
+        if st.reversed:  # G⁻¹ = (Rᵀ, −Rᵀp)
+            (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = R
+            R = ((a0, b0, c0), (a1, b1, c1), (a2, b2, c2))
+            p = (
+                -(a0 * p[0] + b0 * p[1] + c0 * p[2]),
+                -(a1 * p[0] + b1 * p[1] + c1 * p[2]),
+                -(a2 * p[0] + b2 * p[1] + c2 * p[2]),
+            )
+            d = [-x for x in reversed(d)]
+        return _candidates_rp(solver, g, prep, R, p, d, held_value)
     Ta = np.array(T)
     if held_value is None:
         g = solver.scalar_geometry
@@ -987,11 +1083,26 @@ def _candidates_of(
 ) -> tuple[list[scalar.Candidate], scalar.Stages]:
     """`_scalar_candidates` once the 6R problem is set: geometry g, the pose G (rows) the six
     joints must produce from their home, the default angles d."""
-    st = solver.structure
     R: scalar.Mat = (
         (Gl[0][0], Gl[0][1], Gl[0][2]), (Gl[1][0], Gl[1][1], Gl[1][2]), (Gl[2][0], Gl[2][1], Gl[2][2])
     )  # fmt: skip
     p: scalar.Vec = (Gl[0][3], Gl[1][3], Gl[2][3])
+    prep = solver.spherical if held_value is None else None
+    return _candidates_rp(solver, g, prep, R, p, d, held_value)
+
+
+def _candidates_rp(
+    solver: _Solver,
+    g: scalar.Geometry,
+    prep: scalar.Spherical | None,
+    R: scalar.Mat,
+    p: scalar.Vec,
+    d: list[float],
+    held_value: float | None,
+) -> tuple[list[scalar.Candidate], scalar.Stages]:
+    """`_candidates_of` given G as rotation rows R and translation p, and the prepared
+    spherical-wrist solver of g (None: the general one)."""
+    st = solver.structure
     case = st.kind if st.kind == "three_parallel" else st.case
     stages = scalar.Stages(_STAGE_ORDER[case])
     if st.kind == "three_parallel" and held_value is None and solver.three_parallel is not None:
@@ -1000,12 +1111,17 @@ def _candidates_of(
             return raw, stages  # angles already in (−π, π]
     elif st.kind == "three_parallel":
         raw = scalar.three_parallel(g, R, p, d, stages)
+    elif prep is not None:
+        raw = prep.solve(R, p, d, stages)
     else:
         raw = scalar.spherical(st.case, g, R, p, d, stages)
     out: list[scalar.Candidate] = []
     for q6, why in raw:
         q = [-x for x in reversed(q6)] if st.reversed else q6
-        q = [x - TWO_PI * math.ceil((x - math.pi) * _INVTWO_PI) for x in q]  # into (−π, π]
+        q = [  # into (−π, π] (most angles already are: tested first, for speed)
+            x if -math.pi < x <= math.pi else x - TWO_PI * math.ceil((x - math.pi) * _INVTWO_PI)
+            for x in q
+        ]
         if held_value is not None:
             q.insert(solver.held or 0, held_value)
         out.append((q, why))
@@ -1829,6 +1945,22 @@ def _ranked(
             else:
                 ranked.append((dist, q))
                 continue
+        # Each angle at its whole-turn equivalent nearest the seed (the first step of
+        # `_nearest_turn`, written out); `_nearest_turn` itself only when that leaves the limits.
+        turned: list[float] = []
+        dist = 0.0
+        for x, s, a, b, wj in zip(q, seed, lo, hi, w, strict=True):
+            d = x - s
+            if not -math.pi < d < math.pi:
+                x = x + TWO_PI * round(-d * _INVTWO_PI)
+                d = x - s
+            if not a <= x <= b:
+                break
+            turned.append(x)
+            dist += wj * (d * d)
+        else:
+            ranked.append((dist, turned))
+            continue
         qn = _nearest_turn(q, seed, lo, hi)
         if qn is not None:
             ranked.append(
@@ -1849,6 +1981,7 @@ def nearest(
     separation: float,
     deadline: float,
     tries: int = 1 + DEFAULT_HELD_SAMPLES,
+    first: int = 0,
 ) -> Nearest | None:
     """The `count` solutions nearest `q_seed` of one target, in closed form; None if the chain has
     no closed-form family. For `ik`: its inputs are already checked (T_target a rigid (4, 4)
@@ -1858,7 +1991,8 @@ def nearest(
     equivalent within the limits, and checked by forward kinematics in that order (near misses
     refined, as in `solve_all`) until `count` pass, so one call usually runs one FK. A 7R arm holds
     its held joint at up to `tries` values of `held_order` (the seed's first) until one gives a
-    solution or `deadline` (`time.perf_counter`) passes.
+    solution or `deadline` (`time.perf_counter`) passes, starting at value `first` of them (the
+    earlier ones already tried, as by `ik_batch`).
     """
     solver = _solver(chain)
     if solver is None:
@@ -1876,7 +2010,7 @@ def nearest(
     found: list[tuple[FloatArray, tuple[float, float]]] = []
     first_reason = ""
     tried = 0
-    for value in held_order(chain, q_seed[None], tries)[0].tolist():
+    for value in _held_order_one(solver, seed[j], tries)[first:]:
         if tried and time.perf_counter() > deadline:
             break
         found, reason = _nearest_at(solver, Tl, T_target, seed, value, 1, tols, w, separation)
@@ -1941,7 +2075,7 @@ def _nearest_at(
             continue  # the same solution as one already taken (branches may coincide)
         ep, er = _fk_errors(solver, q, Tl)
         if (
-            (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
+            (ep > _NEAREST_REFINE_ABOVE * solver.scale or er > _NEAREST_REFINE_ABOVE)
             and ep < _REFINE_BELOW * solver.scale
             and er < _REFINE_BELOW
         ):
@@ -2061,6 +2195,35 @@ def held_order(chain: KinematicChain, q_seeds: FloatArray, count: int) -> FloatA
         out[i, 1 : 1 + rest.size] = rest
         out[i, 1 + rest.size :] = out[i, rest.size]  # (only with a tiny count: repeat the last)
     return out
+
+
+def _held_order_one(solver: _Solver, s: float, count: int) -> list[float]:
+    """`held_order` for one seed whose held joint is at s, on floats (the same values; ~10 µs
+    less per `ik` call than the array version)."""
+    j = solver.held
+    assert j is not None
+    lo, hi = solver.lower[j], solver.upper[j]
+    fractions = _spread_fraction_list(count)
+    if math.isfinite(lo) and math.isfinite(hi) and hi - lo <= TWO_PI:
+        span = hi - lo
+        cand = [lo + span * f for f in fractions]
+    else:
+        span = TWO_PI
+        cand = [(s - math.pi) + span * f for f in fractions]
+    out = [s]
+    for c in cand:
+        if len(out) >= count:
+            break
+        if abs(c - s) > span / 72.0:
+            out.append(c)
+    while len(out) < count:  # (only with a tiny count: repeat the last)
+        out.append(out[-1])
+    return out
+
+
+@functools.lru_cache(maxsize=8)
+def _spread_fraction_list(count: int) -> list[float]:
+    return [float(f) for f in _spread_fractions(count)]
 
 
 @functools.lru_cache(maxsize=8)
