@@ -415,6 +415,7 @@ def run_phase(
         s = json.loads(slow_out.read_text())
         window = (s["start"], s["end"])
         result["slow_ik_seconds"] = (s["end"] - s["start"]) * 1e-9
+        result["slow_ik_at_s"] = (s["start"] - first) * 1e-9 + WARM_UP_S if sent else math.nan
     for key in ("pose", "twist"):
         pairs = [(st, arr) for st, arr in got[key] if st >= first]
         stamps = {st for st, _ in pairs}
@@ -422,6 +423,19 @@ def run_phase(
         result[f"{key}_answered"] = len(stamps) / sent if sent else math.nan
         result[f"{key}_latency_median_ms"] = statistics.median(lat) if lat else math.nan
         result[f"{key}_latency_p99_ms"] = _percentile(lat, 0.99)
+        if key == "pose":  # the worst moment: where the unanswered and the slow samples are
+            run = longest = 0
+            at = 0.0
+            for st in counted:
+                run = 0 if st in stamps else run + 1
+                if run > longest:
+                    longest, at = run, (st - counted[0]) * 1e-9 + WARM_UP_S
+            slowest = max(pairs, key=lambda p: p[1] - p[0], default=None)
+            result["pose_longest_unanswered_run"] = longest
+            result["pose_longest_unanswered_at_s"] = at
+            result["pose_slowest_at_s"] = (
+                (slowest[0] - counted[0]) * 1e-9 + WARM_UP_S if slowest else math.nan
+            )
         if window is not None and key == "pose":
             # answered during the slow IK call, of the samples sent during it
             sent_inside = [st for st in published["stamps"] if window[0] <= st <= window[1]]
@@ -573,8 +587,13 @@ def report(results: dict[str, dict[str, Any]]) -> None:
                   f"{r['ik_node_worst_after_deadline_ms']:.1f} ms after); pool: "
                   f"{r['ik_pool_expired_in_queue']} expired in its queue, {r['ik_pool_overdue']} "
                   "answered as overdue")
+        if r.get("pose_longest_unanswered_run", 0) > 1 or r.get("pose_latency_p99_ms", 0) > 10:
+            print(f"{label}: longest run of unanswered samples {r['pose_longest_unanswered_run']}"
+                  f" (ending {r['pose_longest_unanswered_at_s']:.2f} s into the phase), slowest "
+                  f"answer to the sample sent {r['pose_slowest_at_s']:.2f} s into it")
         if "pose_rate_during_slow_ik" in r:
-            print(f"{label}: the IK call took {r['slow_ik_seconds']:.2f} s; "
+            print(f"{label}: the IK call took {r['slow_ik_seconds']:.2f} s from "
+                  f"{r['slow_ik_at_s']:.2f} s into the phase; "
                   f"{100 * r['pose_rate_during_slow_ik']:.1f} % of the "
                   f"{r['slow_ik_samples_sent']} joint_states sent meanwhile were answered")
     if "soak" in results:
