@@ -99,8 +99,9 @@ JOINT_STATES_QOS = QoSProfile(
 NO_PUBLISHER_EVENTS = PublisherEventCallbacks(use_default_callbacks=False)
 NO_SUBSCRIPTION_EVENTS = SubscriptionEventCallbacks(use_default_callbacks=False)
 #: joint_states stream when the last one came less than this long ago [s]; then an IK answer
-#: waits up to this long for the next message's turn of the executor, which collects it
-#: (`Mailbox`), instead of waking the executor for it. (At 500 Hz one comes every 2 ms.)
+#: waits up to this long (never past its deadline) for the next message's turn of the executor,
+#: which collects it (`Mailbox`), instead of waking the executor for it. (At 500 Hz one comes
+#: every 2 ms.)
 STREAMING_GAP = 0.0025
 #: Seconds between two log lines about the same joint_states problem.
 WARN_PERIOD = 5.0
@@ -268,8 +269,11 @@ class KinematicsNode(Node):
     def _hand_back(self, pending: PendingIK, response: Any, outcome: IKOutcome) -> None:
         """From the pool's thread: hand the outcome to the executor thread, which collects it on
         the next joint_states turn while they stream, or is woken for it."""
-        streaming = time.monotonic() - self._last_joint_state < STREAMING_GAP
-        self._ik_answers.put((pending, response, outcome), STREAMING_GAP if streaming else 0.0)
+        now = time.monotonic()
+        streaming = now - self._last_joint_state < STREAMING_GAP
+        # an answer may wait for the next joint_states turn, but never past its deadline
+        patience = min(STREAMING_GAP, pending.job.deadline - now) if streaming else 0.0
+        self._ik_answers.put((pending, response, outcome), patience)
 
     def _deliver_ik_answers(self) -> None:
         for pending, response, outcome in self._ik_answers.collect():
