@@ -275,7 +275,7 @@ def role_slow_ik(seconds: float, start_at_ns: int, out: str) -> None:
 # ============================================================================ orchestration
 class HarnessFailure(RuntimeError):
     """A process of the harness (publisher, receiver) failed: its phase measured nothing. (Seen:
-    the receiver ending with SIGSEGV twice in about thirty phases on one day.)"""
+    the receiver ending with SIGSEGV in 3 of about 45 phases on one day.)"""
 
 
 def _child(args: list[str], env: dict[str, str]) -> subprocess.Popen:
