@@ -141,3 +141,23 @@ class PinocchioOracle:
             Jp = pin.getFrameJacobian(self.model, self.data, fid, ref)[:, self.cols]
             J[name] = np.vstack((Jp[3:], Jp[:3]))
         return self.data.oMf[fid].homogeneous, J
+
+
+def moved_base(chain):
+    """The same arm on a base turned and shifted off the coordinate axes: S′ = Ad(B) S, M′ = B M,
+    so no axis direction or point has zero components."""
+    from kinematics_node.core import SerialChain, se3
+
+    rng = np.random.default_rng(11)
+    B = se3.exp(rng.normal(size=6) * 0.7)
+    S = se3.adjoint(B) @ np.asarray(chain.S)
+    return SerialChain.from_poe(S, B @ np.asarray(chain.M), lower=chain.lower, upper=chain.upper)
+
+
+def reversed_arm(chain):
+    """The arm read from the tip (a family's structure is then found reversed)."""
+    from kinematics_node.core import SerialChain, se3
+
+    Mi = se3.inverse(chain.M)
+    S = se3.adjoint(Mi) @ np.asarray(chain.S)[:, ::-1]
+    return SerialChain.from_poe(S, Mi, lower=-chain.upper[::-1], upper=-chain.lower[::-1])

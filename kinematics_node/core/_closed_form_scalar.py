@@ -118,28 +118,7 @@ def sp2(
     k1: Vec, k2: Vec, p: Vec, q: Vec, default1: float, default2: float, eps: float
 ) -> list[tuple[float, float, bool]]:
     """(θ₁, θ₂, free) for both signs of γ with R(k₁, θ₁) R(k₂, θ₂) p = q, or [] (see `subproblems.sp2`)."""
-    c = dot(k1, k2)
-    k12 = cross(k1, k2)
-    den = c * c - 1.0
-    kp, kq = dot(k2, p), dot(k1, q)
-    alpha = (c * kp - kq) / den
-    beta = (c * kq - kp) / den
-    pp = dot(p, p)
-    g2 = (pp - alpha * alpha - beta * beta - 2.0 * alpha * beta * c) / dot(k12, k12)
-    if g2 < -TANGENT_TOLERANCE * max(pp, eps * eps):
-        return []
-    gamma = sqrt(max(g2, 0.0))
-    out = []
-    for g in (gamma, -gamma):
-        z = (
-            alpha * k1[0] + beta * k2[0] + g * k12[0],
-            alpha * k1[1] + beta * k2[1] + g * k12[1],
-            alpha * k1[2] + beta * k2[2] + g * k12[2],
-        )
-        t2, f2 = sp1(k2, p, z, default2, eps)
-        t1, f1 = sp1(k1, rotate(k2, t2, p), q, default1, eps)
-        out.append((t1, t2, f1 or f2))
-    return out
+    return _SP2(k1, k2).solve(p, q, default1, default2, eps)
 
 
 def sp3(
@@ -619,7 +598,7 @@ class _SP2:
     def solve(
         self, p: Vec, q: Vec, default1: float, default2: float, eps: float
     ) -> list[tuple[float, float, bool]]:
-        """`sp2(k1, k2, p, q, default1, default2, eps)`, same equations and branch order."""
+        """`sp2(k1, k2, p, q, default1, default2, eps)` with this object's axes."""
         k1, k2, c, k12 = self.k1, self.k2, self.c, self.k12
         kp = k2[0] * p[0] + k2[1] * p[1] + k2[2] * p[2]
         kq = k1[0] * q[0] + k1[1] * q[1] + k1[2] * q[2]

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from kin_testing import erd_path, random_q
+from kin_testing import erd_path, moved_base, random_q, reversed_arm
 
 from kinematics_node.core import SerialChain, se3
 from kinematics_node.core import _closed_form_scalar as scalar
@@ -24,22 +24,6 @@ FK_TOL = 1e-9
 def ur5(limited: bool) -> SerialChain:
     name = "ur5_joint_limited_robot.urdf" if limited else "ur5_robot.urdf"
     return SerialChain.from_urdf(erd_path(f"ur_description/urdf/{name}"), None, "tool0")
-
-
-def moved_base(chain: SerialChain) -> SerialChain:
-    """The same arm on a base turned and shifted off the coordinate axes: S′ = Ad(B) S, M′ = B M,
-    so no axis direction or point has zero components."""
-    rng = np.random.default_rng(11)
-    B = se3.exp(rng.normal(size=6) * 0.7)
-    S = se3.adjoint(B) @ np.asarray(chain.S)
-    return SerialChain.from_poe(S, B @ np.asarray(chain.M), lower=chain.lower, upper=chain.upper)
-
-
-def reversed_arm(chain: SerialChain) -> SerialChain:
-    """The arm read from the tip (its three-parallel structure is then found reversed)."""
-    Mi = se3.inverse(chain.M)
-    S = se3.adjoint(Mi) @ np.asarray(chain.S)[:, ::-1]
-    return SerialChain.from_poe(S, Mi, lower=-chain.upper[::-1], upper=-chain.lower[::-1])
 
 
 def mixed_limits(chain: SerialChain) -> SerialChain:

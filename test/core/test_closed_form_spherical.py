@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from kin_testing import erd_path, random_q
+from kin_testing import erd_path, moved_base, random_q, reversed_arm
 
 from kinematics_node.core import SerialChain, se3
 from kinematics_node.core import _closed_form_scalar as scalar
@@ -40,20 +40,6 @@ MEET23 = [(0.3, PI / 2, 0.4, 0.0), (0.0, -PI / 2, 0.1, 0.0), (0.05, PI / 2, 0.0,
           (0.0, -PI / 2, 0.4, 0.0), (0.0, PI / 2, 0.0, 0.0), (0.0, 0.0, 0.1, 0.0)]  # fmt: skip
 PAR12 = [(0.4, 0.0, 0.3, 0.0), (0.3, PI / 2, 0.0, 0.0), (0.05, -PI / 2, 0.1, 0.0),
          (0.0, PI / 2, 0.4, 0.0), (0.0, -PI / 2, 0.0, 0.0), (0.0, 0.0, 0.1, 0.0)]  # fmt: skip
-
-
-def moved_base(chain: SerialChain) -> SerialChain:
-    """The same arm on a base turned and shifted off the coordinate axes (S′ = Ad(B) S, M′ = B M)."""
-    rng = np.random.default_rng(11)
-    B = se3.exp(rng.normal(size=6) * 0.7)
-    S = se3.adjoint(B) @ np.asarray(chain.S)
-    return SerialChain.from_poe(S, B @ np.asarray(chain.M), lower=chain.lower, upper=chain.upper)
-
-
-def reversed_arm(chain: SerialChain) -> SerialChain:
-    Mi = se3.inverse(chain.M)
-    S = se3.adjoint(Mi) @ np.asarray(chain.S)[:, ::-1]
-    return SerialChain.from_poe(S, Mi, lower=-chain.upper[::-1], upper=-chain.lower[::-1])
 
 
 def kinova() -> SerialChain:
