@@ -288,25 +288,13 @@ def _wrist_prepared(
     def applied(v: Vec) -> tuple[FloatArray, FloatArray, FloatArray]:
         return tuple(Rc[i][0] * v[0] + Rc[i][1] * v[1] + Rc[i][2] * v[2] for i in range(3))  # type: ignore[return-value]
 
-    def turn(
-        k: Vec, cs: FloatArray, sn: FloatArray, vx: FloatArray, vy: FloatArray, vz: FloatArray
-    ) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """R(k, θ) v with cos θ, sin θ given (Rodrigues on components)."""
-        k0, k1, k2 = k
-        f = (k0 * vx + k1 * vy + k2 * vz) * (1.0 - cs)
-        return (
-            vx * cs + (k1 * vz - k2 * vy) * sn + k0 * f,
-            vy * cs + (k2 * vx - k0 * vz) * sn + k1 * f,
-            vz * cs + (k0 * vy - k1 * vx) * sn + k2 * f,
-        )
-
     # v₆ and y₀: Rω₆ and Rx turned by −q₁, −q₂, −q₃ (per arm: the branches' pairs share them).
     a1, a2, a3 = q1[:, ::2], q2[:, ::2], q3[:, ::2]  # (L, 4)
     cs1, sn1 = np.cos(a1), -np.sin(a1)
     cs2, sn2 = np.cos(a2), -np.sin(a2)
     cs3, sn3 = np.cos(a3), -np.sin(a3)
-    v = turn(w2, cs3, sn3, *turn(w1, cs2, sn2, *turn(w0, cs1, sn1, *applied(w5))))
-    y = turn(w2, cs3, sn3, *turn(w1, cs2, sn2, *turn(w0, cs1, sn1, *applied(c.x))))
+    v = _turn(w2, cs3, sn3, *_turn(w1, cs2, sn2, *_turn(w0, cs1, sn1, *applied(w5))))
+    y = _turn(w2, cs3, sn3, *_turn(w1, cs2, sn2, *_turn(w0, cs1, sn1, *applied(c.x))))
     # SP2 (ω₄, ω₅) of p = ω₆ onto q = v₆.
     kp, pp = c.kp_w, c.pp_w
     kq = w3x * v[0] + w3y * v[1] + w3z * v[2]
@@ -353,7 +341,7 @@ def _wrist_prepared(
     )
     q4 = np.where(fr4, dflt[:, 3:4], q4)
     # y = R(ω₅, −q₅) R(ω₄, −q₄) y₀; q₆ = SP1(ω₆, x → y)
-    yx, yy, yz = turn(w4, cs5, -sn5, *turn(w3, np.cos(q4), -np.sin(q4), y0x, y0y, y0z))
+    yx, yy, yz = _turn(w4, cs5, -sn5, *_turn(w3, np.cos(q4), -np.sin(q4), y0x, y0y, y0z))
     ky = w5x * yx + w5y * yy + w5z * yz
     bx, by, bz = yx - w5x * ky, yy - w5y * ky, yz - w5z * ky
     xpx, xpy, xpz = c.xp5
