@@ -155,7 +155,9 @@ def moved_base(chain):
 
 
 def reversed_arm(chain):
-    """The arm read from the tip (a family's structure is then found reversed)."""
+    """The same arm read from the tip: T′(q′) = T(q)⁻¹ with q′ = −q reversed, so a family's
+    structure is found reversed (a spherical wrist becomes a spherical shoulder).
+    S′ₖ = Ad(M⁻¹) Sₙ₊₁₋ₖ, M′ = M⁻¹."""
     from kinematics_node.core import SerialChain, se3
 
     Mi = se3.inverse(chain.M)

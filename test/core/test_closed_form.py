@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from kin_testing import erd_path, random_q
+from kin_testing import erd_path, random_q, reversed_arm
 
 from kinematics_node.core import (
     InvalidInputError,
@@ -72,14 +72,6 @@ PAR12 = [
     (0.0, -PI / 2, 0.0, 0.0),
     (0.0, 0.0, 0.1, 0.0),
 ]
-
-
-def reversed_arm(chain):
-    """The same arm read from the tip: T′(q′) = T(q)⁻¹ with q′ = −q reversed, so its *first* three
-    axes meet (a spherical shoulder). S′ₖ = Ad(M⁻¹) S₇₋ₖ, M′ = M⁻¹."""
-    Mi = se3.inverse(chain.M)
-    S = se3.adjoint(Mi) @ np.asarray(chain.S)[:, ::-1]
-    return SerialChain.from_poe(S, Mi, lower=-chain.upper[::-1], upper=-chain.lower[::-1])
 
 
 def ur5_erd(limited=True):
