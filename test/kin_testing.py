@@ -163,3 +163,24 @@ def reversed_arm(chain):
     Mi = se3.inverse(chain.M)
     S = se3.adjoint(Mi) @ np.asarray(chain.S)[:, ::-1]
     return SerialChain.from_poe(S, Mi, lower=-chain.upper[::-1], upper=-chain.lower[::-1])
+
+
+def assert_same_batched_solve(ref, fast, n_singular):
+    """A prepared batched closed-form solver against the reference one, each given as (Q, ok,
+    trace): the same branches succeed, every stage flags the same lanes with the same reason, and
+    the angles of the successful branches agree to 1e-9 (to 1e-6 on the first `n_singular` rows,
+    exactly singular ones, where a tangent leaves √ε)."""
+    from kinematics_node.core import closed_form as cf
+
+    (Q_ref, ok_ref, ref_trace), (Q_fast, ok_fast, fast_trace) = ref, fast
+    np.testing.assert_array_equal(ok_fast, ok_ref)
+    for (name_r, f_r), (name_f, f_f) in zip(
+        ref_trace.fails + ref_trace.frees, fast_trace.fails + fast_trace.frees, strict=True
+    ):
+        assert name_f == name_r
+        np.testing.assert_array_equal(f_f, f_r, err_msg=name_r)
+    gap = np.abs(cf._wrap(Q_fast - Q_ref))
+    gap = np.where(ok_ref[..., None], gap, 0.0).max(axis=(1, 2))
+    assert gap[n_singular:].max() <= 1e-9
+    assert gap[:n_singular].max() <= 1e-6
+    assert np.isfinite(Q_fast).all()
