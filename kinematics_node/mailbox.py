@@ -1,9 +1,9 @@
 """Items from other threads, collected by one thread on its own turns (no rclpy here).
 
 The node's IK answers come back from the pool's thread, and only the executor thread may send
-them. Waking the executor for each answer (triggering a guard condition) costs two turns of
-rclpy's executor, each setting up its wait set again: ~0.3 ms of the node's CPU per answer, a
-third of what an IK request costs it. While joint_states stream in, the executor takes a turn for
+them. Waking the executor for each answer (triggering a guard condition) costs a turn of its own
+(two of rclpy's SingleThreadedExecutor, each setting up its wait set again: ~0.3 ms of the node's
+CPU per answer, a third of what an IK request cost it). While joint_states stream in, the executor takes a turn for
 every message anyway (every 1-2 ms at 500 Hz-1 kHz), and can collect the answers then.
 
 So a `Mailbox` takes each item with a patience: how long it may wait for the collector's next

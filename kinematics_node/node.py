@@ -11,9 +11,9 @@ Topics (relative names, so namespaces and remaps apply):
   pub  /diagnostics       diagnostic_msgs/DiagnosticArray (absolute, as aggregators expect)
 Services: compute_fk, compute_jacobian, compute_ik (kinematics_service/srv/...).
 
-Threads and processes. One SingleThreadedExecutor runs every callback: rclpy's
-MultiThreadedExecutor cannot carry 1 kHz joint_states, and a busy Python thread in this process
-would hold the GIL away from the pose path. FK and Jacobian requests take microseconds and are
+Threads and processes. One thread runs every callback (`ros_main`: our `LeanExecutor`, one wait
+per callback, by default): rclpy's MultiThreadedExecutor cannot carry 1 kHz joint_states, and a
+busy Python thread in this process would hold the GIL away from the pose path. FK and Jacobian requests take microseconds and are
 answered in place. IK runs in worker processes (`IKPool`, `ik.workers`, at a lower CPU priority):
 `compute_ik` hands the job to the pool and returns its response unfinished (`DeferredResponses`:
 no coroutine, which rclpy's executors would resume on every turn). The answer comes back through

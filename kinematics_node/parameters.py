@@ -116,6 +116,15 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         positive=True,
     ),
     ParameterSpec(
+        "executor",
+        "lean",
+        "Executor of the node's one thread: 'lean' = this package's LeanExecutor (one wait per "
+        "callback, a wait set built once; about half the CPU per joint_states message of "
+        "rclpy's), 'rclpy' = rclpy's SingleThreadedExecutor. Where this rclpy lacks what the "
+        "lean one uses, the node says so and uses rclpy's.",
+        choices=("lean", "rclpy"),
+    ),
+    ParameterSpec(
         "joint_states_timeout",
         1.0,
         "Diagnostics report joint_states as stale after this long without a sample [s].",
@@ -128,7 +137,7 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
 SPECS: dict[str, ParameterSpec] = {spec.name: spec for spec in PARAMETERS}
 
 #: Parameters the node reads once at start-up; changing them at run time is refused.
-STARTUP_ONLY = frozenset({"diagnostics_period", "ik.workers"})
+STARTUP_ONLY = frozenset({"diagnostics_period", "ik.workers", "executor"})
 
 
 def defaults() -> dict[str, Any]:

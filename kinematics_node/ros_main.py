@@ -1,5 +1,7 @@
 """The process entry shared by our rclpy executables (`kinematics_node`, `sim_arm`): build the
-node, spin it on one SingleThreadedExecutor, and stop with a status a supervisor can trust.
+node, spin it in one thread (`executor.make_executor`: our LeanExecutor, or rclpy's
+SingleThreadedExecutor with the node's `executor` parameter "rclpy" or where this rclpy lacks what
+the lean one uses), and stop with a status a supervisor can trust.
 
 Exit status: 0 after SIGINT, SIGTERM or an external shutdown; 2 when the node refuses a start-up
 parameter (one line on stderr naming it, no traceback).
@@ -25,8 +27,10 @@ from contextlib import contextmanager
 from types import FrameType
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+
+from .executor import make_executor
 
 BAD_PARAMETER = 2
 
@@ -55,7 +59,8 @@ def _spin(
     try:
         rclpy.init(args=args, context=context)  # its handlers call ours (installed first) after theirs
         node = make_node()
-        executor = SingleThreadedExecutor()
+        kind = node.get_parameter("executor").value if node.has_parameter("executor") else "lean"
+        executor = make_executor(kind, log=node.get_logger().warn)
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):

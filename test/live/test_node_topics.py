@@ -288,3 +288,26 @@ def test_invalid_start_up_parameter_gives_one_line_and_status_2(start_node):
     node.process.wait(30)
     assert node.process.returncode == 2, node.log()
     assert "ik.timeout" in node.log() and "Traceback" not in node.log(), node.log()
+
+
+@pytest.mark.parametrize("executor", ["lean", "rclpy"])
+def test_either_executor_answers_joint_states_and_stops_cleanly(start_node, stream, executor):
+    node = start_node(robot_description=ur5e_description(), executor=executor)
+    stream.connected(node)
+    q = RNG.uniform(-1, 1, 6)
+    for k in range(20):
+        stream.pub.publish(joint_state(UR5E_JOINTS, q, stamp_ns=10_000 + k))
+        time.sleep(0.005)
+    wait_until(lambda: len(stream.poses) >= 18, 10, f"poses on the {executor} executor")
+    for pose in list(stream.poses):
+        np.testing.assert_allclose(matrix_from_pose(pose.pose), CHAIN.fk(q), atol=1e-12)
+    assert node.stop(signal.SIGINT) == 0
+    log = node.log()
+    assert "Traceback" not in log and "lacks what the lean executor uses" not in log, log
+
+
+def test_an_unknown_executor_is_refused_at_start_up(start_node):
+    node = start_node(wait=False, robot_description=ur5e_description(), executor="events")
+    node.process.wait(30)
+    assert node.process.returncode == 2, node.log()
+    assert "executor" in node.log() and "Traceback" not in node.log(), node.log()
