@@ -5,11 +5,14 @@
 
 Every process is real rclpy over Fast DDS on loopback, in a ROS_DOMAIN_ID of the run's own:
 * the system under test: a bare echo node (subscribes JointState, publishes PoseStamped with the
-  same stamp; SingleThreadedExecutor: the floor any rclpy node pays), or the built
-  `kinematics_node` with a 6-joint (UR5e) or 7-joint (iiwa14) arm;
+  same stamp; rclpy's SingleThreadedExecutor: the floor a node on rclpy's stock executor pays),
+  or the built `kinematics_node` with a 6-joint (UR5e) or 7-joint (iiwa14) arm;
 * a publisher process sending joint_states at a fixed rate, each stamped with its send time
   (CLOCK_REALTIME, shared by all processes), so every answer is matched to its sample;
-* a receiver process recording the arrival time of every ee_pose / ee_twist;
+* a receiver process recording the arrival time of every ee_pose / ee_twist (on our
+  LeanExecutor, as the IK clients: the harness's processes share the 2 CPUs with the system
+  under test, and on rclpy's executor the receiver alone took ~60 % of a core at 1 kHz and fell
+  behind when an IK worker was busy, losing samples the node had published);
 * for the IK phase, 4 clients calling compute_ik back to back (50 ms timeouts, every third target
   unreachable inside the reach sphere, so that it costs its whole timeout), timing each answer:
   one event-driven process, targets computed beforehand.
@@ -68,10 +71,14 @@ def _init_rclpy(freeze: bool = True) -> Any:
     return rclpy
 
 
-def _spin_until_sigint(node: Any) -> None:
+def _spin_until_sigint(node: Any, lean: bool = False) -> None:
+    """Spin `node` until SIGINT: on rclpy's SingleThreadedExecutor, or with `lean` on ours
+    (`kinematics_node.executor`: about half the CPU per message, for the harness's own roles)."""
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
-    executor = SingleThreadedExecutor()
+    from kinematics_node.executor import LeanExecutor
+
+    executor = LeanExecutor() if lean else SingleThreadedExecutor()
     executor.add_node(node)
     try:
         executor.spin()
@@ -159,7 +166,7 @@ def role_receiver(out: str) -> None:
 
     node.create_subscription(PoseStamped, "ee_pose", recorder("pose"), QoSProfile(depth=1000))
     node.create_subscription(TwistStamped, "ee_twist", recorder("twist"), QoSProfile(depth=1000))
-    _spin_until_sigint(node)
+    _spin_until_sigint(node, lean=True)
     Path(out).write_text(json.dumps(got))
 
 
@@ -173,10 +180,10 @@ def role_ik_clients(arm: str, seconds: float, clients: int, timeout: float, out:
     rclpy = _init_rclpy()
     import numpy as np
     from kinematics_service.srv import ComputeIK
-    from rclpy.executors import SingleThreadedExecutor
 
     from kinematics_node.core import SerialChain
     from kinematics_node.core.so3 import quaternion_from_rows
+    from kinematics_node.executor import LeanExecutor
 
     path, tip = ARMS[arm]
     chain = SerialChain.from_urdf(path, tip_link=tip or None)
@@ -240,7 +247,7 @@ def role_ik_clients(arm: str, seconds: float, clients: int, timeout: float, out:
 
     for cli in callers:
         call(cli)
-    executor = SingleThreadedExecutor()
+    executor = LeanExecutor()  # the harness's own CPU: about half rclpy's per answer
     executor.add_node(node)
     while active[0] > 0 and time.monotonic() < end + 10.0:
         executor.spin_once(timeout_sec=0.1)
