@@ -58,27 +58,27 @@ WARM_UP_S = 1.0  # samples of a phase's first second are sent but not counted
 
 
 # ============================================================================ child roles
-def _init_rclpy(freeze: bool = True) -> Any:
+def _init_rclpy(freeze: bool = True, rclpy_signals: bool = True) -> Any:
     """rclpy, initialised; `freeze`: exempt the imports from the cyclic GC (gc.freeze), so that
-    the harness's own full collections (tens of ms) do not show up as the node's latency."""
+    the harness's own full collections (tens of ms) do not show up as the node's latency;
+    `rclpy_signals` False: rclpy installs no signal handlers (the caller has its own)."""
     keep_discovery_local(int(os.environ["ROS_DOMAIN_ID"]))
     import rclpy
+    from rclpy.signals import SignalHandlerOptions
 
-    rclpy.init()
+    rclpy.init(
+        signal_handler_options=SignalHandlerOptions.ALL if rclpy_signals else SignalHandlerOptions.NO
+    )
     if freeze:
         gc.collect()
         gc.freeze()
     return rclpy
 
 
-def _spin_until_sigint(node: Any, lean: bool = False) -> None:
-    """Spin `node` until SIGINT: on rclpy's SingleThreadedExecutor, or with `lean` on ours
-    (`kinematics_node.executor`: about half the CPU per message, for the harness's own roles)."""
+def _spin_until_sigint(node: Any) -> None:
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
-    from kinematics_node.executor import LeanExecutor
-
-    executor = LeanExecutor() if lean else SingleThreadedExecutor()
+    executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
         executor.spin()
@@ -147,10 +147,19 @@ def role_publisher(names: list[str], rate: float, seconds: float, out: str) -> N
 
 
 def role_receiver(out: str) -> None:
-    """Records (stamp, arrival) of every ee_pose and ee_twist until SIGINT; writes them."""
-    rclpy = _init_rclpy()
+    """Records (stamp, arrival) of every ee_pose and ee_twist until SIGINT; writes them.
+
+    SIGINT only sets a flag here: with rclpy's own handler, the signal shut the context down from
+    rclpy's thread while this one still had a live node, and the process crashed (SIGSEGV,
+    seen in about 1 of 15 phases) while writing its figures. So the loop ends, the figures are
+    written, and the node and rclpy are shut down in that order."""
+    stopping: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: stopping.append(signum))
+    rclpy = _init_rclpy(rclpy_signals=False)
     from geometry_msgs.msg import PoseStamped, TwistStamped
     from rclpy.qos import QoSProfile
+
+    from kinematics_node.executor import LeanExecutor
 
     node = rclpy.create_node("bench_receiver")
     got: dict[str, list[tuple[int, int]]] = {"pose": [], "twist": []}
@@ -166,8 +175,14 @@ def role_receiver(out: str) -> None:
 
     node.create_subscription(PoseStamped, "ee_pose", recorder("pose"), QoSProfile(depth=1000))
     node.create_subscription(TwistStamped, "ee_twist", recorder("twist"), QoSProfile(depth=1000))
-    _spin_until_sigint(node, lean=True)
+    executor = LeanExecutor()  # about half the CPU of rclpy's per message (module docstring)
+    executor.add_node(node)
+    while not stopping:
+        executor.spin_once(timeout_sec=0.05)
     Path(out).write_text(json.dumps(got))
+    executor.shutdown()
+    node.destroy_node()
+    rclpy.shutdown()
 
 
 def role_ik_clients(arm: str, seconds: float, clients: int, timeout: float, out: str) -> None:
@@ -287,7 +302,8 @@ class HarnessFailure(RuntimeError):
 
 def _child(args: list[str], env: dict[str, str]) -> subprocess.Popen:
     python = os.environ.get("KINEMATICS_ROS_PYTHON") or sys.executable
-    return subprocess.Popen([python, "-W", "ignore", __file__, *args], env=env)
+    # faulthandler: a crash of a harness process (seen: SIGSEGV) prints where it happened
+    return subprocess.Popen([python, "-X", "faulthandler", "-W", "ignore", __file__, *args], env=env)
 
 
 def _cpu_seconds(pid: int) -> float:

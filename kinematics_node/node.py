@@ -6,7 +6,8 @@ Topics (relative names, so namespaces and remaps apply):
                                                    publishers), depth 100 (100 ms at 1 kHz)
   sub  robot_description  std_msgs/String          transient local, reliable (only when the
                                                    robot_description parameter is empty)
-  pub  ee_pose            geometry_msgs/PoseStamped
+  pub  ee_pose            geometry_msgs/PoseStamped  reliable, depth 100 (100 ms at 1 kHz), as
+                                                   the two below
   pub  ee_twist           geometry_msgs/TwistStamped
   pub  /diagnostics       diagnostic_msgs/DiagnosticArray (absolute, as aggregators expect)
 Services: compute_fk, compute_jacobian, compute_ik (kinematics_service/srv/...).
@@ -89,6 +90,11 @@ JOINT_STATES_QOS = QoSProfile(
     reliability=ReliabilityPolicy.BEST_EFFORT,
     durability=DurabilityPolicy.VOLATILE,
 )
+#: ee_pose, ee_twist and /diagnostics keep the last 100 messages (100 ms at 1 kHz), so a reliable
+#: subscriber whose process falls a few ms behind gets them resent instead of losing them: with
+#: rclpy's default of 10, a benchmark receiver on the same 2 busy CPUs lost up to 17 % of the
+#: samples published during a long IK solve (benchmarks/node_benchmark.py, "2 s IK call").
+PUBLISHED_DEPTH = 100
 #: Publishers and the joint_states subscription go without rclpy's default QoS-event handlers:
 #: each adds two waitables that the executor sets up again on every turn (~10 µs a turn each, a
 #: turn per joint_states message and more; measured with an idle `spin_once`). They would only
@@ -205,7 +211,9 @@ class KinematicsNode(Node):
         _freeze_heap()
 
     def _publisher(self, msg_type: Any, topic: str) -> Any:
-        return self.create_publisher(msg_type, topic, 10, event_callbacks=NO_PUBLISHER_EVENTS)
+        return self.create_publisher(
+            msg_type, topic, PUBLISHED_DEPTH, event_callbacks=NO_PUBLISHER_EVENTS
+        )
 
     # -------------------------------------------------------------- callbacks
     def _load(self, description: str, source: str) -> bool:
