@@ -71,9 +71,11 @@ FloatArray = NDArray[np.float64]
 MIN_SOLVE_TIME = 5e-4
 #: A worker solves until this long before its job's deadline (at most `ANSWER_SHARE` of the time
 #: left), so that its answer reaches the node by the deadline: niced workers on a busy machine
-#: answer late by a few ms (measured: 1.3 ms median, 9-10 ms p99 at 500 Hz + 4 IK clients) [s].
-ANSWER_MARGIN = 0.005
-ANSWER_SHARE = 0.1
+#: answer late by a few ms (measured: 1.3 ms median, 9-10 ms p99 at 500 Hz + 4 IK clients). At
+#: 5 ms, 12 % of the answers in that benchmark reached the node after their deadline (worst
+#: 15-22 ms after); at 8 ms, 5 % (worst 14 ms after) [s].
+ANSWER_MARGIN = 0.008
+ANSWER_SHARE = 0.2
 #: A worker that has not answered this long after its job's deadline is killed and replaced [s].
 HUNG_AFTER = 5.0
 #: After a failed start of a worker process, the next attempt waits this long [s].
@@ -665,7 +667,7 @@ class IKPool:
 
 def _solve_until(deadline: float, now: float) -> float:
     """The deadline a worker solves to: `ANSWER_MARGIN` before the job's, or less when little
-    time is left (a 2 ms timeout still gets 1.8 ms of solve)."""
+    time is left (a 2 ms timeout still gets 1.6 ms of solve)."""
     return deadline - min(ANSWER_MARGIN, ANSWER_SHARE * max(deadline - now, 0.0))
 
 

@@ -274,7 +274,8 @@ def test_a_worker_that_never_answers_is_killed_and_replaced(monkeypatch):
 def test_a_worker_solves_until_a_margin_before_the_deadline_that_short_timeouts_keep_small():
     margin = ik_pool.ANSWER_MARGIN
     assert ik_pool._solve_until(10.0, 10.0 - 1.0) == pytest.approx(10.0 - margin)
-    assert ik_pool._solve_until(10.0, 10.0 - 0.002) == pytest.approx(10.0 - 0.002 * 0.1)
+    share = ik_pool.ANSWER_SHARE
+    assert ik_pool._solve_until(10.0, 10.0 - 0.002) == pytest.approx(10.0 - 0.002 * share)
     assert ik_pool._solve_until(10.0, 10.5) == 10.0  # already past: nothing taken off
 
 
