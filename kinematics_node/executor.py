@@ -26,8 +26,9 @@ at the start of the next turn, when the changed entity list releases the plan; `
 when it returns, and so does `shutdown` (or the next turn after it).
 
 It uses the rclpy internals that rclpy's own executors use (`_rclpy.WaitSet`, handle pointers,
-`Executor._take_*`); `lean_executor_supported` checks them, and `make_executor` falls back to
-`SingleThreadedExecutor` where they differ.
+`Executor._take_*`, and on Humble `Executor._execute_*`); `lean_executor_supported` checks them,
+and `make_executor` falls back to `SingleThreadedExecutor` where they differ. Run here on Jazzy;
+Humble's two-step take/execute form is exercised by a test that imitates it.
 """
 
 from __future__ import annotations
@@ -128,6 +129,7 @@ class LeanExecutor(Executor):
     def __init__(self, *, context: Any = None) -> None:
         super().__init__(context=context)
         self._plan: _Plan | None = None
+        self._takers = {name: self._taker(name) for name in _TAKERS}
 
     # ------------------------------------------------------------------ rclpy's Executor API
     def spin(self) -> None:
@@ -180,12 +182,12 @@ class LeanExecutor(Executor):
         ready: list[tuple[Any, Any, Callable[[Any], Any]]] = []
         for node, waitable in waited:
             if waitable.is_ready(ws):
-                ready.append((node, waitable, self._take_waitable))
+                ready.append((node, waitable, self._takers["_take_waitable"]))
         for kind, name, _, taker in _KINDS:
             pointers = ws.get_ready_entities(name)
             if not pointers:
                 continue
-            take = getattr(self, taker)
+            take = self._takers[taker]
             for node, entity, handle in getattr(plan, kind):
                 if handle.pointer in pointers:
                     if kind == "timers" and not handle.is_timer_ready():
@@ -204,6 +206,21 @@ class LeanExecutor(Executor):
                         if getattr(later, "_executor_triggered", False):
                             later.trigger()
                     raise
+
+    def _taker(self, name: str) -> Callable[[Any], Any]:
+        """rclpy's `_take_<kind>` as Iron and later shape it: take the entity's data and return an
+        async function that runs its callback (None: nothing taken). Humble's takes the data and
+        leaves the callback to a separate `_execute_<kind>(entity, data)` coroutine: adapted."""
+        take = getattr(self, name)
+        execute = getattr(self, name.replace("_take_", "_execute_", 1), None)
+        if execute is None:
+            return take
+
+        def take_then_execute(entity: Any) -> Callable[[], Any]:
+            data = take(entity)
+            return lambda: execute(entity, data)
+
+        return take_then_execute
 
     def _execute(self, node: Any, entity: Any, take: Callable[[Any], Any]) -> None:
         """Take `entity`'s data and run its callback (rclpy's `_make_handler`, inline)."""

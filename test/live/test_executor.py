@@ -302,3 +302,42 @@ def test_a_context_shut_down_while_spinning_ends_spin(context: Any, node: Node) 
     rclpy.shutdown(context=context)
     spinner.join(5.0)
     assert not spinner.is_alive() and outcome
+
+
+class HumbleShapedExecutor(LeanExecutor):
+    """rclpy's executor API as Humble has it: `_take_subscription` returns the message and a
+    separate `_execute_subscription` coroutine runs the callback (so do the other kinds)."""
+
+    def _take_subscription(self, sub: Any) -> Any:
+        with sub.handle:
+            msg_info = sub.handle.take_message(sub.msg_type, sub.raw)
+            if msg_info is not None:
+                return msg_info[0]
+        return None
+
+    async def _execute_subscription(self, sub: Any, msg: Any) -> None:
+        if msg:
+            sub.callback(msg)
+
+    def _take_guard_condition(self, gc: Any) -> None:
+        gc._executor_triggered = False
+
+    async def _execute_guard_condition(self, gc: Any, _: Any) -> None:
+        gc.callback()
+
+
+def test_humbles_two_step_take_and_execute_is_followed(context: Any, node: Node) -> None:
+    ex = HumbleShapedExecutor(context=context)
+    ex.add_node(node)
+    got: list[int] = []
+    woken: list[bool] = []
+    node.create_subscription(Int32, "lean_humble", lambda m: got.append(m.data), 10)
+    guard = node.create_guard_condition(lambda: woken.append(True))
+    pub = node.create_publisher(Int32, "lean_humble", 10)
+    spin_until(ex, lambda: pub.get_subscription_count() > 0)
+    for i in range(3):
+        pub.publish(Int32(data=i))
+    guard.trigger()
+    spin_until(ex, lambda: len(got) == 3 and woken == [True])
+    assert got == [0, 1, 2]
+    ex.shutdown()
