@@ -323,7 +323,9 @@ class LeanExecutor(Executor):
                         counts[kind] += getattr(n, attr)
                     events += n.num_events
                     plan.waitables.append((node, waitable))
-            for guard in (self._guard, self._sigint_gc):
+            for guard in (self._guard, getattr(self, "_sigint_gc", None)):
+                if guard is None:  # (an rclpy without a SIGINT guard condition)
+                    continue
                 hold.enter_context(guard.handle)
                 plan.own_guards.append(guard.handle)
                 counts["guards"] += 1
