@@ -109,6 +109,8 @@ NO_SUBSCRIPTION_EVENTS = SubscriptionEventCallbacks(use_default_callbacks=False)
 #: which collects it (`Mailbox`), instead of waking the executor for it. (At 500 Hz one comes
 #: every 2 ms.)
 STREAMING_GAP = 0.0025
+#: An IK answer sent this long after its deadline is logged (with where the time went) [s].
+LATE_ANSWER_WARNING = 0.02
 #: Seconds between two log lines about the same joint_states problem.
 WARN_PERIOD = 5.0
 TF_MISSING = "TF frames need tf2_ros, which is not installed here (it comes with a full ROS 2)"
@@ -166,7 +168,7 @@ class KinematicsNode(Node):
         # rclpy needs no bookkeeping of which callback of the group may run.
         group = ReentrantCallbackGroup()
         self._ik_wake = self.create_guard_condition(self._deliver_ik_answers, group)
-        self._ik_answers: Mailbox[tuple[PendingIK, Any, IKOutcome]] = Mailbox(
+        self._ik_answers: Mailbox[tuple[PendingIK, Any, IKOutcome, float]] = Mailbox(
             self._ik_wake.trigger, "ik-answers"
         )
         self._last_joint_state = -math.inf  # time.monotonic() of the last one's callback
@@ -250,15 +252,17 @@ class KinematicsNode(Node):
         if self._ik_answers:  # IK answers that waited for this turn
             self._deliver_ik_answers()
 
-    def _warn_throttled(self, problem: str) -> None:
-        """Log each distinct problem at most once per WARN_PERIOD seconds (at 1 kHz a bad stream
-        would otherwise flood the log; rclpy's own throttle would hide all but one kind)."""
+    def _warn_throttled(self, problem: str, kind: str | None = None) -> None:
+        """Log each distinct problem (or `kind` of problem) at most once per WARN_PERIOD seconds
+        (at 1 kHz a bad stream would otherwise flood the log; rclpy's own throttle would hide all
+        but one kind)."""
         now = time.monotonic()
-        if now - self._warned.get(problem, -math.inf) < WARN_PERIOD:
+        key = problem if kind is None else kind
+        if now - self._warned.get(key, -math.inf) < WARN_PERIOD:
             return
         if len(self._warned) > 256:
             self._warned.clear()
-        self._warned[problem] = now
+        self._warned[key] = now
         self.get_logger().warn(f"{problem} (repeats are not logged for {WARN_PERIOD:g} s)")
 
     def _compute_ik(self, request: Any, response: Any) -> Any:
@@ -281,11 +285,20 @@ class KinematicsNode(Node):
         streaming = now - self._last_joint_state < STREAMING_GAP
         # an answer may wait for the next joint_states turn, but never past its deadline
         patience = min(STREAMING_GAP, pending.job.deadline - now) if streaming else 0.0
-        self._ik_answers.put((pending, response, outcome), patience)
+        self._ik_answers.put((pending, response, outcome, now), patience)
 
     def _deliver_ik_answers(self) -> None:
-        for pending, response, outcome in self._ik_answers.collect():
-            self._ik_responses.release(self._logic.finish_ik(pending, outcome, response))
+        for pending, response, outcome, handed in self._ik_answers.collect():
+            now = time.monotonic()
+            self._ik_responses.release(self._logic.finish_ik(pending, outcome, response, now))
+            late = now - pending.job.deadline
+            if late > LATE_ANSWER_WARNING:
+                self._warn_throttled(
+                    f"an IK answer left {late * 1e3:.0f} ms after its deadline (the worker pool "
+                    f"handed it over {(handed - pending.job.deadline) * 1e3:+.0f} ms from it; "
+                    "the rest is this process's delay)",
+                    kind="late IK answer",
+                )
 
     def _publish_diagnostics(self) -> None:
         if self.get_parameter("publish_diagnostics").value:
