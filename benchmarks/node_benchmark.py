@@ -35,6 +35,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -73,6 +74,31 @@ def _init_rclpy(freeze: bool = True, rclpy_signals: bool = True) -> Any:
         gc.collect()
         gc.freeze()
     return rclpy
+
+
+class _StallWatch:
+    """A thread that wakes every ms and keeps the longest it overslept: how long this harness
+    process itself went without running (descheduled, or its GIL held), to tell its own stalls
+    from the node's."""
+
+    def __init__(self) -> None:
+        self.worst = 0.0
+        threading.Thread(target=self._watch, daemon=True).start()
+
+    def _watch(self) -> None:
+        while True:
+            t = time.monotonic()
+            time.sleep(0.001)
+            self.worst = max(self.worst, time.monotonic() - t - 0.001)
+
+
+def _no_collections() -> None:
+    """No cyclic GC from here on in this harness process (a measuring instrument, alive for one
+    phase): everything it allocates is freed with the process, and a collection's pause would
+    show up as the node's latency."""
+    gc.collect()
+    gc.freeze()
+    gc.disable()
 
 
 def _spin_until_sigint(node: Any) -> None:
@@ -177,9 +203,11 @@ def role_receiver(out: str) -> None:
     node.create_subscription(TwistStamped, "ee_twist", recorder("twist"), QoSProfile(depth=1000))
     executor = LeanExecutor()  # about half the CPU of rclpy's per message (module docstring)
     executor.add_node(node)
+    _no_collections()  # millions of arrival records: no pauses to scan them
+    stalls = _StallWatch()
     while not stopping:
         executor.spin_once(timeout_sec=0.05)
-    Path(out).write_text(json.dumps(got))
+    Path(out).write_text(json.dumps({**got, "worst_stall": stalls.worst}))
     executor.shutdown()
     node.destroy_node()
     rclpy.shutdown()
@@ -260,6 +288,8 @@ def role_ik_clients(arm: str, seconds: float, clients: int, timeout: float, out:
 
         cli.call_async(req).add_done_callback(done)
 
+    _no_collections()  # the 4,000 requests and the growing records: no pauses to scan them
+    stalls = _StallWatch()
     for cli in callers:
         call(cli)
     executor = LeanExecutor()  # the harness's own CPU: about half rclpy's per answer
@@ -269,7 +299,9 @@ def role_ik_clients(arm: str, seconds: float, clients: int, timeout: float, out:
     last_answer = time.monotonic()
     while diagnostics_seen[0] <= last_answer and time.monotonic() < last_answer + 3.0:
         executor.spin_once(timeout_sec=0.1)  # diagnostics published after the last answer
-    Path(out).write_text(json.dumps({"calls": records, "node": node_side}))
+    Path(out).write_text(
+        json.dumps({"calls": records, "node": node_side, "worst_stall": stalls.worst})
+    )
 
 
 def role_slow_ik(seconds: float, start_at_ns: int, out: str) -> None:
@@ -351,15 +383,25 @@ class System:
                     }
                 )
             )
-            self.process = subprocess.Popen(
-                [*argv, "--ros-args", "--params-file", str(params)],
-                env=env,
-                stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL,
-            )
+            self.log = directory / f"{arm}-node.log"
+            with self.log.open("wb") as log:  # (the child keeps its own descriptor)
+                self.process = subprocess.Popen(
+                    [*argv, "--ros-args", "--params-file", str(params)],
+                    env=env,
+                    stdout=log,
+                    stderr=subprocess.STDOUT,
+                )
         time.sleep(4.0)  # start-up (URDF parse, IK workers) is not what this measures
         if self.process.poll() is not None:
             raise RuntimeError(f"{kind} node exited at start-up")
+
+    def warnings(self) -> list[str]:
+        """The node's warnings and errors (our node's log; none for the echo)."""
+        log = getattr(self, "log", None)
+        if log is None or not log.exists():
+            return []
+        lines = log.read_text(errors="replace").splitlines()
+        return [line for line in lines if "[WARN]" in line or "[ERROR]" in line]
 
     def stop(self) -> None:
         self.process.send_signal(signal.SIGINT)
@@ -432,6 +474,7 @@ def run_phase(
         "sent": sent,
         "cpu_percent": 100.0 * (cpu1 - cpu0) / (wall1 - wall0),
         "rss_mb": rss,
+        "receiver_worst_stall_ms": float(got.get("worst_stall", math.nan)) * 1e3,
     }
     window = None
     if slow_ik:
@@ -486,6 +529,8 @@ def run_phase(
             ) * 1e3,
             ik_pool_expired_in_queue=int(node_side.get("ik_pool_expired_in_queue", -1)),
             ik_pool_overdue=int(node_side.get("ik_pool_overdue", -1)),
+            ik_pool_workers_lost=int(node_side.get("ik_pool_workers_lost", -1)),
+            ik_clients_worst_stall_ms=float(ik.get("worst_stall", math.nan)) * 1e3,
         )
     return result
 
@@ -550,6 +595,8 @@ def main() -> None:
                     print(f"  {label}: {exc}; measuring the phase again", file=sys.stderr)
                 finally:
                     system.stop()
+            if label in results:
+                results[label]["node_warnings"] = system.warnings()
             print(f"  measured: {label}", file=sys.stderr)
         if args.soak:
             results["soak"] = soak(env, directory, args.soak)
@@ -609,16 +656,20 @@ def report(results: dict[str, dict[str, Any]]) -> None:
                   f"answered, {r['ik_node_after_deadline']} after their deadline (worst "
                   f"{r['ik_node_worst_after_deadline_ms']:.1f} ms after); pool: "
                   f"{r['ik_pool_expired_in_queue']} expired in its queue, {r['ik_pool_overdue']} "
-                  "answered as overdue")
+                  f"answered as overdue, {r['ik_pool_workers_lost']} workers lost; the clients' "
+                  f"own process stalled up to {r['ik_clients_worst_stall_ms']:.0f} ms")
         if r.get("pose_longest_unanswered_run", 0) > 1 or r.get("pose_latency_p99_ms", 0) > 10:
             print(f"{label}: longest run of unanswered samples {r['pose_longest_unanswered_run']}"
                   f" (ending {r['pose_longest_unanswered_at_s']:.2f} s into the phase), slowest "
-                  f"answer to the sample sent {r['pose_slowest_at_s']:.2f} s into it")
+                  f"answer to the sample sent {r['pose_slowest_at_s']:.2f} s into it; the "
+                  f"receiver's own process stalled up to {r['receiver_worst_stall_ms']:.0f} ms")
         if "pose_rate_during_slow_ik" in r:
             print(f"{label}: the IK call took {r['slow_ik_seconds']:.2f} s from "
                   f"{r['slow_ik_at_s']:.2f} s into the phase; "
                   f"{100 * r['pose_rate_during_slow_ik']:.1f} % of the "
                   f"{r['slow_ik_samples_sent']} joint_states sent meanwhile were answered")
+        for line in r.get("node_warnings", []):
+            print(f"{label}: the node logged: {line}")
     if "soak" in results:
         s = results["soak"]
         print(f"soak {s['seconds']:.0f} s at 1 kHz: RSS {s['rss_1min_mb']:.1f} MB after 1 min, "
