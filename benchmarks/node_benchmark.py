@@ -6,7 +6,8 @@
 Every process is real rclpy over Fast DDS on loopback, in a ROS_DOMAIN_ID of the run's own:
 * the system under test: a bare echo node (subscribes JointState, publishes PoseStamped with the
   same stamp; rclpy's SingleThreadedExecutor: the floor a node on rclpy's stock executor pays),
-  or the built `kinematics_node` with a 6-joint (UR5e) or 7-joint (iiwa14) arm;
+  the same echo on our LeanExecutor (what the executor alone is worth), or the built
+  `kinematics_node` with a 6-joint (UR5e) or 7-joint (iiwa14) arm;
 * a publisher process sending joint_states at a fixed rate, each stamped with its send time
   (CLOCK_REALTIME, shared by all processes), so every answer is matched to its sample;
 * a receiver process recording the arrival time of every ee_pose / ee_twist (on our
@@ -101,10 +102,12 @@ def _no_collections() -> None:
     gc.disable()
 
 
-def _spin_until_sigint(node: Any) -> None:
+def _spin_until_sigint(node: Any, lean: bool = False) -> None:
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
-    executor = SingleThreadedExecutor()
+    from kinematics_node.executor import LeanExecutor
+
+    executor = LeanExecutor() if lean else SingleThreadedExecutor()
     executor.add_node(node)
     try:
         executor.spin()
@@ -112,9 +115,10 @@ def _spin_until_sigint(node: Any) -> None:
         pass
 
 
-def role_echo() -> None:
+def role_echo(lean: bool = False) -> None:
     """The bare echo node: JointState in, PoseStamped (same stamp) out (a bare rclpy node: no GC
-    tuning either; its heap is small)."""
+    tuning either; its heap is small). `lean`: the same node on our LeanExecutor, which shows
+    what the executor alone is worth."""
     rclpy = _init_rclpy(freeze=False)
     from geometry_msgs.msg import PoseStamped
     from rclpy.qos import qos_profile_sensor_data
@@ -131,7 +135,7 @@ def role_echo() -> None:
         pub.publish(out)
 
     node.create_subscription(JointState, "joint_states", echo, qos_profile_sensor_data)
-    _spin_until_sigint(node)
+    _spin_until_sigint(node, lean)
 
 
 def role_publisher(names: list[str], rate: float, seconds: float, out: str) -> None:
@@ -364,6 +368,8 @@ class System:
         self.kind, self.arm = kind, arm
         if kind == "echo":
             self.process = _child(["--role", "echo"], env)
+        elif kind == "echo-lean":
+            self.process = _child(["--role", "echo-lean"], env)
         else:
             argv = executable("kinematics_node")
             assert argv is not None
@@ -556,6 +562,8 @@ def main() -> None:
 
     if args.role == "echo":
         return role_echo()
+    if args.role == "echo-lean":
+        return role_echo(lean=True)
     if args.role == "publisher":
         return role_publisher(args.names.split(","), args.rate, args.seconds, args.out)
     if args.role == "receiver":
@@ -573,6 +581,7 @@ def main() -> None:
     results: dict[str, dict[str, Any]] = {}
     phases = [
         ("echo, 1 kHz", "echo", "ur5e", 1000.0, {}),
+        ("the echo on our LeanExecutor, 1 kHz", "echo-lean", "ur5e", 1000.0, {}),
         ("ours ur5e (6 joints), 1 kHz", "ours", "ur5e", 1000.0, {}),
         ("ours iiwa14 (7 joints), 1 kHz", "ours", "iiwa14", 1000.0, {}),
         ("echo, 500 Hz", "echo", "ur5e", 500.0, {}),
@@ -634,7 +643,7 @@ def report(results: dict[str, dict[str, Any]]) -> None:
     for label, r in results.items():
         if label == "soak":
             continue
-        twist = "—" if label.startswith("echo") else f"{100 * r['twist_answered']:.1f} %"
+        twist = "—" if "echo" in label else f"{100 * r['twist_answered']:.1f} %"
         print(f"| {label} | {100 * r['pose_answered']:.1f} % | {twist} | "
               f"{r['pose_latency_median_ms']:.2f} / {r['pose_latency_p99_ms']:.2f} | "
               f"{r['cpu_percent']:.0f} | {r['rss_mb']:.0f} |")
