@@ -176,8 +176,11 @@ def role_publisher(names: list[str], rate: float, seconds: float, out: str) -> N
     rclpy.shutdown()
 
 
-def role_receiver(out: str) -> None:
+def role_receiver(out: str, expect_twist: bool) -> None:
     """Records (stamp, arrival) of every ee_pose and ee_twist until SIGINT; writes them.
+
+    Writes `<out>.ready` once it has matched the system's publishers (ee_pose, and ee_twist when
+    `expect_twist`): the joint_states start only then, not on a timer that discovery may outlast.
 
     SIGINT only sets a flag here: with rclpy's own handler, the signal shut the context down from
     rclpy's thread while this one still had a live node, and the process crashed (SIGSEGV,
@@ -203,14 +206,23 @@ def role_receiver(out: str) -> None:
 
         return record
 
-    node.create_subscription(PoseStamped, "ee_pose", recorder("pose"), QoSProfile(depth=1000))
-    node.create_subscription(TwistStamped, "ee_twist", recorder("twist"), QoSProfile(depth=1000))
+    subs = [
+        node.create_subscription(PoseStamped, "ee_pose", recorder("pose"), QoSProfile(depth=1000)),
+    ]
+    if expect_twist:
+        subs.append(node.create_subscription(
+            TwistStamped, "ee_twist", recorder("twist"), QoSProfile(depth=1000)
+        ))
     executor = LeanExecutor()  # about half the CPU of rclpy's per message (module docstring)
     executor.add_node(node)
     _no_collections()  # millions of arrival records: no pauses to scan them
     stalls = _StallWatch()
+    ready = False
     while not stopping:
         executor.spin_once(timeout_sec=0.05)
+        if not ready and all(sub.get_publisher_count() > 0 for sub in subs):
+            Path(out + ".ready").touch()  # matched: the phase may start
+            ready = True
     Path(out).write_text(json.dumps({**got, "worst_stall": stalls.worst}))
     executor.shutdown()
     node.destroy_node()
@@ -436,7 +448,10 @@ def run_phase(
     ik_out, slow_out = directory / "ik.json", directory / "slow.json"
     for out in (recv_out, pub_out, ik_out, slow_out):
         out.unlink(missing_ok=True)  # a role that fails must not leave the last phase's figures
-    receiver = _child(["--role", "receiver", "--out", str(recv_out)], env)
+    ready = Path(str(recv_out) + ".ready")
+    ready.unlink(missing_ok=True)
+    twist = [] if system.kind.startswith("echo") else ["--expect-twist"]
+    receiver = _child(["--role", "receiver", "--out", str(recv_out), *twist], env)
     extra: list[subprocess.Popen] = []
     if ik_clients:  # waits 1 s after discovery, then calls for `seconds - 2`
         extra.append(
@@ -449,7 +464,13 @@ def run_phase(
             _child(["--role", "slow_ik", "--seconds", str(slow_ik), "--start-at", str(start_at),
                     "--out", str(slow_out)], env)
         )
-    time.sleep(1.5)
+    end = time.monotonic() + 20.0
+    while not ready.exists():  # the receiver has matched the system's publishers
+        if time.monotonic() > end or receiver.poll() is not None:
+            receiver.kill()
+            raise HarnessFailure("the receiver did not match the system's publishers in 20 s")
+        time.sleep(0.05)
+    time.sleep(0.5)  # (and the publishers the receiver, which discovery may finish later)
     publisher = _child(
         ["--role", "publisher", "--names", ",".join(names), "--rate", str(rate),
          "--seconds", str(seconds), "--out", str(pub_out)],
@@ -551,6 +572,7 @@ def main() -> None:
     parser.add_argument("--start-at", type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument("--timeout", type=float, default=0.05, help=argparse.SUPPRESS)
     parser.add_argument("--out", help=argparse.SUPPRESS)
+    parser.add_argument("--expect-twist", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--seconds", type=float, default=10.0, help="length of each phase [s]")
     parser.add_argument("--soak", type=float, default=0.0,
                         help="also run our node at 1 kHz this long [s] and compare its resident "
@@ -567,7 +589,7 @@ def main() -> None:
     if args.role == "publisher":
         return role_publisher(args.names.split(","), args.rate, args.seconds, args.out)
     if args.role == "receiver":
-        return role_receiver(args.out)
+        return role_receiver(args.out, args.expect_twist)
     if args.role == "ik_clients":
         return role_ik_clients(args.arm, args.seconds, args.clients, args.timeout, args.out)
     if args.role == "slow_ik":
