@@ -458,12 +458,6 @@ def run_phase(
             _child(["--role", "ik_clients", "--arm", system.arm, "--seconds", str(seconds - 2),
                     "--clients", str(ik_clients), "--timeout", "0.05", "--out", str(ik_out)], env)
         )
-    if slow_ik:  # mid-phase: the publisher starts in ~2 s (discovery), then runs `seconds`
-        start_at = time.time_ns() + int((2.0 + 0.3 * seconds) * 1e9)
-        extra.append(
-            _child(["--role", "slow_ik", "--seconds", str(slow_ik), "--start-at", str(start_at),
-                    "--out", str(slow_out)], env)
-        )
     end = time.monotonic() + 20.0
     while not ready.exists():  # the receiver has matched the system's publishers
         if time.monotonic() > end or receiver.poll() is not None:
@@ -471,6 +465,12 @@ def run_phase(
             raise HarnessFailure("the receiver did not match the system's publishers in 20 s")
         time.sleep(0.05)
     time.sleep(0.5)  # (and the publishers the receiver, which discovery may finish later)
+    if slow_ik:  # mid-phase: joint_states flow 1 s from now (discovery), then for `seconds`
+        start_at = time.time_ns() + int((2.0 + 0.3 * seconds) * 1e9)
+        extra.append(
+            _child(["--role", "slow_ik", "--seconds", str(slow_ik), "--start-at", str(start_at),
+                    "--out", str(slow_out)], env)
+        )
     publisher = _child(
         ["--role", "publisher", "--names", ",".join(names), "--rate", str(rate),
          "--seconds", str(seconds), "--out", str(pub_out)],
