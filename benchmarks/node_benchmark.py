@@ -531,7 +531,7 @@ def run_phase(
             )
         if window is not None and key == "pose":
             # answered during the slow IK call, of the samples sent during it
-            sent_inside = [st for st in published["stamps"] if window[0] <= st <= window[1]]
+            sent_inside = [st for st in counted if window[0] <= st <= window[1]]
             inside = [st for st in sent_inside if st in stamps]
             result["slow_ik_samples_sent"] = len(sent_inside)
             result["pose_rate_during_slow_ik"] = (
