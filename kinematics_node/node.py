@@ -14,14 +14,14 @@ Services: compute_fk, compute_jacobian, compute_ik (kinematics_service/srv/...).
 
 Threads and processes. One thread runs every callback (`ros_main`: our `LeanExecutor`, one wait
 per callback, by default): rclpy's MultiThreadedExecutor cannot carry 1 kHz joint_states, and a
-busy Python thread in this process would hold the GIL away from the pose path. FK and Jacobian requests take microseconds and are
-answered in place. IK runs in worker processes (`IKPool`, `ik.workers`, at a lower CPU priority):
-`compute_ik` hands the job to the pool and returns its response unfinished (`DeferredResponses`:
-no coroutine, which rclpy's executors would resume on every turn). The answer comes back through
-a `Mailbox` into the executor thread, which fills the response and sends it: on the next
-joint_states message's turn while they stream, else woken by a guard condition. Meanwhile
-joint_states keep flowing. Every IK request is answered by its timeout (plus a few ms), queue time
-included.
+busy Python thread in this process would hold the GIL away from the pose path. FK and Jacobian
+requests take microseconds and are answered in place. IK runs in worker processes (`IKPool`,
+`ik.workers`, at a lower CPU priority): `compute_ik` hands the job to the pool and returns its
+response unfinished (`DeferredResponses`: no coroutine, which rclpy's executors would resume on
+every turn). The answer comes back through a `Mailbox` into the executor thread, which fills the
+response and sends it: on the next joint_states message's turn while they stream, else woken by a
+guard condition. Meanwhile joint_states keep flowing. Every IK request is answered by its timeout
+(plus a few ms), queue time included; one sent more than 20 ms late is logged.
 
 TF: target frames that are not robot links are looked up with tf2_ros when it is installed (it is
 not on PyPI); without it such targets are refused with a message saying so. Uses only API
