@@ -23,7 +23,7 @@ At 1 kHz joint_states that is two full turns per message (an idle turn of our no
 The handles of the nodes' entities are held in use while the plan lives (rclpy holds them only
 during each wait). Destroying an entity from a callback or another thread therefore takes effect
 at the start of the next turn, when the changed entity list releases the plan; `spin` releases it
-when it returns, and so does `shutdown` (or the next turn after it).
+when it returns, and so does the first turn after `shutdown`.
 
 It uses the rclpy internals that rclpy's own executors use (`_rclpy.WaitSet`, handle pointers,
 `Executor._take_*`, and on Humble `Executor._execute_*`); `lean_executor_supported` checks them,
