@@ -87,8 +87,10 @@ def test_ik_timeouts_hold_with_four_clients_at_once(client, start_node):
 def test_ik_answers_come_back_while_joint_states_stream_at_1_khz(client, start_node):
     """While joint_states stream (here ~1 kHz), the node collects IK answers on the stream's own
     executor turns instead of being woken for each (`kinematics_node.mailbox`); when the stream
-    stops, it is woken again. Answers must arrive by their timeout (+ 100 ms of slack for this
-    shared machine) either way, and reproduce their targets."""
+    stops, it is woken again. Answers must arrive by their timeout (+ 500 ms of slack: on this
+    shared machine rclpy's `Service.send_response` now and then blocks ~300 ms holding the GIL,
+    issue 10, measured by benchmarks/node_benchmark.py) either way, and reproduce their targets.
+    An answer left behind in the mailbox would wait for the client's 5 s."""
     from sensor_msgs.msg import JointState
 
     start_node(robot_description=ur5e_description())
@@ -123,7 +125,7 @@ def test_ik_answers_come_back_while_joint_states_stream_at_1_khz(client, start_n
                 t0 = time.monotonic()
                 resp = client.call(ComputeIK, "compute_ik", ik_request(T, timeout=timeout), 5.0)
                 elapsed = time.monotonic() - t0
-                assert elapsed <= timeout + 0.1, f"{phase}: answered after {elapsed:.3f} s"
+                assert elapsed <= timeout + 0.5, f"{phase}: answered after {elapsed:.3f} s"
                 assert resp.success, f"{phase}: {resp.message}"
                 q = np.array(resp.solution.position)
                 assert np.abs(CHAIN.fk(q) - T).max() < 1e-5
