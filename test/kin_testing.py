@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sysconfig
 from pathlib import Path
 
@@ -34,6 +35,11 @@ def erd_path(relative: str) -> Path:
     if not path.exists():
         pytest.skip(f"example-robot-data not installed ({path} missing): pip install '.[test]'")
     return path
+
+
+def wrapped_gap(a: list[float], b: list[float]) -> float:
+    """Largest difference between two joint vectors with angles compared modulo 2π [rad]."""
+    return max(abs((x - y + math.pi) % (2 * math.pi) - math.pi) for x, y in zip(a, b, strict=True))
 
 
 def random_q(chain, rng, n=None):

@@ -17,6 +17,7 @@ from kin_testing import (
     moved_base,
     random_q,
     reversed_arm,
+    wrapped_gap,
 )
 
 from kinematics_node.core import SerialChain, se3
@@ -57,10 +58,6 @@ ARMS = {
     "ur5 mixed limits": lambda: mixed_limits(ur5(True)),
     "ur5 narrow limits": lambda: narrow_limits(ur5(True)),
 }
-
-
-def wrapped_gap(a: list[float], b: list[float]) -> float:
-    return max(abs((x - y + math.pi) % (2 * math.pi) - math.pi) for x, y in zip(a, b, strict=True))
 
 
 @pytest.mark.parametrize("arm", list(ARMS))

@@ -17,6 +17,7 @@ from kin_testing import (
     moved_base,
     random_q,
     reversed_arm,
+    wrapped_gap,
 )
 
 from kinematics_node.core import SerialChain, se3
@@ -69,10 +70,6 @@ ARMS_7R = {
     "panda on a moved base": lambda: moved_base(load_robot("panda")),
     "iiwa14 on a moved base": lambda: moved_base(load_robot("iiwa14")),
 }
-
-
-def wrapped_gap(a: list[float], b: list[float]) -> float:
-    return max(abs((x - y + math.pi) % (2 * math.pi) - math.pi) for x, y in zip(a, b, strict=True))
 
 
 def targets(chain: SerialChain, rng: np.random.Generator, wrist: int) -> tuple[np.ndarray, int]:
