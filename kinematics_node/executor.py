@@ -48,22 +48,20 @@ from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.task import Task
 from rclpy.utilities import timeout_sec_to_nsec
 
-#: The rclpy internals LeanExecutor relies on (module docstring).
-_TAKERS = (
-    "_take_timer",
-    "_take_subscription",
-    "_take_guard_condition",
-    "_take_client",
-    "_take_service",
-    "_take_waitable",
+#: entity kind -> (the wait set's name of it, WaitSet.add_*, the Executor's taker)
+_KINDS = (
+    ("timers", "timer", "add_timer", "_take_timer"),
+    ("subscriptions", "subscription", "add_subscription", "_take_subscription"),
+    ("guards", "guard_condition", "add_guard_condition", "_take_guard_condition"),
+    ("clients", "client", "add_client", "_take_client"),
+    ("services", "service", "add_service", "_take_service"),
 )
+
+#: The rclpy internals LeanExecutor relies on (module docstring).
+_TAKERS = (*(taker for *_, taker in _KINDS), "_take_waitable")
 _WAIT_SET_CALLS = (
     "clear_entities",
-    "add_subscription",
-    "add_guard_condition",
-    "add_timer",
-    "add_client",
-    "add_service",
+    *(add for _, _, add, _ in _KINDS),
     "wait",
     "get_ready_entities",
 )
@@ -111,16 +109,6 @@ class _Plan:
     services: list = field(default_factory=list)
     waitables: list = field(default_factory=list)  # (node, waitable)
     own_guards: list = field(default_factory=list)  # the executor's: wake-up and SIGINT
-
-
-#: entity kind -> (the wait set's name of it, WaitSet.add_*, the Executor's taker)
-_KINDS = (
-    ("timers", "timer", "add_timer", "_take_timer"),
-    ("subscriptions", "subscription", "add_subscription", "_take_subscription"),
-    ("guards", "guard_condition", "add_guard_condition", "_take_guard_condition"),
-    ("clients", "client", "add_client", "_take_client"),
-    ("services", "service", "add_service", "_take_service"),
-)
 
 
 class LeanExecutor(Executor):
