@@ -378,10 +378,9 @@ class System:
 
     def __init__(self, kind: str, arm: str, env: dict[str, str], directory: Path) -> None:
         self.kind, self.arm = kind, arm
-        if kind == "echo":
-            self.process = _child(["--role", "echo"], env)
-        elif kind == "echo-lean":
-            self.process = _child(["--role", "echo-lean"], env)
+        self.log: Path | None = None  # our node's output (the echoes' goes to the terminal)
+        if kind in ("echo", "echo-lean"):  # (their role names)
+            self.process = _child(["--role", kind], env)
         else:
             argv = executable("kinematics_node")
             assert argv is not None
@@ -415,10 +414,9 @@ class System:
 
     def warnings(self) -> list[str]:
         """The node's warnings and errors (our node's log; none for the echo)."""
-        log = getattr(self, "log", None)
-        if log is None or not log.exists():
+        if self.log is None or not self.log.exists():
             return []
-        lines = log.read_text(errors="replace").splitlines()
+        lines = self.log.read_text(errors="replace").splitlines()
         return [line for line in lines if "[WARN]" in line or "[ERROR]" in line]
 
     def stop(self) -> None:
