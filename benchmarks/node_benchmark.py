@@ -44,6 +44,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from kinematics_node.ros_env import (  # noqa: E402
+    clean_dead_shared_memory,
     executable,
     keep_discovery_local,
     local_ros_env,
@@ -598,6 +599,9 @@ def main() -> None:
         sys.exit(f"node_benchmark: cannot run the node here: {reason}")
     env = local_ros_env()
     env["PYTHONWARNINGS"] = "ignore"
+    # files of killed ROS processes stall every process's writes ~300 ms now and then (ros_env.py)
+    shared_memory = clean_dead_shared_memory()
+    print(shared_memory, file=sys.stderr)
     results: dict[str, dict[str, Any]] = {}
     phases = [
         ("echo, 1 kHz", "echo", "ur5e", 1000.0, {}),

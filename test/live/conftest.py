@@ -13,6 +13,15 @@ import pytest
 from live_node import Client, NodeProcess
 
 
+@pytest.fixture(scope="session", autouse=True)
+def no_dead_shared_memory() -> str:
+    """Shared-memory files of killed ROS processes (earlier runs on a developer's machine) would
+    stall this suite's writes ~300 ms now and then; removed once, before the first node starts."""
+    from kinematics_node.ros_env import clean_dead_shared_memory
+
+    return clean_dead_shared_memory()
+
+
 @pytest.fixture(scope="session")
 def client() -> Iterator[Client]:
     c = Client()
