@@ -540,6 +540,7 @@ def run_phase(
         ik = json.loads(ik_out.read_text())
         records, node_side = ik["calls"], ik["node"]
         answered = [r for r in records if r["answered"]]
+        reachable_elapsed = [r["elapsed"] for r in answered if not r["unreachable"]]
         result.update(
             ik_calls=len(records),
             ik_answers_per_s=len(answered) / (seconds - 2),
@@ -548,6 +549,9 @@ def run_phase(
             ik_reachable_unsolved=sum(1 for r in records if not r["unreachable"]
                                       and not r["success"]),
             ik_unreachable_solved=sum(1 for r in records if r["unreachable"] and r["success"]),
+            # how long a solvable target waits for its answer while the others burn their timeouts
+            ik_reachable_latency_median_ms=_percentile(reachable_elapsed, 0.5) * 1e3,
+            ik_reachable_latency_p99_ms=_percentile(reachable_elapsed, 0.99) * 1e3,
             ik_node_answered=int(node_side.get("ik_answered", -1)),
             ik_node_after_deadline=int(node_side.get("ik_after_deadline", -1)),
             ik_node_worst_after_deadline_ms=float(
@@ -684,7 +688,9 @@ def report(results: dict[str, dict[str, Any]]) -> None:
             print(f"{label}: {r['ik_calls']} IK calls, {r['ik_answers_per_s']:.0f} answers/s, "
                   f"{r['ik_late']} later than timeout + 20 ms (max {r['ik_latency_max_ms']:.1f} ms), "
                   f"{r['ik_reachable_unsolved']} reachable not solved, "
-                  f"{r['ik_unreachable_solved']} unreachable reported solved")
+                  f"{r['ik_unreachable_solved']} unreachable reported solved; reachable "
+                  f"answered in {r['ik_reachable_latency_median_ms']:.1f} ms median, "
+                  f"{r['ik_reachable_latency_p99_ms']:.1f} ms p99")
             print(f"{label}: at the node (its /diagnostics): {r['ik_node_answered']} solves "
                   f"answered, {r['ik_node_after_deadline']} after their deadline (worst "
                   f"{r['ik_node_worst_after_deadline_ms']:.1f} ms after); pool: "
