@@ -62,8 +62,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .core import IKOptions, SerialChain
+from .core import IKOptions, IKResult, SerialChain
 from .core.closed_form import export_family, import_family, pose_errors
+from .core.ik import solve_closed_form
 
 FloatArray = NDArray[np.float64]
 
@@ -171,13 +172,38 @@ def solve_job(job: IKJob) -> IKOutcome:
             return outcome
     left = job.deadline - time.monotonic()
     result = chain.ik(job.T_base_target, job.q_seed, replace(job.options, timeout=max(left, 1e-4)))
+    return _outcome(result, job.options.num_solutions)
+
+
+def solve_at_once(chain: SerialChain, job: IKJob) -> IKOutcome | None:
+    """`job`'s answer from the closed form, in the caller's thread, when it finds a solution at
+    its first try (`core.ik.solve_closed_form`: ~0.17 ms for a UR5e or an iiwa14, ~0.05 ms for
+    a miss); None otherwise, and then a worker solves the job. One solution asked only: the set
+    of several (`ik_all`) costs a UR5e ~0.7 ms.
+
+    Why in the node's thread: handing a job to a worker costs the node more than this (the job's
+    pickle, the pool's thread, the answer's hand-back), and a niced worker on a busy machine
+    waits for the CPU: in the IK phase of benchmarks/node_benchmark.py, reachable targets took
+    5-9 ms median and 14-33 ms p99 to be answered, and 0-3 per run were not solved by their
+    50 ms deadline, while each needs ~0.2 ms of CPU."""
+    opts = job.options
+    if opts.num_solutions != 1 or not _closed_form_applies(chain, opts):
+        return None
+    left = job.deadline - time.monotonic()
+    if left < MIN_SOLVE_TIME:
+        return None
+    result = solve_closed_form(chain, job.T_base_target, job.q_seed, replace(opts, timeout=left))
+    return None if result is None else _outcome(result, 1)
+
+
+def _outcome(result: IKResult, num_solutions: int) -> IKOutcome:
     q = np.asarray(result.q, dtype=np.float64)
     solutions: tuple[FloatArray, ...] = ()
     if result.success:
         found = [np.array(s, dtype=np.float64) for s in result.solutions]
         # q first, whatever the solver put in `solutions` (with one solution asked it may be empty)
         found = [q.copy()] + [s for s in found if not np.array_equal(s, q)]
-        solutions = tuple(found[: job.options.num_solutions])
+        solutions = tuple(found[:num_solutions])
     return IKOutcome(
         q=q,
         success=bool(result.success),

@@ -65,7 +65,7 @@ from msg_adapters import MessageTypes, matrix_from_transform
 
 from .core.exceptions import InvalidInputError, KinematicsError
 from .deferred import DeferredResponses
-from .ik_pool import IKOutcome, IKPool
+from .ik_pool import IKOutcome, IKPool, solve_at_once
 from .mailbox import Mailbox
 from .parameters import PARAMETERS, SPECS, STARTUP_ONLY, ParameterSpec
 from .ros_main import spin_until_shutdown
@@ -269,6 +269,12 @@ class KinematicsNode(Node):
         pending = self._logic.prepare_ik(request, response)
         if pending is None:
             return response  # refused or answered at once: rclpy sends it now
+        try:
+            outcome = solve_at_once(pending.chain, pending.job)  # the closed form, ~0.2 ms
+        except Exception:  # noqa: BLE001 - a worker solves it then, and reports what went wrong
+            outcome = None
+        if outcome is not None:
+            return self._logic.finish_ik(pending, outcome, response)
         try:
             self._pool.submit(
                 pending.job, lambda outcome: self._hand_back(pending, response, outcome)

@@ -154,6 +154,7 @@ class PendingIK:
     answer needs."""
 
     job: IKJob
+    chain: SerialChain  # the model's chain the job was made from (for `ik_pool.solve_at_once`)
     joint_names: tuple[str, ...]
     stamp: Any
     options: IKOptions
@@ -469,7 +470,7 @@ class KinematicsService:
             q_seed = self._q(model, chain, seed, current, "seed")
         key, blob = self._blob(chain)
         job = IKJob(key, blob, T_base_target, q_seed, options, arrival + options.timeout)
-        return PendingIK(job, chain.joint_names, request.target.header.stamp, options, note)
+        return PendingIK(job, chain, chain.joint_names, request.target.header.stamp, options, note)
 
     def _blob(self, chain: SerialChain) -> tuple[bytes, bytes]:
         """(key, blob) of `chain` for IK jobs, made once per chain of the model. The blob carries

@@ -293,3 +293,20 @@ def test_a_worker_exempts_its_inherited_heap_from_the_cyclic_gc():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     before, after = (int(v) for v in out.stdout.split())
     assert before == 0 and after > 10_000
+
+
+def test_solve_at_once_answers_a_reachable_target_as_a_worker_would_and_leaves_the_rest():
+    reachable = job(UR5E, REACHABLE, 0.05)
+    now = ik_pool.solve_at_once(UR5E, reachable)
+    assert now is not None and now.success and now.iterations == 0
+    by_worker = solve_job(reachable)
+    np.testing.assert_allclose(now.q, by_worker.q, atol=1e-12)
+    assert len(now.solutions) == 1 and np.array_equal(now.solutions[0], now.q)
+    np.testing.assert_allclose(UR5E.fk(now.q), REACHABLE, atol=1e-9)
+    # for a worker: no exact solution (the search may still find one within the tolerances),
+    # several solutions asked (the set), an arm without a closed form, no time left
+    assert ik_pool.solve_at_once(UR5E, job(UR5E, UNREACHABLE, 0.05)) is None
+    assert ik_pool.solve_at_once(UR5E, job(UR5E, REACHABLE, 0.05, num_solutions=2)) is None
+    assert ik_pool.solve_at_once(PLANAR, job(PLANAR, PLANAR.fk(np.zeros(3)), 0.05)) is None
+    late = job(UR5E, REACHABLE, 0.05, deadline=time.monotonic())
+    assert ik_pool.solve_at_once(UR5E, late) is None

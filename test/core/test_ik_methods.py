@@ -278,3 +278,55 @@ def test_importing_a_family_that_does_not_fit_is_refused():
     for bad in [("three_parallel", "", False, 3), ("nonsense", "", False, None), (1, 2)]:
         with pytest.raises(InvalidInputError, match="not an exported closed-form family"):
             closed_form.import_family(SerialChain.from_poe(chain.S, chain.M), bad)
+
+
+# ---------------------------------------------------------------------- solve_closed_form
+@pytest.mark.parametrize("name", ["ur5", "puma", "iiwa14"])
+def test_solve_closed_form_is_ik_s_answer_where_the_first_try_finds_one(name):
+    """Where it answers, the same configuration `ik` gives with the closed form alone (for 7R:
+    the held joint at the seed's value); where it does not, the first try has no solution."""
+    from kinematics_node.core.ik import solve_closed_form
+
+    chain = chain_of(name)
+    rng = np.random.default_rng(11)
+    only = IKOptions(method="closed_form", position_tolerance=TOL, orientation_tolerance=TOL)
+    answered = 0
+    for q, seed in zip(random_q(chain, rng, 60), random_q(chain, rng, 60), strict=True):
+        T = chain.fk(q)
+        res = solve_closed_form(chain, T, seed, only)
+        if res is None:
+            assert chain.ik_family.startswith("7r")  # a 6R arm's closed form is exhaustive
+            held = family_of(chain).held_joint
+            at_seed = seed[chain.joint_names.index(held)]
+            assert not chain.ik_all(T, held=[at_seed]).solutions
+            continue
+        answered += 1
+        assert res.success and reproduces(chain, res.q, T, TOL)
+        np.testing.assert_allclose(res.q, chain.ik(T, seed, only).q, atol=1e-12)
+    assert answered >= 30
+
+
+def test_solve_closed_form_gives_none_where_ik_would_search_or_has_nothing():
+    from kinematics_node.core.ik import solve_closed_form
+
+    chain = chain_of("ur5")
+    T = chain.fk(random_q(chain, np.random.default_rng(2)))
+    assert solve_closed_form(chain, T) is not None
+    for options in (
+        IKOptions(method="numeric"),
+        IKOptions(position_only=True),
+        IKOptions(weights=(1, 1, 0, 1, 1, 1)),
+    ):
+        assert solve_closed_form(chain, T, options=options) is None, options
+    assert solve_closed_form(chain, ur_hole_target()) is None  # unreachable, inside the sphere
+    far = np.eye(4)
+    far[:3, 3] = (5.0, 0.0, 0.0)
+    assert solve_closed_form(chain, far) is None
+    from core.test_closed_form import PUMA, dh_arm
+
+    rows = [list(r) for r in PUMA]
+    rows[4][0] = 1e-3  # an offset wrist: no closed form
+    offset = dh_arm(rows)
+    assert solve_closed_form(offset, offset.fk(random_q(offset, np.random.default_rng(2)))) is None
+    with pytest.raises(InvalidInputError):
+        solve_closed_form(chain, np.full((4, 4), np.nan))

@@ -131,3 +131,32 @@ def test_ik_answers_come_back_while_joint_states_stream_at_1_khz(client, start_n
                 assert np.abs(CHAIN.fk(q) - T).max() < 1e-5
     finally:
         streaming.clear()
+
+
+def test_a_reachable_target_is_answered_while_every_worker_searches(client, start_node):
+    """Both IK workers search unreachable targets for 3 s; a reachable target with a 100 ms
+    timeout is still solved in time: the node answers it from the closed form in its own thread
+    (`ik_pool.solve_at_once`). Queued for a worker, it would expire unsolved."""
+    from kin_testing import ur_hole_target
+
+    from kinematics_node.core.ik import solve_closed_form
+
+    start_node(robot_description=ur5e_description(), ik__workers=2)
+    client.call(ComputeIK, "compute_ik", ik_request(CHAIN.fk(np.zeros(6))), 10.0)  # discovery
+    searchers = client.node.create_client(ComputeIK, "compute_ik")
+    busy = [searchers.call_async(ik_request(ur_hole_target(), timeout=3.0)) for _ in range(2)]
+    time.sleep(0.3)  # both are with the workers now
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        T = CHAIN.fk(rng.uniform(CHAIN.lower, CHAIN.upper))
+        assert solve_closed_form(CHAIN, T) is not None  # the closed form answers it
+        t0 = time.monotonic()
+        resp = client.call(ComputeIK, "compute_ik", ik_request(T, timeout=0.1), 5.0)
+        elapsed = time.monotonic() - t0
+        assert resp.success, resp.message
+        assert elapsed <= 0.1 + 0.1, f"answered after {elapsed:.3f} s"
+        assert np.abs(CHAIN.fk(np.array(resp.solution.position)) - T).max() < 1e-9
+    assert not any(f.done() for f in busy), "the searches were still running"
+    wait_until(lambda: all(f.done() for f in busy), 10.0, "the 3 s searches answered")
+    assert not any(f.result().success for f in busy)
+    client.node.destroy_client(searchers)
