@@ -21,7 +21,10 @@ setup(
     # Bundled robots and parameters land where a colcon install puts them too (share/<package>/config);
     # kinematics_node.robots looks there, and in the source tree for editable installs.
     data_files=[
-        ("share/kinematics_service/config", sorted(glob("config/*.yaml") + glob("config/*.rviz"))),
+        (
+            "share/kinematics_service/config",
+            sorted(glob("config/*.yaml") + glob("config/*.rviz") + glob("config/*.xml")),
+        ),
         ("share/kinematics_service/config/robots", sorted(glob("config/robots/*"))),
     ],
     install_requires=["numpy>=1.23", "scipy>=1.9", "yourdfpy>=0.0.53"],

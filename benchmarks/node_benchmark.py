@@ -414,11 +414,13 @@ class System:
             raise RuntimeError(f"{kind} node exited at start-up")
 
     def warnings(self) -> list[str]:
-        """The node's warnings and errors (our node's log; none for the echo)."""
+        """The node's warnings and errors, rclpy's and Fast DDS's (our node's log; none for the
+        echo)."""
         if self.log is None or not self.log.exists():
             return []
         lines = self.log.read_text(errors="replace").splitlines()
-        return [line for line in lines if "[WARN]" in line or "[ERROR]" in line]
+        marks = ("[WARN]", "[ERROR]", " Warning]", " Error]")  # (Fast DDS: "[SHM Warning]")
+        return [line for line in lines if any(mark in line for mark in marks)]
 
     def stop(self) -> None:
         self.process.send_signal(signal.SIGINT)

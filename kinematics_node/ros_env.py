@@ -4,6 +4,8 @@
   network interface. `local_ros_env` sets ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST (Jazzy and later;
   on Humble, ROS_LOCALHOST_ONLY=1) and a ROS_DOMAIN_ID of the run's own, so parallel runs do not
   see each other. Call `keep_discovery_local` before `rclpy.init` in the calling process too.
+* Fast DDS's profile: `local_ros_env` also names config/fastdds_profile.xml (unless a profile
+  is named already), whose short shared-memory health check keeps writes from stalling ~333 ms.
 * Shared memory left by dead processes: `clean_dead_shared_memory` runs Fast DDS's own
   `fastdds shm clean` before a benchmark or a live test session (see its docstring for why).
 * The package's executables: from `tools/ros-from-pypi`'s environment (`KINEMATICS_*_EXECUTABLE`,
@@ -27,6 +29,13 @@ _EXECUTABLE_VARIABLES = {
 }
 
 
+#: Fast DDS profile for every process that talks to the node (why: in the file). Where the
+#: source tree is not at hand (an installed package), share/kinematics_service/config has it.
+FASTDDS_PROFILE = Path(__file__).resolve().parents[1] / "config" / "fastdds_profile.xml"
+#: The variables that name a Fast DDS profile file: Fast DDS 2.x (Humble, Jazzy) and 3.x.
+FASTDDS_PROFILE_VARIABLES = ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE")
+
+
 def run_domain_id() -> int:
     """A ROS_DOMAIN_ID for this run: from the process id, in 100..199 (valid for Fast DDS's port
     mapping, and away from the default 0 that other ROS users on the machine share)."""
@@ -43,13 +52,28 @@ def local_ros_env(
     if env.get("ROS_DISTRO", "").lower() == "humble":  # Humble predates the discovery range
         env["ROS_LOCALHOST_ONLY"] = "1"
     env["ROS_DOMAIN_ID"] = str(run_domain_id() if domain_id is None else domain_id)
+    env.update(fastdds_profile_env(FASTDDS_PROFILE, env))
     return env
+
+
+def fastdds_profile_env(
+    profile: Path | str = FASTDDS_PROFILE, base: Mapping[str, str] | None = None
+) -> dict[str, str]:
+    """The variables that give a child process the Fast DDS profile `profile` (the package's,
+    config/fastdds_profile.xml, which says why), or {} where `base` (default: this process's
+    environment) names a profile already, or where the file is missing. The launch files use
+    it with the installed package's copy."""
+    env = os.environ if base is None else base
+    if not Path(profile).is_file() or any(env.get(v) for v in FASTDDS_PROFILE_VARIABLES):
+        return {}
+    return {variable: str(profile) for variable in FASTDDS_PROFILE_VARIABLES}
 
 
 def keep_discovery_local(domain_id: int | None = None) -> int:
     """Apply `local_ros_env` to this process (before `rclpy.init`); returns the domain id."""
     env = local_ros_env(domain_id)
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOCALHOST_ONLY", "ROS_DOMAIN_ID"):
+    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOCALHOST_ONLY", "ROS_DOMAIN_ID",
+                *FASTDDS_PROFILE_VARIABLES):
         if key in env:
             os.environ[key] = env[key]
     return int(env["ROS_DOMAIN_ID"])

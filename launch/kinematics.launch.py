@@ -19,6 +19,8 @@ from launch_ros.substitutions import FindPackageShare
 
 from launch import LaunchDescription
 
+from kinematics_node.ros_env import fastdds_profile_env
+
 
 def _kinematics_node(context, *args, **kwargs):
     overrides = {}
@@ -39,6 +41,13 @@ def _kinematics_node(context, *args, **kwargs):
             namespace=LaunchConfiguration("namespace"),
             parameters=[LaunchConfiguration("params_file"), overrides],
             output="screen",
+            # Fast DDS's short shared-memory health check (config/fastdds_profile.xml says why),
+            # unless the environment names a profile
+            additional_env=fastdds_profile_env(
+                PathJoinSubstitution(
+                    [FindPackageShare("kinematics_service"), "config", "fastdds_profile.xml"]
+                ).perform(context)
+            ),
         )
     ]
 

@@ -23,6 +23,7 @@ from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 
 from kinematics_node.robots import default_chain_links
+from kinematics_node.ros_env import fastdds_profile_env
 
 PACKAGE = "kinematics_service"
 
@@ -41,6 +42,8 @@ def _nodes(context, *args, **kwargs):
     base_link = LaunchConfiguration("base_link").perform(context) or default_base
     tip_link = LaunchConfiguration("tip_link").perform(context) or default_tip
     rate = float(LaunchConfiguration("rate").perform(context))
+    # Fast DDS's short shared-memory health check, unless the environment names a profile
+    env = fastdds_profile_env(os.path.join(share, "config", "fastdds_profile.xml"))
 
     return [
         Node(
@@ -49,6 +52,7 @@ def _nodes(context, *args, **kwargs):
             name="robot_state_publisher",
             parameters=[{"robot_description": robot_description}],
             output="screen",
+            additional_env=env,
         ),
         Node(
             package=PACKAGE,
@@ -56,6 +60,7 @@ def _nodes(context, *args, **kwargs):
             name="sim_arm",
             parameters=[{"robot": robot, "rate": rate}],
             output="screen",
+            additional_env=env,
         ),
         Node(
             package=PACKAGE,
@@ -70,6 +75,7 @@ def _nodes(context, *args, **kwargs):
                 },
             ],
             output="screen",
+            additional_env=env,
         ),
         Node(
             package="rviz2",
@@ -78,6 +84,7 @@ def _nodes(context, *args, **kwargs):
             arguments=["-d", os.path.join(share, "config", "sim_arm.rviz"), "-f", base_link],
             condition=IfCondition(LaunchConfiguration("rviz")),
             output="screen",
+            additional_env=env,
         ),
     ]
 
