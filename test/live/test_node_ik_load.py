@@ -87,10 +87,11 @@ def test_ik_timeouts_hold_with_four_clients_at_once(client, start_node):
 def test_ik_answers_come_back_while_joint_states_stream_at_1_khz(client, start_node):
     """While joint_states stream (here ~1 kHz), the node collects IK answers on the stream's own
     executor turns instead of being woken for each (`kinematics_node.mailbox`); when the stream
-    stops, it is woken again. Answers must arrive by their timeout (+ 500 ms of slack: on this
-    shared machine rclpy's `Service.send_response` now and then blocks ~300 ms holding the GIL,
-    issue 10, measured by benchmarks/node_benchmark.py) either way, and reproduce their targets.
-    An answer left behind in the mailbox would wait for the client's 5 s."""
+    stops, it is woken again. Answers must arrive by their timeout (+ 500 ms of slack: a write
+    can block ~333 ms in Fast DDS's shared-memory health check where a process lacks the
+    package's profile, issue 10; lateness is measured by benchmarks/node_benchmark.py) either
+    way, and reproduce their targets. An answer left behind in the mailbox would wait for the
+    client's 5 s."""
     from sensor_msgs.msg import JointState
 
     start_node(robot_description=ur5e_description())
