@@ -605,7 +605,7 @@ def main() -> None:
         sys.exit(f"node_benchmark: cannot run the node here: {reason}")
     env = local_ros_env()
     env["PYTHONWARNINGS"] = "ignore"
-    # files of killed ROS processes stall every process's writes ~300 ms now and then (ros_env.py)
+    # files of killed ROS processes: every run starts from the same state (ros_env.py says why)
     shared_memory = clean_dead_shared_memory()
     print(shared_memory, file=sys.stderr)
     results: dict[str, dict[str, Any]] = {}

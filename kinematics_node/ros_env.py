@@ -91,13 +91,13 @@ def clean_dead_shared_memory() -> str:
     `fastdds shm clean`, which removes only files whose owner's lock is gone. Returns one line
     saying what it removed, or why nothing was done.
 
-    Why: while a dead process's port file is still there, a live participant that opens it (its
-    event thread sending an ACKNACK or an announcement there) waits for the port's interprocess
-    mutex, about 300 ms here, and holds the participant's send lock meanwhile. Every write of that
-    participant, a publish or a service response, blocks behind it, holding the GIL in rclpy.
-    Measured in the IK phase of `benchmarks/node_benchmark.py` (issue #10): with 140 such files
-    left by earlier sessions, 4 of 31 runs had the node's `send_response` stall 300-400 ms; after
-    this clean, none in 10; with 6 rclpy processes SIGKILLed before, 1 of the next 6 again.
+    Why: such files pile up (140 here, from earlier sessions' killed runs), and a participant
+    that meets one (its port number reused, or an announcement sent there) has to find out that
+    it is dead and replace it while holding its send lock, so every run starts from a different
+    state. Whether they add to the ~333 ms write stalls of issue #10 is not settled: with the
+    140 files, 4 of 31 runs of the benchmark's IK phase had one; after this clean, none in 10;
+    but the stalls' main cause, Fast DDS's health-check interval (config/fastdds_profile.xml),
+    alone gave about one run in five.
     """
     tool = fastdds_tool()
     if tool is None:

@@ -15,8 +15,9 @@ from live_node import Client, NodeProcess
 
 @pytest.fixture(scope="session", autouse=True)
 def no_dead_shared_memory() -> str:
-    """Shared-memory files of killed ROS processes (earlier runs on a developer's machine) would
-    stall this suite's writes ~300 ms now and then; removed once, before the first node starts."""
+    """Shared-memory files of killed ROS processes (earlier runs on a developer's machine),
+    removed once before the first node starts, so every session starts from the same state
+    (`ros_env.clean_dead_shared_memory` says why)."""
     from kinematics_node.ros_env import clean_dead_shared_memory
 
     return clean_dead_shared_memory()
