@@ -24,8 +24,9 @@ timeout; `time.monotonic` is the system-wide CLOCK_MONOTONIC, the same in every 
 solves with the time left, less a few ms (`ANSWER_MARGIN`) for its answer to reach the node, so
 time spent waiting in the queue counts against the timeout, and a queued job whose deadline comes
 before a worker is free is answered as timed out without being sent. A job still running `grace`
-seconds after its deadline (a starved or stopped worker) is answered as timed out then; the
-worker's own answer, when it comes, is dropped. A worker that dies (killed, out of memory) has its
+seconds after its deadline (a starved or stopped worker) is answered as timed out then (with a
+negative grace, before the deadline, but never before the worker's own stop + `WORKER_SLACK`);
+the worker's own answer, when it comes, is dropped. A worker that dies (killed, out of memory) has its
 job answered as failed and is replaced; one that has not answered `HUNG_AFTER` seconds after its
 job's deadline is killed and replaced. So `on_done` is called exactly once per job, by its
 deadline + grace at the latest, from the pool's thread (for jobs still open at `shutdown`, from
@@ -77,6 +78,8 @@ MIN_SOLVE_TIME = 5e-4
 #: 15-22 ms after); at 8 ms, 5 % (worst 14 ms after) [s].
 ANSWER_MARGIN = 0.008
 ANSWER_SHARE = 0.2
+#: With a negative `grace`, a job is still given this long after its worker's own stop [s].
+WORKER_SLACK = 0.001
 #: A worker that has not answered this long after its job's deadline is killed and replaced [s].
 HUNG_AFTER = 5.0
 #: After a failed start of a worker process, the next attempt waits this long [s].
@@ -324,10 +327,11 @@ class _Open:
     """A submitted job and whom to tell; `answered` flips once, under the pool's lock, and the one
     who flips it calls `on_done` (after releasing the lock)."""
 
-    __slots__ = ("job", "on_done", "answered")
+    __slots__ = ("job", "on_done", "answered", "due")
 
     def __init__(self, job: IKJob, on_done: Callable[[IKOutcome], None]) -> None:
         self.job, self.on_done, self.answered = job, on_done, False
+        self.due = job.deadline  # answered as timed out then if its worker has not answered
 
 
 class _Worker:
@@ -350,11 +354,12 @@ class IKPool:
         workers: number of processes (solves that run at once; more jobs wait in a queue).
         niceness: added to the workers' nice value (0 = same priority as the caller; 19 = run
             only on what normal-priority work leaves, at about 1.5 % of a contended core).
-        grace: how long after a job's deadline a job still running is answered as timed out [s].
-            0 (the default): a caller's deadline is kept even when a niced worker is starved.
-            Measured in the IK phase of benchmarks/node_benchmark.py: with 10 ms, 9 answers in 6
-            runs reached the clients later than timeout + 20 ms (3 reachable targets unsolved);
-            with 0, 2 in 9 runs (9 unsolved: their workers got no CPU before the deadline).
+        grace: how long after a job's deadline a job still running is answered as timed out [s];
+            negative: that long before it, but not before the worker's own stop + WORKER_SLACK.
+            0 (the default) keeps a caller's deadline even when a niced worker is starved; the
+            node passes a few ms less (`node.EARLY_ANSWER`), for the answer's way out. Measured
+            in the IK phase of benchmarks/node_benchmark.py: with 10 ms, 9 answers in 6 runs
+            reached the clients later than timeout + 20 ms; with 0, 2 in 9 runs.
 
     Locking: `_lock` guards every field below that `submit` and the pool's thread share; neither
     calls `on_done` while holding it. Only the pool's thread reads the workers' pipes; a worker's
@@ -514,6 +519,8 @@ class IKPool:
             w.keys[key] = None
             self._stats.chain_blobs_sent += 1
         w.open = o
+        # never before the worker's own stop (plus WORKER_SLACK to hear from it)
+        o.due = max(job.deadline + self._grace, sent.deadline + WORKER_SLACK)
         self._stats.sent += 1
         return True
 
@@ -573,7 +580,7 @@ class IKPool:
             o = w.open
             if o is None or w.killed:
                 continue
-            if not o.answered and o.job.deadline + self._grace <= now:
+            if not o.answered and o.due <= now:
                 self._stats.overdue += 1
                 self._settle_locked(o, _timed_out("no IK worker answered before the deadline"))
             if o.job.deadline + HUNG_AFTER <= now:
@@ -587,7 +594,7 @@ class IKPool:
         for w in self._all:
             o = w.open
             if o is not None and not w.killed:
-                t = min(t, o.job.deadline + (HUNG_AFTER if o.answered else self._grace))
+                t = min(t, o.job.deadline + HUNG_AFTER if o.answered else o.due)
         if self._missing:
             t = min(t, self._retry_at)
         return t

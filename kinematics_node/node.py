@@ -109,6 +109,10 @@ NO_SUBSCRIPTION_EVENTS = SubscriptionEventCallbacks(use_default_callbacks=False)
 #: which collects it (`Mailbox`), instead of waking the executor for it. (At 500 Hz one comes
 #: every 2 ms.)
 STREAMING_GAP = 0.0025
+#: A job whose worker has not answered this long before its deadline is answered as timed out
+#: then (never before the worker's own stop): the answer's way out of a busy node (pool thread,
+#: mailbox, executor) took up to 13-15 ms on the benchmark's saturated 2 CPUs [s].
+EARLY_ANSWER = 0.004
 #: An IK answer sent this long after its deadline is logged (with where the time went) [s].
 LATE_ANSWER_WARNING = 0.02
 #: Seconds between two log lines about the same joint_states problem.
@@ -162,7 +166,7 @@ class KinematicsNode(Node):
             self._load(values["robot_description"], "the robot_description parameter")
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
-        self._pool = IKPool(int(values["ik.workers"]) or _default_workers())
+        self._pool = IKPool(int(values["ik.workers"]) or _default_workers(), grace=-EARLY_ANSWER)
         self._pool.warm_up()  # start the workers now: starting one later would block this thread
         # One thread runs everything, so callbacks never overlap. The group is reentrant so that
         # rclpy needs no bookkeeping of which callback of the group may run.

@@ -310,3 +310,28 @@ def test_solve_at_once_answers_a_reachable_target_as_a_worker_would_and_leaves_t
     assert ik_pool.solve_at_once(PLANAR, job(PLANAR, PLANAR.fk(np.zeros(3)), 0.05)) is None
     late = job(UR5E, REACHABLE, 0.05, deadline=time.monotonic())
     assert ik_pool.solve_at_once(UR5E, late) is None
+
+
+def test_a_negative_grace_answers_before_the_deadline_but_never_before_the_worker_stops(
+    monkeypatch,
+):
+    """The node answers a job its (stopped, as if starved) worker has not answered a little
+    before the deadline, so that the answer's way out of the node still fits in the timeout;
+    but never before the worker's own stop (+ WORKER_SLACK): its answer gets its chance."""
+    monkeypatch.setattr(ik_pool, "ANSWER_MARGIN", 0.5)  # the worker stops 0.4 s early (20 %)
+    p = IKPool(1, grace=-1.0)
+    p.warm_up()
+    [pid] = p.worker_pids()
+    os.kill(pid, signal.SIGSTOP)
+    try:
+        a = Answers()
+        submitted = job(UR5E, UNREACHABLE, 2.0)
+        p.submit(submitted, a)
+        assert a.done.wait(5)
+        assert "timeout" in a.outcome.message and p.stats().overdue == 1
+        worker_stop = submitted.deadline - 0.4
+        assert worker_stop + ik_pool.WORKER_SLACK - 0.01 <= a.at, a.at - submitted.deadline
+        assert a.at <= submitted.deadline - 0.2, a.at - submitted.deadline  # not at the deadline
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    p.shutdown()
