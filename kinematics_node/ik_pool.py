@@ -594,7 +594,7 @@ class IKPool:
         for w in self._all:
             o = w.open
             if o is not None and not w.killed:
-                t = min(t, o.job.deadline + HUNG_AFTER if o.answered else o.due)
+                t = min(t, (o.job.deadline + HUNG_AFTER) if o.answered else o.due)
         if self._missing:
             t = min(t, self._retry_at)
         return t

@@ -134,11 +134,7 @@ def solve(
             the wrong length or a non-finite value, or options do not fit the chain.
     """
     opts = _options(options)
-    T = chain.check_target(T_target)
-    if T.shape != (4, 4):
-        raise InvalidInputError(
-            f"T_target must have shape (4, 4) (use ik_batch for many), got {T.shape}"
-        )
+    T = _one_target(chain, T_target)
     start = time.perf_counter()  # before `_prepared`: a chain's first call detects its family
     problem, closed, default = _prepared(chain, opts)
     seed = default if q_seed is None else check_seed(chain, q_seed, "q_seed", None)
@@ -168,9 +164,7 @@ def solve_closed_form(
     opts = _options(options)
     if opts.method == "numeric":
         return None
-    T = chain.check_target(T_target)
-    if T.shape != (4, 4):
-        raise InvalidInputError(f"T_target must have shape (4, 4), got {T.shape}")
+    T = _one_target(chain, T_target)
     start = time.perf_counter()
     problem, closed, default = _prepared(chain, replace(opts, method="closed_form"))
     if closed.blocker:
@@ -180,6 +174,16 @@ def solve_closed_form(
     if not found.solutions:
         return None
     return _closed_form_result(found, problem, T, seed, start)
+
+
+def _one_target(chain: KinematicChain, T_target: ArrayLike) -> FloatArray:
+    """T_target checked as one finite rigid transform (InvalidInputError otherwise)."""
+    T = chain.check_target(T_target)
+    if T.shape != (4, 4):
+        raise InvalidInputError(
+            f"T_target must have shape (4, 4) (use ik_batch for many), got {T.shape}"
+        )
+    return T
 
 
 def beyond_reach(chain: KinematicChain, T: FloatArray, opts: IKOptions) -> str:
