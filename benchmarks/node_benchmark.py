@@ -196,14 +196,17 @@ def role_receiver(out: str, expect_twist: bool) -> None:
     from kinematics_node.executor import LeanExecutor
 
     node = rclpy.create_node("bench_receiver")
-    got: dict[str, list[tuple[int, int]]] = {"pose": [], "twist": []}
+    got: dict[str, list[tuple[int, int, int]]] = {"pose": [], "twist": []}
 
     def recorder(key: str):  # noqa: ANN202
         bucket = got[key]
 
-        def record(msg: Any) -> None:
+        def record(msg: Any, info: Any) -> None:  # (two parameters: rclpy passes MessageInfo)
             s = msg.header.stamp
-            bucket.append((s.sec * 1_000_000_000 + s.nanosec, time.time_ns()))
+            # the stamp (the joint_states' send time), the node's send time (DDS's source
+            # timestamp, same clock on one machine) and the arrival here
+            sent = info["source_timestamp"]
+            bucket.append((s.sec * 1_000_000_000 + s.nanosec, sent, time.time_ns()))
 
         return record
 
@@ -511,12 +514,17 @@ def run_phase(
         result["slow_ik_seconds"] = (s["end"] - s["start"]) * 1e-9
         result["slow_ik_at_s"] = (s["start"] - first) * 1e-9 + WARM_UP_S if sent else math.nan
     for key in ("pose", "twist"):
-        pairs = [(st, arr) for st, arr in got[key] if st >= first]
+        triples = [(st, out, arr) for st, out, arr in got[key] if st >= first]
+        pairs = [(st, arr) for st, _, arr in triples]
         stamps = {st for st, _ in pairs}
         lat = [(arr - st) * 1e-6 for st, arr in pairs]
         result[f"{key}_answered"] = len(stamps) / sent if sent else math.nan
         result[f"{key}_latency_median_ms"] = statistics.median(lat) if lat else math.nan
         result[f"{key}_latency_p99_ms"] = _percentile(lat, 0.99)
+        if key == "pose":  # where the slow 1 % spent its time: until the node sent it, or after
+            slow = sorted(triples, key=lambda t: t[2] - t[0])[-max(len(triples) // 100, 1):]
+            result["pose_p99_in_node_ms"] = _percentile([(o - s) * 1e-6 for s, o, _ in slow], 0.5)
+            result["pose_p99_after_ms"] = _percentile([(a - o) * 1e-6 for _, o, a in slow], 0.5)
         if key == "pose":  # the worst moment: where the unanswered and the slow samples are
             run = longest = 0
             at = 0.0
@@ -699,6 +707,10 @@ def report(results: dict[str, dict[str, Any]]) -> None:
                   f"{r['ik_pool_expired_in_queue']} expired in its queue, {r['ik_pool_overdue']} "
                   f"answered as overdue, {r['ik_pool_workers_lost']} workers lost; the clients' "
                   f"own process stalled up to {r['ik_clients_worst_stall_ms']:.0f} ms")
+        if "pose_p99_in_node_ms" in r:
+            print(f"{label}: the slowest 1 % of ee_pose took {r['pose_p99_in_node_ms']:.2f} ms "
+                  f"from the joint_states' stamp to the node's send and "
+                  f"{r['pose_p99_after_ms']:.2f} ms from there to the receiver (medians)")
         if r.get("pose_longest_unanswered_run", 0) > 1 or r.get("pose_latency_p99_ms", 0) > 10:
             print(f"{label}: longest run of unanswered samples {r['pose_longest_unanswered_run']}"
                   f" (ending {r['pose_longest_unanswered_at_s']:.2f} s into the phase), slowest "
