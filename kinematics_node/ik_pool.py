@@ -3,11 +3,18 @@
 Why processes: the node's pose path must keep up with 1 kHz joint_states, and a Python thread that
 runs IK in the same process holds the GIL away from it (measured in ../shared/ROS2_FROM_PYPI.md:
 69 % of messages answered instead of 100 %). So IK runs in worker processes at the lowest CPU
-priority (nice 19), so the pose path keeps its core whenever it has work, and the solves share
-what is left. (Measured with benchmarks/node_benchmark.py, 4 IK clients at 500 Hz joint_states:
-nice 10 let the workers delay joint_states by up to 14 ms at the node; nice 19 kept that under
-10 ms and every IK answer in time. SCHED_IDLE did as well for the poses but starved some reachable
-solves.)
+priority, so the pose path keeps its core whenever it has work, and the solves share what is
+left: nice 19 and, on Linux, the SCHED_IDLE policy (which runs a task only on CPU time that no
+normal task wants). Measured with benchmarks/node_benchmark.py, 4 IK clients at 500 Hz
+joint_states, on a shared 2-core machine where the harness's own processes take most of a core:
+in the episodes where pose latency built up to 25-200 ms, the node's thread was runnable but
+waiting for a core 30-45 % of the time (/proc/<tid>/schedstat), while the nice-19 workers ran
+(42 % of a core in one such episode). Over 14 alternating pairs of runs, the pose p99 was over 10 ms in 5 runs with SCHED_IDLE and in
+12 with nice 19 alone (medians 9.0 and 36.6 ms), and IK answers came later than timeout + 20 ms
+in 4 runs (9 answers) against 9 (52). (One plausible reason: the scheduler places a waking thread
+on an idle core, and it counts a core that runs only SCHED_IDLE tasks as idle, but not one that
+runs a nice-19 task.) Before reachable targets were solved in the node's own thread, SCHED_IDLE
+starved some of their solves; now most never reach a worker.
 
 Mechanics, chosen to cost the node's process (and its GIL) as little as possible: each worker is a
 process forked from a fork server that has imported the core, joined to the node by one duplex
@@ -19,8 +26,8 @@ overdue jobs, and replaces workers that die or hang. (`concurrent.futures.Proces
 needed a feeder and a management thread, pickled through a shared queue and sent the chain with
 every job: about twice the node-side CPU per job.)
 
-Deadlines: a job carries the monotonic time by which it must be answered (request arrival +
-timeout; `time.monotonic` is the system-wide CLOCK_MONOTONIC, the same in every process). A worker
+Deadlines: a job carries the monotonic time by which it must be answered (the client's send of
+the request + its timeout, `service.prepare_ik`; `time.monotonic` is the system-wide CLOCK_MONOTONIC, the same in every process). A worker
 solves with the time left, less a few ms (`ANSWER_MARGIN`) for its answer to reach the node, so
 time spent waiting in the queue counts against the timeout, and a queued job whose deadline comes
 before a worker is free is answered as timed out without being sent. A job still running `grace`
@@ -139,10 +146,15 @@ _chains: dict[Any, SerialChain] = {}
 _CHAINS_KEPT = 4
 
 
-def _init_worker(niceness: int) -> None:
+def _init_worker(niceness: int, idle: bool) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when workers stop
     if niceness:
         os.nice(niceness)
+    if idle and hasattr(os, "SCHED_IDLE"):  # (Linux)
+        try:
+            os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+        except OSError:
+            pass  # not allowed here (a seccomp profile): the nice value alone
     # Exempt the heap inherited from the fork server (numpy, the core: ~80k objects) from the
     # cyclic GC, as the node does with its own: a full collection of it took 34-38 ms, most of
     # a 50 ms IK timeout, and came at random inside solves. (freeze is O(1): it touches no object,
@@ -278,11 +290,11 @@ def _timed_out(reason: str) -> IKOutcome:
 _failed = IKOutcome.failed
 
 
-def _serve(conn: Connection, niceness: int) -> None:
+def _serve(conn: Connection, niceness: int, idle: bool) -> None:
     """A worker process: answer each job that arrives on `conn` with its `IKOutcome`, until the
     pool closes the pipe. A message is (job without its chain blob, the blob when this worker has
     not seen the job's key yet, else None, a key whose blob to forget or None)."""
-    _init_worker(niceness)
+    _init_worker(niceness, idle)
     blobs: dict[Any, bytes] = {}  # the pool tracks this worker's keys, and says which to forget
     while True:
         try:
@@ -348,7 +360,7 @@ class _Worker:
 
 
 class IKPool:
-    """Runs `IKJob`s in `workers` processes at CPU priority `nice` and calls back by each deadline.
+    """Runs `IKJob`s in `workers` low-priority processes and calls back by each deadline.
 
     Args:
         workers: number of processes (solves that run at once; more jobs wait in a queue).
@@ -360,17 +372,22 @@ class IKPool:
             node passes a few ms less (`node.EARLY_ANSWER`), for the answer's way out. Measured
             in the IK phase of benchmarks/node_benchmark.py: with 10 ms, 9 answers in 6 runs
             reached the clients later than timeout + 20 ms; with 0, 2 in 9 runs.
+        idle: also run the workers under Linux's SCHED_IDLE policy (elsewhere, or where it is
+            not allowed: the nice value alone); see the module docstring.
 
     Locking: `_lock` guards every field below that `submit` and the pool's thread share; neither
     calls `on_done` while holding it. Only the pool's thread reads the workers' pipes; a worker's
     pipe is written only while the worker is idle, under the lock.
     """
 
-    def __init__(self, workers: int, niceness: int = 19, grace: float = 0.0) -> None:
+    def __init__(
+        self, workers: int, niceness: int = 19, grace: float = 0.0, idle: bool = True
+    ) -> None:
         if workers < 1:
             raise ValueError(f"workers must be >= 1, got {workers}")
         self.workers = workers
         self._niceness = niceness
+        self._sched_idle = idle
         self._grace = grace
         self._lock = threading.Lock()
         self._start_lock = threading.Lock()  # one warm_up at a time
@@ -406,7 +423,7 @@ class IKPool:
             error: BaseException | None = None
             try:
                 for _ in range(count):
-                    started.append(_start_worker(self._niceness))
+                    started.append(_start_worker(self._niceness, self._sched_idle))
             except Exception as exc:  # noqa: BLE001 - the thread retries; the caller hears of it
                 error = exc
             with self._lock:
@@ -692,7 +709,7 @@ class IKPool:
                     return
                 self._missing -= 1
             try:
-                w = _start_worker(self._niceness)
+                w = _start_worker(self._niceness, self._sched_idle)
             except Exception:
                 _log.exception("cannot start an IK worker; trying again in %g s", RESTART_BACKOFF)
                 with self._lock:
@@ -711,14 +728,16 @@ def _solve_until(deadline: float, now: float) -> float:
     return deadline - min(ANSWER_MARGIN, ANSWER_SHARE * max(deadline - now, 0.0))
 
 
-def _start_worker(niceness: int) -> _Worker:
+def _start_worker(niceness: int, idle: bool) -> _Worker:
     ctx = multiprocessing.get_context("forkserver")
     # Workers fork from a server that has imported the core once, so each starts in ~10 ms.
     # "__main__" too: a worker otherwise re-imports the main script (the node's, with rclpy)
     # by itself; imported once in the server, the workers inherit it.
     ctx.set_forkserver_preload(["__main__", "kinematics_node.core", "kinematics_node.ik_pool"])
     ours, theirs = ctx.Pipe(duplex=True)
-    process = ctx.Process(target=_serve, args=(theirs, niceness), name="ik-worker", daemon=True)
+    process = ctx.Process(
+        target=_serve, args=(theirs, niceness, idle), name="ik-worker", daemon=True
+    )
     try:
         process.start()
     finally:

@@ -287,7 +287,7 @@ def test_a_worker_exempts_its_inherited_heap_from_the_cyclic_gc():
 
     code = (
         "import gc; import kinematics_node.core; from kinematics_node import ik_pool; "
-        "before = gc.get_freeze_count(); ik_pool._init_worker(0); "
+        "before = gc.get_freeze_count(); ik_pool._init_worker(0, False); "
         "print(before, gc.get_freeze_count())"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -335,3 +335,23 @@ def test_a_negative_grace_answers_before_the_deadline_but_never_before_the_worke
     finally:
         os.kill(pid, signal.SIGCONT)
     p.shutdown()
+
+
+@pytest.mark.skipif(not hasattr(os, "SCHED_IDLE"), reason="SCHED_IDLE is Linux's")
+@pytest.mark.parametrize("idle", [True, False])
+def test_workers_run_at_the_lowest_priority(idle):
+    """nice 19, and SCHED_IDLE unless told not to: the node's thread finds a core whenever it has
+    work (the module docstring has the measurements)."""
+    p = IKPool(1, idle=idle)
+    try:
+        p.warm_up()
+        a = Answers()
+        p.submit(job(UR5E, REACHABLE, 1.0), a)  # (the worker has set its priority by its answer)
+        assert a.done.wait(5) and a.outcome is not None and a.outcome.success
+        (worker,) = p._all
+        pid = worker.process.pid
+        nice = min(os.getpriority(os.PRIO_PROCESS, 0) + 19, 19)
+        assert os.getpriority(os.PRIO_PROCESS, pid) == nice
+        assert os.sched_getscheduler(pid) == (os.SCHED_IDLE if idle else os.SCHED_OTHER)
+    finally:
+        p.shutdown()
