@@ -16,6 +16,11 @@ response that is not held is sent at once, as before. If `release` comes before 
 `send_response` (not possible with one executor thread, handled anyway), the response goes out
 when the header arrives.
 
+The header also says when the client sent its request (`source_timestamp`), which the callback
+cannot see: `hold(response, on_header)` calls `on_header(header)` as soon as the header arrives
+(right after the callback, in the same turn of the executor), so that the work can start knowing
+how long the request waited (`waited_since_sent`). `on_header` may `release` the response at once.
+
 Not thread-safe: `hold`, `release` and the executor's `send_response` all run in the node's one
 executor thread.
 """
@@ -23,6 +28,7 @@ executor thread.
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -31,13 +37,25 @@ _log = logging.getLogger(__name__)
 _NO_HEADER = object()
 
 
-class _Held:
-    __slots__ = ("response", "header", "released")
+def waited_since_sent(header: Any, now_ns: int | None = None) -> float:
+    """How long ago [s] the client sent the request of `header` (rmw's service info; its
+    `source_timestamp` is the client's system clock, in ns): 0.0 when the header has no
+    timestamp, or when it lies in the future (a client's clock ahead of this machine's)."""
+    sent = getattr(header, "source_timestamp", 0)
+    if not isinstance(sent, int) or sent <= 0:
+        return 0.0
+    now = time.time_ns() if now_ns is None else now_ns
+    return max(now - sent, 0) * 1e-9
 
-    def __init__(self, response: Any) -> None:
+
+class _Held:
+    __slots__ = ("response", "header", "released", "on_header")
+
+    def __init__(self, response: Any, on_header: Callable[[Any], None] | None) -> None:
         self.response = response
         self.header: Any = _NO_HEADER
         self.released = False
+        self.on_header = on_header
 
 
 class DeferredResponses:
@@ -63,9 +81,12 @@ class DeferredResponses:
         """Responses held and not yet sent."""
         return len(self._held)
 
-    def hold(self, response: Any) -> None:
-        """Mark `response`, which the callback is about to return, as answered later."""
-        self._held[id(response)] = _Held(response)
+    def hold(self, response: Any, on_header: Callable[[Any], None] | None = None) -> None:
+        """Mark `response`, which the callback is about to return, as answered later;
+        `on_header(header)` is called when its request's header arrives. Should `on_header` raise,
+        the response is sent as it is then (and the error logged): no request is left without
+        an answer."""
+        self._held[id(response)] = _Held(response, on_header)
 
     def release(self, response: Any) -> None:
         """Send the held `response` (filled in by now) with its request's header."""
@@ -87,6 +108,15 @@ class DeferredResponses:
             self._deliver(response, header)
         else:
             held.header = header
+            if held.on_header is None:
+                return
+            try:
+                held.on_header(header)  # (it may release the response: then it is sent now)
+            except Exception:  # noqa: BLE001 - answer the request anyway
+                _log.exception("starting the work on a held request failed; answered as it was")
+                if self._held.get(id(response)) is held:
+                    del self._held[id(response)]
+                    self._deliver(response, header)
 
     def _deliver(self, response: Any, header: Any) -> None:
         try:

@@ -16,12 +16,14 @@ Threads and processes. One thread runs every callback (`ros_main`: our `LeanExec
 per callback, by default): rclpy's MultiThreadedExecutor cannot carry 1 kHz joint_states, and a
 busy Python thread in this process would hold the GIL away from the pose path. FK and Jacobian
 requests take microseconds and are answered in place. IK runs in worker processes (`IKPool`,
-`ik.workers`, at a lower CPU priority): `compute_ik` hands the job to the pool and returns its
-response unfinished (`DeferredResponses`: no coroutine, which rclpy's executors would resume on
-every turn). The answer comes back through a `Mailbox` into the executor thread, which fills the
+`ik.workers`, at a lower CPU priority): `compute_ik` returns its response unfinished
+(`DeferredResponses`: no coroutine, which rclpy's executors would resume on every turn), and the
+work starts when rclpy hands over the request's header, whose source timestamp says how long the
+request waited before its callback. Targets the closed form solves at its first try are answered
+at once; the rest go to the pool. The answer comes back through a `Mailbox` into the executor thread, which fills the
 response and sends it: on the next joint_states message's turn while they stream, else woken by a
 guard condition. Meanwhile joint_states keep flowing. Every IK request is answered by its timeout
-(plus a few ms), queue time included; one sent more than 20 ms late is logged.
+(plus a few ms) counted from when its client sent it; one sent more than 20 ms late is logged.
 
 TF: target frames that are not robot links are looked up with tf2_ros when it is installed (it is
 not on PyPI); without it such targets are refused with a message saying so. Uses only API
@@ -64,7 +66,7 @@ from std_msgs.msg import String
 from msg_adapters import MessageTypes, matrix_from_transform
 
 from .core.exceptions import InvalidInputError, KinematicsError
-from .deferred import DeferredResponses
+from .deferred import DeferredResponses, waited_since_sent
 from .ik_pool import IKOutcome, IKPool, solve_at_once
 from .mailbox import Mailbox
 from .parameters import PARAMETERS, SPECS, STARTUP_ONLY, ParameterSpec
@@ -270,23 +272,35 @@ class KinematicsNode(Node):
         self.get_logger().warn(f"{problem} (repeats are not logged for {WARN_PERIOD:g} s)")
 
     def _compute_ik(self, request: Any, response: Any) -> Any:
-        pending = self._logic.prepare_ik(request, response)
-        if pending is None:
-            return response  # refused or answered at once: rclpy sends it now
+        # The work starts when rclpy hands over the request's header, right after this returns:
+        # its source timestamp says how long the request waited before this callback.
+        self._ik_responses.hold(
+            response, on_header=lambda header: self._start_ik(request, response, header)
+        )
+        return response
+
+    def _start_ik(self, request: Any, response: Any, header: Any) -> None:
+        """Solve in this thread when the closed form answers at once, else hand the job to the
+        pool; either way `response` is released (sent) when its answer is known."""
+        now = time.monotonic()
+        waited = waited_since_sent(header)
+        pending = self._logic.prepare_ik(request, response, now=now, waited=waited)
+        if pending is None:  # refused or answered at once
+            self._ik_responses.release(response)
+            return
         try:
             outcome = solve_at_once(pending.chain, pending.job)  # the closed form, ~0.2 ms
         except Exception:  # noqa: BLE001 - a worker solves it then, and reports what went wrong
             outcome = None
-        if outcome is not None:
-            return self._logic.finish_ik(pending, outcome, response)
-        try:
-            self._pool.submit(
-                pending.job, lambda outcome: self._hand_back(pending, response, outcome)
-            )
-        except RuntimeError as exc:  # the pool is shut down: the node is stopping
-            return self._logic.finish_ik(pending, IKOutcome.failed(str(exc)), response)
-        self._ik_responses.hold(response)  # sent by _deliver_ik_answers
-        return response
+        if outcome is None:
+            try:
+                self._pool.submit(
+                    pending.job, lambda outcome: self._hand_back(pending, response, outcome)
+                )
+                return  # released by _deliver_ik_answers
+            except RuntimeError as exc:  # the pool is shut down: the node is stopping
+                outcome = IKOutcome.failed(str(exc))
+        self._ik_responses.release(self._logic.finish_ik(pending, outcome, response))
 
     def _hand_back(self, pending: PendingIK, response: Any, outcome: IKOutcome) -> None:
         """From the pool's thread: hand the outcome to the executor thread, which collects it on

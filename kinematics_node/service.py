@@ -127,8 +127,9 @@ class _Rates:
 @dataclass
 class IKAnswerCounts:
     """compute_ik solves answered so far, and how their answers stood against their deadlines
-    (request arrival + timeout) when the node sent them. The client sees them later by the
-    transport's delay; an answer after its deadline here is the node's own lateness."""
+    (the client's send + timeout, `prepare_ik`) when the node sent them. The client sees them
+    later by the transport's delay; an answer after its deadline here is the node's own
+    lateness."""
 
     answered: int = 0
     after_deadline: int = 0
@@ -352,18 +353,24 @@ class KinematicsService:
             return response
         return self.finish_ik(pending, solve_job(pending.job), response)
 
-    def prepare_ik(self, request: Any, response: Any, now: float | None = None) -> PendingIK | None:
+    def prepare_ik(
+        self, request: Any, response: Any, now: float | None = None, waited: float = 0.0
+    ) -> PendingIK | None:
         """Check an IK request and turn it into a job for a worker. Returns None when the request
         is refused; `response` then holds `success = False` and the reason.
 
-        `now` is the request's arrival on `time.monotonic()` [s] (default: now): the job's
-        deadline is now + timeout, so time spent waiting for a worker counts against the timeout.
+        `now` is the request's arrival on `time.monotonic()` [s] (default: now), and `waited`
+        how long it had waited before then [s] (since the client sent it: in the middleware's
+        queues, behind other callbacks). The job's deadline is now − waited + timeout, so time
+        spent waiting anywhere counts against the timeout. A `waited` of the timeout or more is
+        ignored (0): a client's clock behind this machine's by that much, more likely than a
+        request that waited its whole timeout.
         """
         arrival = time.monotonic() if now is None else now
         box: list[PendingIK] = []
 
         def prepare(request: Any, response: Any) -> None:
-            box.append(self._prepare_ik(request, arrival))
+            box.append(self._prepare_ik(request, arrival, waited))
 
         self._answer("compute_ik", prepare, request, response)
         return box[0] if box and response.success else None
@@ -453,7 +460,7 @@ class KinematicsService:
         response.condition_number = _finite_or(c.condition_number, -1.0)
         return None
 
-    def _prepare_ik(self, request: Any, arrival: float) -> PendingIK:
+    def _prepare_ik(self, request: Any, arrival: float, waited: float) -> PendingIK:
         model, current, params = self._snapshot()
         chain = model.chain_to(str(request.tip_link))
         T_frame_target = matrix_from_pose(request.target.pose, "target.pose")
@@ -469,7 +476,9 @@ class KinematicsService:
         ):
             q_seed = self._q(model, chain, seed, current, "seed")
         key, blob = self._blob(chain)
-        job = IKJob(key, blob, T_base_target, q_seed, options, arrival + options.timeout)
+        if not 0.0 <= waited < options.timeout:
+            waited = 0.0
+        job = IKJob(key, blob, T_base_target, q_seed, options, arrival - waited + options.timeout)
         return PendingIK(job, chain, chain.joint_names, request.target.header.stamp, options, note)
 
     def _blob(self, chain: SerialChain) -> tuple[bytes, bytes]:

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import pytest
 
-from kinematics_node.deferred import DeferredResponses
+from kinematics_node.deferred import DeferredResponses, waited_since_sent
 
 
 class FakeService:
@@ -102,3 +103,60 @@ def test_a_failed_send_is_reported_and_the_others_still_go_out():
     deferred.release(b)
     assert [type(e) for e in errors] == [RuntimeError]
     assert service.sent == [(b, "hb")] and len(deferred) == 0
+
+
+def test_on_header_starts_the_work_when_the_header_arrives_and_may_release_at_once():
+    service = FakeService()
+    deferred = DeferredResponses(service)
+    seen: list[Any] = []
+
+    def start(response: Response, header: Any) -> None:
+        seen.append(header)
+        assert response not in [r for r, _ in service.sent]  # not sent before its work starts
+        if header == "now":
+            response.success = True
+            deferred.release(response)
+
+    def callback(response: Response) -> Response:
+        deferred.hold(response, on_header=lambda header: start(response, header))
+        return response
+
+    executor_turn(service, callback, "now")
+    assert seen == ["now"] and len(service.sent) == 1 and service.sent[0][0].success
+    executor_turn(service, callback, "later")
+    assert seen == ["now", "later"] and len(service.sent) == 1 and len(deferred) == 1
+    held = next(iter(deferred._held.values())).response
+    deferred.release(held)
+    assert service.sent[1] == (held, "later") and len(deferred) == 0
+
+
+def test_a_failing_on_header_still_answers_the_request(caplog):
+    service = FakeService()
+    deferred = DeferredResponses(service)
+
+    def callback(response: Response) -> Response:
+        deferred.hold(response, on_header=lambda header: 1 / 0)
+        return response
+
+    executor_turn(service, callback, "h1")
+    assert [h for _, h in service.sent] == ["h1"] and len(deferred) == 0
+    assert "ZeroDivisionError" in caplog.text
+
+
+class Header:
+    def __init__(self, source_timestamp: Any) -> None:
+        self.source_timestamp = source_timestamp
+
+
+@pytest.mark.parametrize(
+    ("stamp", "expected"),
+    [(10**18, 0.25), (10**18 + 250_000_000, 0.0), (10**18 + 10**9, 0.0), (0, 0.0), (None, 0.0)],
+)
+def test_waited_since_sent_reads_the_source_timestamp(stamp, expected):
+    now = 10**18 + 250_000_000
+    assert waited_since_sent(Header(stamp), now_ns=now) == pytest.approx(expected, abs=1e-12)
+
+
+def test_waited_since_sent_without_a_timestamp_is_zero():
+    assert waited_since_sent(object()) == 0.0
+    assert 0.005 <= waited_since_sent(Header(time.time_ns() - 5_000_000)) < 1.0

@@ -424,6 +424,22 @@ def test_ik_zero_timeout_means_the_node_default(ros, ur5, q_ur5):
         assert pending.job.deadline == 50.0 + expected
 
 
+def test_ik_time_waited_before_the_callback_counts_against_the_timeout(ros, ur5, q_ur5):
+    """The deadline is the client's send + timeout: arrival − waited + timeout, for a wait
+    shorter than the timeout; a wait of the timeout or more (or none to tell) is ignored."""
+    chain = chain_of(ur5)
+    req = ros.request("ComputeIK", target=_target(ros, chain.fk(q_ur5 + 0.05)), timeout=0.05)
+    cases = ((0.0, 0.05), (0.012, 0.038), (0.0499, 0.0001), (0.05, 0.05), (3.0, 0.05),
+             (-0.01, 0.05), (math.nan, 0.05))  # fmt: skip
+    for waited, left in cases:
+        pending = ur5.prepare_ik(
+            ros.roundtrip(req), ros.response("ComputeIK"), now=50.0, waited=waited
+        )
+        assert pending is not None
+        assert pending.job.deadline == pytest.approx(50.0 + left, abs=1e-12), waited
+        assert pending.options.timeout == 0.05  # the request's own, for its messages
+
+
 def test_diagnostics_count_ik_answers_against_their_deadlines(ros, ur5, q_ur5):
     """finish_ik compares the time it answers with the job's deadline (arrival + timeout); the
     diagnostics report the answers, those after their deadline, the worst, and the pool's counts."""

@@ -145,6 +145,35 @@ def test_a_service_and_a_client_in_the_same_executor(node: Node, executor: LeanE
     assert future.result().success
 
 
+def test_a_held_response_learns_how_long_its_request_waited(
+    node: Node, executor: LeanExecutor
+) -> None:
+    """`DeferredResponses.hold(on_header=...)` over real rmw: the header's source timestamp
+    (what the node counts against an IK timeout) measures the time since the client's send."""
+    from kinematics_node.deferred import DeferredResponses, waited_since_sent
+
+    waited: list[float] = []
+
+    def answer(request: Any, response: Any) -> Any:
+        def start(header: Any) -> None:
+            waited.append(waited_since_sent(header))
+            response.success = True
+            deferred.release(response)
+
+        deferred.hold(response, on_header=start)
+        return response
+
+    service = node.create_service(ComputeFK, "lean_held", answer)
+    deferred = DeferredResponses(service)
+    client = node.create_client(ComputeFK, "lean_held")
+    spin_until(executor, client.service_is_ready)
+    future = client.call_async(ComputeFK.Request())
+    time.sleep(0.2)  # the request waits, as behind a backlog of other callbacks
+    executor.spin_until_future_complete(future, timeout_sec=10.0)
+    assert future.done() and future.result().success
+    assert len(waited) == 1 and 0.2 <= waited[0] < 2.0, waited
+
+
 def test_timers_fire_and_a_cancelled_timer_does_not(node: Node, executor: LeanExecutor) -> None:
     fired: list[str] = []
     node.create_timer(0.01, lambda: fired.append("running"))
