@@ -128,6 +128,40 @@ def test_every_message_arrives_in_order_with_one_wait_each(
     assert counter.waits <= 50 + 2
 
 
+def test_a_backlog_is_taken_several_messages_per_wait_in_order(
+    node: Node, executor: LeanExecutor, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A subscription that fell behind: each wait runs up to 1 + MORE_TAKES of its messages, in
+    order, interleaved round by round with the other subscriptions that had one."""
+    counter = WaitCounter(executor_module._rclpy)
+    monkeypatch.setattr(executor_module, "_rclpy", counter)
+    got: list[tuple[str, int]] = []
+    node.create_subscription(Int32, "backlog_a", lambda m: got.append(("a", m.data)), 100)
+    node.create_subscription(Int32, "backlog_b", lambda m: got.append(("b", m.data)), 100)
+    pub_a = node.create_publisher(Int32, "backlog_a", 100)
+    pub_b = node.create_publisher(Int32, "backlog_b", 100)
+    spin_until(
+        executor, lambda: pub_a.get_subscription_count() > 0 and pub_b.get_subscription_count() > 0
+    )
+    executor.spin_once(timeout_sec=0.01)
+    n = 2 * (1 + executor_module.MORE_TAKES) + 3
+    for i in range(n):
+        pub_a.publish(Int32(data=i))
+    for i in range(2):
+        pub_b.publish(Int32(data=i))
+    time.sleep(0.3)  # all delivered to the subscriptions' queues
+    counter.waits = 0
+    executor.spin_once(timeout_sec=1.0)
+    per_turn = 1 + executor_module.MORE_TAKES
+    assert counter.waits == 1
+    assert got[:4] == [("a", 0), ("b", 0), ("a", 1), ("b", 1)]
+    assert [i for k, i in got if k == "a"] == list(range(per_turn))
+    while len(got) < n + 2 and counter.waits < 10:
+        executor.spin_once(timeout_sec=1.0)
+    assert [i for k, i in got if k == "a"] == list(range(n))
+    assert counter.waits == 3  # 16 + 16 + 3 messages of a
+
+
 def test_a_service_and_a_client_in_the_same_executor(node: Node, executor: LeanExecutor) -> None:
     def answer(request: Any, response: Any) -> Any:
         response.success, response.message = True, "served"
