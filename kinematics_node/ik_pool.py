@@ -3,18 +3,18 @@
 Why processes: the node's pose path must keep up with 1 kHz joint_states, and a Python thread that
 runs IK in the same process holds the GIL away from it (measured in ../shared/ROS2_FROM_PYPI.md:
 69 % of messages answered instead of 100 %). So IK runs in worker processes at the lowest CPU
-priority, so the pose path keeps its core whenever it has work, and the solves share what is
-left: nice 19 and, on Linux, the SCHED_IDLE policy (which runs a task only on CPU time that no
-normal task wants). Measured with benchmarks/node_benchmark.py, 4 IK clients at 500 Hz
-joint_states, on a shared 2-core machine where the harness's own processes take most of a core:
-in the episodes where pose latency built up to 25-200 ms, the node's thread was runnable but
-waiting for a core 30-45 % of the time (/proc/<tid>/schedstat), while the nice-19 workers ran
-(42 % of a core in one such episode). Over 14 alternating pairs of runs, the pose p99 was over 10 ms in 5 runs with SCHED_IDLE and in
-12 with nice 19 alone (medians 9.0 and 36.6 ms), and IK answers came later than timeout + 20 ms
-in 4 runs (9 answers) against 9 (52). (One plausible reason: the scheduler places a waking thread
-on an idle core, and it counts a core that runs only SCHED_IDLE tasks as idle, but not one that
-runs a nice-19 task.) Before reachable targets were solved in the node's own thread, SCHED_IDLE
-starved some of their solves; now most never reach a worker.
+priority, so the pose path keeps its core whenever it has work, and the solves share what is left:
+nice 19 and, on Linux, the SCHED_IDLE policy (which runs a task only on CPU time that no normal
+task wants). Measured with benchmarks/node_benchmark.py, 4 IK clients at 500 Hz joint_states, on a
+shared 2-core machine where the harness's own processes take most of a core: in the episodes where
+pose latency built up to 25-200 ms, the node's thread was runnable but waiting for a core 30-45 %
+of the time (/proc/<tid>/schedstat), while the nice-19 workers ran (42 % of a core in one such
+episode). Over 14 alternating pairs of runs, the pose p99 was over 10 ms in 5 runs with SCHED_IDLE
+and in 12 with nice 19 alone (medians 9.0 and 36.6 ms), and IK answers came later than
+timeout + 20 ms in 4 runs (9 answers) against 9 (52). (One plausible reason: the scheduler places
+a waking thread on an idle core, and it counts a core that runs only SCHED_IDLE tasks as idle, but
+not one that runs a nice-19 task.) Before reachable targets were solved in the node's own thread,
+SCHED_IDLE starved some of their solves; now most never reach a worker.
 
 Mechanics, chosen to cost the node's process (and its GIL) as little as possible: each worker is a
 process forked from a fork server that has imported the core, joined to the node by one duplex
@@ -26,18 +26,19 @@ overdue jobs, and replaces workers that die or hang. (`concurrent.futures.Proces
 needed a feeder and a management thread, pickled through a shared queue and sent the chain with
 every job: about twice the node-side CPU per job.)
 
-Deadlines: a job carries the monotonic time by which it must be answered (the client's send of
-the request + its timeout, `service.prepare_ik`; `time.monotonic` is the system-wide CLOCK_MONOTONIC, the same in every process). A worker
-solves with the time left, less a few ms (`ANSWER_MARGIN`) for its answer to reach the node, so
-time spent waiting in the queue counts against the timeout, and a queued job whose deadline comes
-before a worker is free is answered as timed out without being sent. A job still running `grace`
-seconds after its deadline (a starved or stopped worker) is answered as timed out then (with a
-negative grace, before the deadline, but never before the worker's own stop + `WORKER_SLACK`);
-the worker's own answer, when it comes, is dropped. A worker that dies (killed, out of memory) has its
-job answered as failed and is replaced; one that has not answered `HUNG_AFTER` seconds after its
-job's deadline is killed and replaced. So `on_done` is called exactly once per job, by its
-deadline + grace at the latest, from the pool's thread (for jobs still open at `shutdown`, from
-the thread calling it): the caller hands the result to its own thread.
+Deadlines: a job carries the monotonic time by which it must be answered (the client's send of the
+request + its timeout, `service.prepare_ik`; `time.monotonic` is the system-wide CLOCK_MONOTONIC,
+the same in every process). A worker solves with the time left, less a few ms (`ANSWER_MARGIN`) for
+its answer to reach the node, so time spent waiting in the queue counts against the timeout, and a
+queued job whose deadline comes before a worker is free is answered as timed out without being
+sent. A job still running `grace` seconds after its deadline (a starved or stopped worker) is
+answered as timed out then (with a negative grace, before the deadline, but never before the
+worker's own stop + `WORKER_SLACK`); the worker's own answer, when it comes, is dropped. A worker
+that dies (killed, out of memory) has its job answered as failed and is replaced; one that has not
+answered `HUNG_AFTER` seconds after its job's deadline is killed and replaced. So `on_done` is
+called exactly once per job, by its deadline + grace at the latest, from the pool's thread (for
+jobs still open at `shutdown`, from the thread calling it): the caller hands the result to its own
+thread.
 
 Models: a job names its chain by a key and carries the pickled chain (a few kB) with its
 closed-form family (`chain_blob`: detected once in the node, so no worker spends a job's time

@@ -12,18 +12,18 @@ Topics (relative names, so namespaces and remaps apply):
   pub  /diagnostics       diagnostic_msgs/DiagnosticArray (absolute, as aggregators expect)
 Services: compute_fk, compute_jacobian, compute_ik (kinematics_service/srv/...).
 
-Threads and processes. One thread runs every callback (`ros_main`: our `LeanExecutor`, one wait
-per callback, by default): rclpy's MultiThreadedExecutor cannot carry 1 kHz joint_states, and a
-busy Python thread in this process would hold the GIL away from the pose path. FK and Jacobian
-requests take microseconds and are answered in place. IK runs in worker processes (`IKPool`,
-`ik.workers`, at a lower CPU priority): `compute_ik` returns its response unfinished
-(`DeferredResponses`: no coroutine, which rclpy's executors would resume on every turn), and the
-work starts when rclpy hands over the request's header, whose source timestamp says how long the
-request waited before its callback. Targets the closed form solves at its first try are answered
-at once; the rest go to the pool. The answer comes back through a `Mailbox` into the executor thread, which fills the
-response and sends it: on the next joint_states message's turn while they stream, else woken by a
-guard condition. Meanwhile joint_states keep flowing. Every IK request is answered by its timeout
-(plus a few ms) counted from when its client sent it; one sent more than 20 ms late is logged.
+Threads and processes. One thread runs every callback (`ros_main`: our `LeanExecutor`, one wait per
+callback, by default): rclpy's MultiThreadedExecutor cannot carry 1 kHz joint_states, and a busy
+Python thread in this process would hold the GIL away from the pose path. FK and Jacobian requests
+take microseconds and are answered in place. IK runs in worker processes (`IKPool`, `ik.workers`,
+at a lower CPU priority): `compute_ik` returns its response unfinished (`DeferredResponses`: no
+coroutine, which rclpy's executors would resume on every turn), and the work starts when rclpy
+hands over the request's header, whose source timestamp says how long the request waited before its
+callback. Targets the closed form solves at its first try are answered at once; the rest go to the
+pool. The answer comes back through a `Mailbox` into the executor thread, which fills the response
+and sends it: on the next joint_states message's turn while they stream, else woken by a guard
+condition. Meanwhile joint_states keep flowing. Every IK request is answered by its timeout (plus a
+few ms) counted from when its client sent it; one sent more than 20 ms late is logged.
 
 TF: target frames that are not robot links are looked up with tf2_ros when it is installed (it is
 not on PyPI); without it such targets are refused with a message saying so. Uses only API
