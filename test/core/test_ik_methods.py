@@ -141,12 +141,15 @@ def test_unreachable_6r_target_names_the_closed_form_reason_and_still_searches()
     chain = chain_of("ur5")
     T = ur_hole_target()  # within the reach sphere, unreachable
     opts = IKOptions(timeout=0.02)
-    t0 = time.perf_counter()
-    res = chain.ik(T, options=opts)
-    elapsed = time.perf_counter() - t0
-    assert not res.success and np.all(np.isfinite(res.q))
-    assert res.message.startswith("closed form: unreachable") and "numeric search" in res.message
-    assert 0.015 <= elapsed <= 0.02 + 0.01  # the search used its budget, and no more
+    elapsed = []
+    for _ in range(3):  # a busy machine may delay any one call; an overrun shows in every call
+        t0 = time.perf_counter()
+        res = chain.ik(T, options=opts)
+        elapsed.append(time.perf_counter() - t0)
+        assert not res.success and np.all(np.isfinite(res.q))
+        assert res.message.startswith("closed form: unreachable") and "numeric search" in res.message
+    # the search used its budget, and no more
+    assert min(elapsed) >= 0.015 and min(elapsed) <= 0.02 + 0.01 and max(elapsed) < 0.5, elapsed
 
 
 def test_method_closed_form_alone_answers_at_once_when_unreachable():
