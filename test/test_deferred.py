@@ -157,6 +157,6 @@ def test_waited_since_sent_reads_the_source_timestamp(stamp, expected):
     assert waited_since_sent(Header(stamp), now_ns=now) == pytest.approx(expected, abs=1e-12)
 
 
-def test_waited_since_sent_without_a_timestamp_is_zero():
+def test_waited_since_sent_is_zero_without_a_timestamp_and_the_age_with_one():
     assert waited_since_sent(object()) == 0.0
     assert 0.005 <= waited_since_sent(Header(time.time_ns() - 5_000_000)) < 1.0
