@@ -282,9 +282,7 @@ class KinematicsNode(Node):
     def _start_ik(self, request: Any, response: Any, header: Any) -> None:
         """Solve in this thread when the closed form answers at once, else hand the job to the
         pool; either way `response` is released (sent) when its answer is known."""
-        now = time.monotonic()
-        waited = waited_since_sent(header)
-        pending = self._logic.prepare_ik(request, response, now=now, waited=waited)
+        pending = self._logic.prepare_ik(request, response, waited=waited_since_sent(header))
         if pending is None:  # refused or answered at once
             self._ik_responses.release(response)
             return
