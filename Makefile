@@ -32,6 +32,7 @@ test: $(BIN)/python            ## install what the tests need and run the whole 
 	$(BIN)/pip install --quiet -e '.[test,lint]'
 	@$(MAKE) --no-print-directory ros
 	$(BIN)/ruff check kinematics_node msg_adapters test benchmarks
+	$(BIN)/ruff format --check kinematics_node msg_adapters test benchmarks setup.py
 	$(BIN)/mypy
 	@$(WITH_ROS) $(BIN)/python -m pytest -q
 

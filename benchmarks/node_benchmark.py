@@ -70,7 +70,9 @@ def _init_rclpy(freeze: bool = True, rclpy_signals: bool = True) -> Any:
     from rclpy.signals import SignalHandlerOptions
 
     rclpy.init(
-        signal_handler_options=SignalHandlerOptions.ALL if rclpy_signals else SignalHandlerOptions.NO
+        signal_handler_options=SignalHandlerOptions.ALL
+        if rclpy_signals
+        else SignalHandlerOptions.NO
     )
     if freeze:
         gc.collect()
@@ -214,9 +216,11 @@ def role_receiver(out: str, expect_twist: bool) -> None:
         node.create_subscription(PoseStamped, "ee_pose", recorder("pose"), QoSProfile(depth=1000)),
     ]
     if expect_twist:
-        subs.append(node.create_subscription(
-            TwistStamped, "ee_twist", recorder("twist"), QoSProfile(depth=1000)
-        ))
+        subs.append(
+            node.create_subscription(
+                TwistStamped, "ee_twist", recorder("twist"), QoSProfile(depth=1000)
+            )
+        )
     executor = LeanExecutor()  # about half the CPU of rclpy's per message (module docstring)
     executor.add_node(node)
     _no_collections()  # millions of arrival records: no pauses to scan them
@@ -299,8 +303,14 @@ def role_ik_clients(arm: str, seconds: float, clients: int, timeout: float, out:
         def done(future: Any) -> None:
             elapsed = time.monotonic() - t0
             resp = future.result()
-            records.append({"unreachable": unreachable, "elapsed": elapsed, "answered": True,
-                            "success": bool(resp.success)})
+            records.append(
+                {
+                    "unreachable": unreachable,
+                    "elapsed": elapsed,
+                    "answered": True,
+                    "success": bool(resp.success),
+                }
+            )
             if time.monotonic() < end:
                 call(cli)
             else:
@@ -355,7 +365,9 @@ class HarnessFailure(RuntimeError):
 def _child(args: list[str], env: dict[str, str]) -> subprocess.Popen:
     python = os.environ.get("KINEMATICS_ROS_PYTHON") or sys.executable
     # faulthandler: a crash of a harness process (seen: SIGSEGV) prints where it happened
-    return subprocess.Popen([python, "-X", "faulthandler", "-W", "ignore", __file__, *args], env=env)
+    return subprocess.Popen(
+        [python, "-X", "faulthandler", "-W", "ignore", __file__, *args], env=env
+    )
 
 
 def _cpu_seconds(pid: int) -> float:
@@ -459,8 +471,23 @@ def run_phase(
     extra: list[subprocess.Popen] = []
     if ik_clients:  # waits 1 s after discovery, then calls for `seconds - 2`
         extra.append(
-            _child(["--role", "ik_clients", "--arm", system.arm, "--seconds", str(seconds - 2),
-                    "--clients", str(ik_clients), "--timeout", "0.05", "--out", str(ik_out)], env)
+            _child(
+                [
+                    "--role",
+                    "ik_clients",
+                    "--arm",
+                    system.arm,
+                    "--seconds",
+                    str(seconds - 2),
+                    "--clients",
+                    str(ik_clients),
+                    "--timeout",
+                    "0.05",
+                    "--out",
+                    str(ik_out),
+                ],
+                env,
+            )
         )
     end = time.monotonic() + 20.0
     while not ready.exists():  # the receiver has matched the system's publishers
@@ -472,12 +499,33 @@ def run_phase(
     if slow_ik:  # mid-phase: joint_states flow 1 s from now (discovery), then for `seconds`
         start_at = time.time_ns() + int((2.0 + 0.3 * seconds) * 1e9)
         extra.append(
-            _child(["--role", "slow_ik", "--seconds", str(slow_ik), "--start-at", str(start_at),
-                    "--out", str(slow_out)], env)
+            _child(
+                [
+                    "--role",
+                    "slow_ik",
+                    "--seconds",
+                    str(slow_ik),
+                    "--start-at",
+                    str(start_at),
+                    "--out",
+                    str(slow_out),
+                ],
+                env,
+            )
         )
     publisher = _child(
-        ["--role", "publisher", "--names", ",".join(names), "--rate", str(rate),
-         "--seconds", str(seconds), "--out", str(pub_out)],
+        [
+            "--role",
+            "publisher",
+            "--names",
+            ",".join(names),
+            "--rate",
+            str(rate),
+            "--seconds",
+            str(seconds),
+            "--out",
+            str(pub_out),
+        ],
         env,
     )
     time.sleep(0.5)  # the publisher waits 0.5 s for discovery before sending
@@ -496,7 +544,7 @@ def run_phase(
     published = json.loads(pub_out.read_text())
     # The first second is warm-up, for every system alike: the receiver's match to the node's
     # publishers may complete after the first samples went out (a whole phase once lost 8 %).
-    counted = published["stamps"][int(rate * WARM_UP_S):]
+    counted = published["stamps"][int(rate * WARM_UP_S) :]
     sent = len(counted)
     first = counted[0] if counted else 0
     got = json.loads(recv_out.read_text())
@@ -522,7 +570,7 @@ def run_phase(
         result[f"{key}_latency_median_ms"] = statistics.median(lat) if lat else math.nan
         result[f"{key}_latency_p99_ms"] = _percentile(lat, 0.99)
         if key == "pose":  # where the slow 1 % spent its time: until the node sent it, or after
-            slow = sorted(triples, key=lambda t: t[2] - t[0])[-max(len(triples) // 100, 1):]
+            slow = sorted(triples, key=lambda t: t[2] - t[0])[-max(len(triples) // 100, 1) :]
             result["pose_p99_in_node_ms"] = _percentile([(o - s) * 1e-6 for s, o, _ in slow], 0.5)
             result["pose_p99_after_ms"] = _percentile([(a - o) * 1e-6 for _, o, a in slow], 0.5)
         if key == "pose":  # the worst moment: where the unanswered and the slow samples are
@@ -556,17 +604,17 @@ def run_phase(
             ik_answers_per_s=len(answered) / (seconds - 2),
             ik_late=sum(1 for r in records if r["elapsed"] > 0.05 + 0.02 or not r["answered"]),
             ik_latency_max_ms=max((r["elapsed"] for r in records), default=math.nan) * 1e3,
-            ik_reachable_unsolved=sum(1 for r in records if not r["unreachable"]
-                                      and not r["success"]),
+            ik_reachable_unsolved=sum(
+                1 for r in records if not r["unreachable"] and not r["success"]
+            ),
             ik_unreachable_solved=sum(1 for r in records if r["unreachable"] and r["success"]),
             # how long a solvable target waits for its answer while the others burn their timeouts
             ik_reachable_latency_median_ms=_percentile(reachable_elapsed, 0.5) * 1e3,
             ik_reachable_latency_p99_ms=_percentile(reachable_elapsed, 0.99) * 1e3,
             ik_node_answered=int(node_side.get("ik_answered", -1)),
             ik_node_after_deadline=int(node_side.get("ik_after_deadline", -1)),
-            ik_node_worst_after_deadline_ms=float(
-                node_side.get("ik_worst_after_deadline_s", "nan")
-            ) * 1e3,
+            ik_node_worst_after_deadline_ms=float(node_side.get("ik_worst_after_deadline_s", "nan"))
+            * 1e3,
             ik_pool_expired_in_queue=int(node_side.get("ik_pool_expired_in_queue", -1)),
             ik_pool_overdue=int(node_side.get("ik_pool_overdue", -1)),
             ik_pool_workers_lost=int(node_side.get("ik_pool_workers_lost", -1)),
@@ -587,9 +635,13 @@ def main() -> None:
     parser.add_argument("--out", help=argparse.SUPPRESS)
     parser.add_argument("--expect-twist", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--seconds", type=float, default=10.0, help="length of each phase [s]")
-    parser.add_argument("--soak", type=float, default=0.0,
-                        help="also run our node at 1 kHz this long [s] and compare its resident "
-                        "memory after 1 minute with the end (the issue asks for 600)")
+    parser.add_argument(
+        "--soak",
+        type=float,
+        default=0.0,
+        help="also run our node at 1 kHz this long [s] and compare its resident "
+        "memory after 1 minute with the end (the issue asks for 600)",
+    )
     parser.add_argument("--soak-only", action="store_true", help="run only the memory soak")
     parser.add_argument("--only", default="", help="run only the phases whose label contains this")
     parser.add_argument("--json", help="write every figure to this file")
@@ -660,8 +712,18 @@ def soak(env: dict[str, str], directory: Path, seconds: float) -> dict[str, Any]
 
         names = list(SerialChain.from_urdf(ARMS["ur5e"][0]).joint_names)
         publisher = _child(
-            ["--role", "publisher", "--names", ",".join(names), "--rate", "1000",
-             "--seconds", str(seconds), "--out", str(directory / "soak.json")],
+            [
+                "--role",
+                "publisher",
+                "--names",
+                ",".join(names),
+                "--rate",
+                "1000",
+                "--seconds",
+                str(seconds),
+                "--out",
+                str(directory / "soak.json"),
+            ],
             env,
         )
         time.sleep(61.0)
@@ -670,63 +732,85 @@ def soak(env: dict[str, str], directory: Path, seconds: float) -> dict[str, Any]
         rss_end = _rss_mb(system.process.pid)
     finally:
         system.stop()
-    return {"seconds": seconds, "rss_1min_mb": rss_1min, "rss_end_mb": rss_end,
-            "growth_percent": 100.0 * (rss_end - rss_1min) / rss_1min}
+    return {
+        "seconds": seconds,
+        "rss_1min_mb": rss_1min,
+        "rss_end_mb": rss_end,
+        "growth_percent": 100.0 * (rss_end - rss_1min) / rss_1min,
+    }
 
 
 def report(results: dict[str, dict[str, Any]]) -> None:
-    print("| phase | ee_pose answered | ee_twist answered | latency median / p99 [ms] | "
-          "CPU [% core] | RSS [MB] |")
+    print(
+        "| phase | ee_pose answered | ee_twist answered | latency median / p99 [ms] | "
+        "CPU [% core] | RSS [MB] |"
+    )
     print("|---|---|---|---|---|---|")
     for label, r in results.items():
         if label == "soak":
             continue
         twist = "—" if "echo" in label else f"{100 * r['twist_answered']:.1f} %"
-        print(f"| {label} | {100 * r['pose_answered']:.1f} % | {twist} | "
-              f"{r['pose_latency_median_ms']:.2f} / {r['pose_latency_p99_ms']:.2f} | "
-              f"{r['cpu_percent']:.0f} | {r['rss_mb']:.0f} |")
+        print(
+            f"| {label} | {100 * r['pose_answered']:.1f} % | {twist} | "
+            f"{r['pose_latency_median_ms']:.2f} / {r['pose_latency_p99_ms']:.2f} | "
+            f"{r['cpu_percent']:.0f} | {r['rss_mb']:.0f} |"
+        )
     echo = {1000.0: results.get("echo, 1 kHz"), 500.0: results.get("echo, 500 Hz")}
     print()
     for label, r in results.items():
         e = echo.get(r.get("rate_hz")) if label != "soak" else None
         if label.startswith("echo") or e is None:
             continue
-        print(f"{label}: latency median {r['pose_latency_median_ms'] / e['pose_latency_median_ms']:.2f}x "
-              f"the echo's, CPU {r['cpu_percent'] / e['cpu_percent']:.2f}x")
+        print(
+            f"{label}: latency median {r['pose_latency_median_ms'] / e['pose_latency_median_ms']:.2f}x "
+            f"the echo's, CPU {r['cpu_percent'] / e['cpu_percent']:.2f}x"
+        )
     for label, r in results.items():
         if "ik_calls" in r:
-            print(f"{label}: {r['ik_calls']} IK calls, {r['ik_answers_per_s']:.0f} answers/s, "
-                  f"{r['ik_late']} later than timeout + 20 ms (max {r['ik_latency_max_ms']:.1f} ms), "
-                  f"{r['ik_reachable_unsolved']} reachable not solved, "
-                  f"{r['ik_unreachable_solved']} unreachable reported solved; reachable "
-                  f"answered in {r['ik_reachable_latency_median_ms']:.1f} ms median, "
-                  f"{r['ik_reachable_latency_p99_ms']:.1f} ms p99")
-            print(f"{label}: at the node (its /diagnostics): {r['ik_node_answered']} solves "
-                  f"answered, {r['ik_node_after_deadline']} after their deadline (worst "
-                  f"{r['ik_node_worst_after_deadline_ms']:.1f} ms after); pool: "
-                  f"{r['ik_pool_expired_in_queue']} expired in its queue, {r['ik_pool_overdue']} "
-                  f"answered as overdue, {r['ik_pool_workers_lost']} workers lost; the clients' "
-                  f"own process stalled up to {r['ik_clients_worst_stall_ms']:.0f} ms")
+            print(
+                f"{label}: {r['ik_calls']} IK calls, {r['ik_answers_per_s']:.0f} answers/s, "
+                f"{r['ik_late']} later than timeout + 20 ms (max {r['ik_latency_max_ms']:.1f} ms), "
+                f"{r['ik_reachable_unsolved']} reachable not solved, "
+                f"{r['ik_unreachable_solved']} unreachable reported solved; reachable "
+                f"answered in {r['ik_reachable_latency_median_ms']:.1f} ms median, "
+                f"{r['ik_reachable_latency_p99_ms']:.1f} ms p99"
+            )
+            print(
+                f"{label}: at the node (its /diagnostics): {r['ik_node_answered']} solves "
+                f"answered, {r['ik_node_after_deadline']} after their deadline (worst "
+                f"{r['ik_node_worst_after_deadline_ms']:.1f} ms after); pool: "
+                f"{r['ik_pool_expired_in_queue']} expired in its queue, {r['ik_pool_overdue']} "
+                f"answered as overdue, {r['ik_pool_workers_lost']} workers lost; the clients' "
+                f"own process stalled up to {r['ik_clients_worst_stall_ms']:.0f} ms"
+            )
         if "pose_p99_in_node_ms" in r:
-            print(f"{label}: the slowest 1 % of ee_pose took {r['pose_p99_in_node_ms']:.2f} ms "
-                  f"from the joint_states' stamp to the node's send and "
-                  f"{r['pose_p99_after_ms']:.2f} ms from there to the receiver (medians)")
+            print(
+                f"{label}: the slowest 1 % of ee_pose took {r['pose_p99_in_node_ms']:.2f} ms "
+                f"from the joint_states' stamp to the node's send and "
+                f"{r['pose_p99_after_ms']:.2f} ms from there to the receiver (medians)"
+            )
         if r.get("pose_longest_unanswered_run", 0) > 1 or r.get("pose_latency_p99_ms", 0) > 10:
-            print(f"{label}: longest run of unanswered samples {r['pose_longest_unanswered_run']}"
-                  f" (ending {r['pose_longest_unanswered_at_s']:.2f} s into the phase), slowest "
-                  f"answer to the sample sent {r['pose_slowest_at_s']:.2f} s into it; the "
-                  f"receiver's own process stalled up to {r['receiver_worst_stall_ms']:.0f} ms")
+            print(
+                f"{label}: longest run of unanswered samples {r['pose_longest_unanswered_run']}"
+                f" (ending {r['pose_longest_unanswered_at_s']:.2f} s into the phase), slowest "
+                f"answer to the sample sent {r['pose_slowest_at_s']:.2f} s into it; the "
+                f"receiver's own process stalled up to {r['receiver_worst_stall_ms']:.0f} ms"
+            )
         if "pose_rate_during_slow_ik" in r:
-            print(f"{label}: the IK call took {r['slow_ik_seconds']:.2f} s from "
-                  f"{r['slow_ik_at_s']:.2f} s into the phase; "
-                  f"{100 * r['pose_rate_during_slow_ik']:.1f} % of the "
-                  f"{r['slow_ik_samples_sent']} joint_states sent meanwhile were answered")
+            print(
+                f"{label}: the IK call took {r['slow_ik_seconds']:.2f} s from "
+                f"{r['slow_ik_at_s']:.2f} s into the phase; "
+                f"{100 * r['pose_rate_during_slow_ik']:.1f} % of the "
+                f"{r['slow_ik_samples_sent']} joint_states sent meanwhile were answered"
+            )
         for line in r.get("node_warnings", []):
             print(f"{label}: the node logged: {line}")
     if "soak" in results:
         s = results["soak"]
-        print(f"soak {s['seconds']:.0f} s at 1 kHz: RSS {s['rss_1min_mb']:.1f} MB after 1 min, "
-              f"{s['rss_end_mb']:.1f} MB at the end ({s['growth_percent']:+.1f} %)")
+        print(
+            f"soak {s['seconds']:.0f} s at 1 kHz: RSS {s['rss_1min_mb']:.1f} MB after 1 min, "
+            f"{s['rss_end_mb']:.1f} MB at the end ({s['growth_percent']:+.1f} %)"
+        )
 
 
 if __name__ == "__main__":

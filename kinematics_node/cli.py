@@ -431,8 +431,7 @@ def _ik_all(
         return [data]
     rows = [res.message, f"columns [rad]: {', '.join(chain.joint_names)}"]
     rows += [
-        f"{i:>4}  " + " ".join(f"{x:10.6f}" for x in sol)
-        for i, sol in enumerate(res.solutions, 1)
+        f"{i:>4}  " + " ".join(f"{x:10.6f}" for x in sol) for i, sol in enumerate(res.solutions, 1)
     ]
     return ["\n".join(rows)]
 
@@ -676,8 +675,10 @@ def _demo(args: argparse.Namespace) -> int:
     reason = None if args.no_ros else unavailable_reason()
     if args.no_ros or reason is not None:
         if reason is not None:
-            print(f"ROS 2 is not available ({reason}); running the demo in this process instead",
-                  file=sys.stderr)
+            print(
+                f"ROS 2 is not available ({reason}); running the demo in this process instead",
+                file=sys.stderr,
+            )
         return demo.main(args.robot, args.out, args.duration, args.rate)
     from . import live_demo
 

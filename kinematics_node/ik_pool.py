@@ -517,7 +517,9 @@ class IKPool:
         if not known and len(w.keys) >= _CHAINS_KEPT:
             forget = next(iter(w.keys))
         try:
-            sent = replace(job, chain_blob=b"", deadline=_solve_until(job.deadline, time.monotonic()))
+            sent = replace(
+                job, chain_blob=b"", deadline=_solve_until(job.deadline, time.monotonic())
+            )
             message = pickle.dumps(
                 (sent, None if known else job.chain_blob, forget), pickle.HIGHEST_PROTOCOL
             )
@@ -649,8 +651,11 @@ class IKPool:
             self._wake_at = wake_at = self._next_wake_locked()
             watched = [self._wake_r, *self._owner]
         for w in hung:
-            _log.warning("IK worker %d is %.1f s past its job's deadline: killing it",
-                         w.process.pid, HUNG_AFTER)
+            _log.warning(
+                "IK worker %d is %.1f s past its job's deadline: killing it",
+                w.process.pid,
+                HUNG_AFTER,
+            )
             w.process.kill()  # its sentinel wakes this thread, which replaces it
         _deliver(outbox)
         if restart:

@@ -49,8 +49,11 @@ def run_live(robot: str, duration: float, rate: float, stream: TextIO) -> tuple[
     description = robot_path(robot).read_text(encoding="utf-8")
     with tempfile.TemporaryDirectory(prefix="kinematics_demo_") as tmp:
         directory = Path(tmp)
-        print(f"starting sim_arm ({robot}, {rate:g} Hz) and kinematics_node in ROS domain "
-              f"{domain} (discovery on loopback)", file=stream)
+        print(
+            f"starting sim_arm ({robot}, {rate:g} Hz) and kinematics_node in ROS domain "
+            f"{domain} (discovery on loopback)",
+            file=stream,
+        )
         processes = [
             _start("sim_arm", {"robot": robot, "rate": float(rate)}, directory, env),
             _start(
@@ -79,7 +82,9 @@ def run_live(robot: str, duration: float, rate: float, stream: TextIO) -> tuple[
     return run, lines
 
 
-def _listen_and_call(chain: Any, robot: str, duration: float, stream: TextIO) -> tuple[DemoRun, list[str]]:
+def _listen_and_call(
+    chain: Any, robot: str, duration: float, stream: TextIO
+) -> tuple[DemoRun, list[str]]:
     import rclpy
     from geometry_msgs.msg import PoseStamped, TwistStamped
     from kinematics_service.srv import ComputeFK, ComputeIK, ComputeJacobian
@@ -127,8 +132,10 @@ def _listen_and_call(chain: Any, robot: str, duration: float, stream: TextIO) ->
             if time.monotonic() - t_start > 60:
                 raise RuntimeError("no ee_pose arrived within 60 s; see the processes' logs")
             time.sleep(0.05)
-        print(f"first ee_pose after {time.monotonic() - t_start:.1f} s; listening for "
-              f"{duration:g} s", file=stream)
+        print(
+            f"first ee_pose after {time.monotonic() - t_start:.1f} s; listening for {duration:g} s",
+            file=stream,
+        )
         poses.clear()
         twists.clear()
         time.sleep(duration)
@@ -173,8 +180,10 @@ def _listen_and_call(chain: Any, robot: str, duration: float, stream: TextIO) ->
     t = np.array([s for s, _, _ in matched])
     q = np.array([states[s] for s, _, _ in matched])
     p_tip = np.array([matrix_from_pose(m.pose)[:3, 3] for _, m, _ in matched])
-    speed_of = {s: np.linalg.norm([m.twist.linear.x, m.twist.linear.y, m.twist.linear.z])
-                for s, m in got_twists}
+    speed_of = {
+        s: np.linalg.norm([m.twist.linear.x, m.twist.linear.y, m.twist.linear.z])
+        for s, m in got_twists
+    }
     speed = np.array([speed_of.get(s, np.nan) for s in t])
     latency = np.array([arr - s for s, _, arr in matched]) * 1e3
     w, rank = movable_manipulability(chain, q)
@@ -187,8 +196,15 @@ def _listen_and_call(chain: Any, robot: str, duration: float, stream: TextIO) ->
         speed_tip=speed,
         manipulability=w,
         manipulability_rank=rank,
-        ik_rows=[(float(t[-1] - t[0]), bool(ik_resp.success), ik_resp.position_error,
-                  ik_resp.orientation_error, ik_ms)],
+        ik_rows=[
+            (
+                float(t[-1] - t[0]),
+                bool(ik_resp.success),
+                ik_resp.position_error,
+                ik_resp.orientation_error,
+                ik_ms,
+            )
+        ],
         ik_targets=matrix_from_pose(fk_resp.pose.pose)[None, :3, 3],
     )
     fk_check = np.abs(p_tip - chain.fk(q)[:, :3, 3]).max()
@@ -203,9 +219,12 @@ def _listen_and_call(chain: Any, robot: str, duration: float, stream: TextIO) ->
         f"compute_jacobian: {'ok' if jac_resp.success else jac_resp.message} in {jac_ms:.1f} ms "
         f"(vs the core: {jac_err:.1e}; manipulability {jac_resp.manipulability:.4f})",
         "compute_ik (the last pose, seeded at the middle of the limits): "
-        + (f"solved in {ik_ms:.1f} ms, position error {ik_resp.position_error:.1e} m, "
-           f"orientation error {ik_resp.orientation_error:.1e} rad"
-           if ik_resp.success and reached is not None else f"FAILED: {ik_resp.message}"),
+        + (
+            f"solved in {ik_ms:.1f} ms, position error {ik_resp.position_error:.1e} m, "
+            f"orientation error {ik_resp.orientation_error:.1e} rad"
+            if ik_resp.success and reached is not None
+            else f"FAILED: {ik_resp.message}"
+        ),
     ]
     return run, lines
 

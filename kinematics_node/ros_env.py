@@ -72,8 +72,12 @@ def fastdds_profile_env(
 def keep_discovery_local(domain_id: int | None = None) -> int:
     """Apply `local_ros_env` to this process (before `rclpy.init`); returns the domain id."""
     env = local_ros_env(domain_id)
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOCALHOST_ONLY", "ROS_DOMAIN_ID",
-                *FASTDDS_PROFILE_VARIABLES):
+    for key in (
+        "ROS_AUTOMATIC_DISCOVERY_RANGE",
+        "ROS_LOCALHOST_ONLY",
+        "ROS_DOMAIN_ID",
+        *FASTDDS_PROFILE_VARIABLES,
+    ):
         if key in env:
             os.environ[key] = env[key]
     return int(env["ROS_DOMAIN_ID"])
@@ -149,5 +153,7 @@ def unavailable_reason() -> str | None:
             "install/setup.bash"
         )
     if executable("kinematics_node") is None:
-        return "the kinematics_node executable is not found: run `make ros`, then . build/ros/env.sh"
+        return (
+            "the kinematics_node executable is not found: run `make ros`, then . build/ros/env.sh"
+        )
     return None

@@ -57,7 +57,8 @@ def _spin(
     context = rclpy.get_default_context()
     node = None
     try:
-        rclpy.init(args=args, context=context)  # its handlers call ours (installed first) after theirs
+        # rclpy's signal handlers call ours (installed first) after theirs
+        rclpy.init(args=args, context=context)
         node = make_node()
         kind = node.get_parameter("executor").value if node.has_parameter("executor") else "lean"
         executor = make_executor(kind, log=node.get_logger().warn)

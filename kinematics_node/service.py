@@ -410,7 +410,8 @@ class KinematicsService:
         if model is None or tracker is None:
             raise RobotDescriptionError(NO_DESCRIPTION)
         current = {
-            n: v for n, v in zip(tracker.joint_names, tracker.q.tolist(), strict=True)
+            n: v
+            for n, v in zip(tracker.joint_names, tracker.q.tolist(), strict=True)
             if math.isfinite(v)
         }
         return model, current, self._params
@@ -527,7 +528,9 @@ class KinematicsService:
             f"{options.orientation_tolerance:g} rad)"
         )
         if pending.note:
-            return f"no solution: {pending.note} (best position error {response.position_error:.3g} m)"
+            return (
+                f"no solution: {pending.note} (best position error {response.position_error:.3g} m)"
+            )
         if outcome.q is None:
             return f"no solution within {options.timeout:g} s ({outcome.message})"
         return (

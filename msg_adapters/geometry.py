@@ -54,7 +54,9 @@ def _rotation_rows(quat: Any, name: str) -> tuple[float, ...]:
     return rows_from_quaternion(*xyzw)
 
 
-def _transform(rotation: Any, translation: Any, name: str, r_field: str, p_field: str) -> FloatArray:
+def _transform(
+    rotation: Any, translation: Any, name: str, r_field: str, p_field: str
+) -> FloatArray:
     r = _rotation_rows(rotation, f"{name}.{r_field}")
     x, y, z = _xyz_floats(translation, f"{name}.{p_field}")
     return np.array(

@@ -24,7 +24,9 @@ def test_demo_writes_the_picture_and_exits_0(tmp_path, capsys, monkeypatch):
 def test_demo_out_option_and_other_robot(tmp_path, capsys):
     pytest.importorskip("matplotlib", reason="the demo picture needs the [demo] extra")
     target = tmp_path / "sub.png"
-    assert main(["demo", "--robot", "panda", "--duration", "1", "--out", str(target), "--no-ros"]) == 0
+    assert (
+        main(["demo", "--robot", "panda", "--duration", "1", "--out", str(target), "--no-ros"]) == 0
+    )
     assert target.exists()
     assert "robot panda: 7 joints" in capsys.readouterr().out
 
@@ -75,12 +77,18 @@ def test_demo_without_ros_says_so_and_runs_in_process(tmp_path):
     import sys
 
     pytest.importorskip("matplotlib", reason="the demo picture needs the [demo] extra")
-    env = {k: v for k, v in os.environ.items()
-           if not k.startswith("KINEMATICS_") and k not in ("PYTHONPATH", "AMENT_PREFIX_PATH")}
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if not k.startswith("KINEMATICS_") and k not in ("PYTHONPATH", "AMENT_PREFIX_PATH")
+    }
     out = tmp_path / "demo.png"
     proc = subprocess.run(
         [sys.executable, "-m", "kinematics_node.cli", "demo", "--duration", "1", "--out", str(out)],
-        env=env, capture_output=True, text=True, timeout=120,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert proc.returncode == 0, proc.stderr
     assert "ROS 2 is not available" in proc.stderr and "in this process instead" in proc.stderr

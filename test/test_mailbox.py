@@ -50,7 +50,7 @@ def test_an_item_left_waiting_rings_once_its_patience_is_out(bell_and_box):
     start = time.monotonic()
     box.put(7, 0.05)
     assert bell.event.wait(5.0), "the bell never rang"
-    (at, name), = bell.rung
+    ((at, name),) = bell.rung
     assert at - start >= 0.05 and name == "test-watcher"
     assert box.collect() == [7]
 

@@ -453,7 +453,10 @@ def test_diagnostics_count_ik_answers_against_their_deadlines(ros, ur5, q_ur5):
         pending = ur5.prepare_ik(ros.roundtrip(req), ros.response("ComputeIK"), now=t0)
         assert pending is not None
         resp = ur5.finish_ik(
-            pending, solve_job(pending.job), ros.response("ComputeIK"), now=t0 + 0.1 + after_deadline
+            pending,
+            solve_job(pending.job),
+            ros.response("ComputeIK"),
+            now=t0 + 0.1 + after_deadline,
         )
         assert resp.success, resp.message
 

@@ -43,6 +43,7 @@ from .model import TWO_PI
 
 FloatArray = NDArray[np.float64]
 
+
 def _lm_step(
     Jt: FloatArray, r: FloatArray, lam: float, eye: FloatArray
 ) -> tuple[list[float], FloatArray | None] | None:
@@ -86,7 +87,8 @@ class SingleSolver:
         self.target = tuple(R.ravel().tolist() + p.tolist())
         self.seed: list[float] = seed.tolist()
         c = problem.scalar  # plain-Python constants, shared by the problem's calls: read only
-        self.lower, self.upper, self.periodic, self.pinnable = c.lower, c.upper, c.periodic, c.pinnable
+        self.lower, self.upper = c.lower, c.upper
+        self.periodic, self.pinnable = c.periodic, c.pinnable
         self.joint_weights = c.joint_weights
         self.spare = problem.spare
         self._sampler: tuple[np.random.Generator, FloatArray, FloatArray] | None = None

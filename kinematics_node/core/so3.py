@@ -126,11 +126,13 @@ def rows_from_quaternion(x: float, y: float, z: float, w: float) -> tuple[float,
     xx, yy, zz = s * x * x, s * y * y, s * z * z
     xy, xz, yz = s * x * y, s * x * z, s * y * z
     wx, wy, wz = s * w * x, s * w * y, s * w * z
+    # fmt: off
     return (
         1.0 - (yy + zz), xy - wz, xz + wy,
         xy + wz, 1.0 - (xx + zz), yz - wx,
         xz - wy, yz + wx, 1.0 - (xx + yy),
     )
+    # fmt: on
 
 
 def log(R: ArrayLike) -> FloatArray:

@@ -361,7 +361,6 @@ def test_seven_r_default_sweep_and_given_values():
     assert "2 values of panda_joint7 swept" in res.message
 
 
-
 @pytest.mark.parametrize("arm", ["ur5 ±2π", "panda, shared held values", "panda, per-target held"])
 def test_a_batch_solved_in_several_passes_equals_one_pass(monkeypatch, arm):
     """ik_all_batch works in passes of SOLVE_CHUNK lanes; with passes of 5 lanes (partial last
@@ -390,6 +389,7 @@ def test_a_batch_solved_in_several_passes_equals_one_pass(monkeypatch, arm):
     for field in ("q", "success", "count", "offsets", "solutions", "singular"):
         np.testing.assert_array_equal(getattr(many, field), getattr(one, field), err_msg=field)
     assert many.message == one.message
+
 
 # ---------------------------------------------------------------------- singular and unreachable
 def test_singular_wrist_gives_a_valid_set_and_says_so():

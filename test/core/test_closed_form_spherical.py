@@ -258,6 +258,4 @@ def test_prepared_vectorised_spherical_wrist_equals_the_general_one(arm):
         st.case, g, G[:, :3, :3], G[:, :3, 3], dflt, fast_trace, prep
     )
     assert (~ok_ref[60:100]).all(axis=1).sum() >= 20  # (most) out of reach
-    assert_same_batched_solve(
-        (Q_ref, ok_ref, ref_trace), (Q_fast, ok_fast, fast_trace), n_singular
-    )
+    assert_same_batched_solve((Q_ref, ok_ref, ref_trace), (Q_fast, ok_fast, fast_trace), n_singular)

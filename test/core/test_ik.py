@@ -443,8 +443,7 @@ def test_equal_rng_seed_gives_equal_results() -> None:
     chain = arm("panda")
     seed = chain.lower + 0.01
     runs = [
-        [chain.ik(T, seed, numeric(rng_seed=42)) for T in _hard_targets(chain, 6)]
-        for _ in range(2)
+        [chain.ik(T, seed, numeric(rng_seed=42)) for T in _hard_targets(chain, 6)] for _ in range(2)
     ]
     assert sum(r.restarts for r in runs[0]) > 0  # the random restarts were exercised
     for a, b in zip(*runs, strict=True):

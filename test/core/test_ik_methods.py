@@ -147,7 +147,9 @@ def test_unreachable_6r_target_names_the_closed_form_reason_and_still_searches()
         res = chain.ik(T, options=opts)
         elapsed.append(time.perf_counter() - t0)
         assert not res.success and np.all(np.isfinite(res.q))
-        assert res.message.startswith("closed form: unreachable") and "numeric search" in res.message
+        assert (
+            res.message.startswith("closed form: unreachable") and "numeric search" in res.message
+        )
     # the search used its budget, and no more
     assert min(elapsed) >= 0.015 and min(elapsed) <= 0.02 + 0.01 and max(elapsed) < 0.5, elapsed
 

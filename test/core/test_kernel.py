@@ -90,7 +90,9 @@ def test_folded_constants_stay_exact_to_rounding() -> None:
     c = np.cos(np.pi / 2)  # 6e-17, not 0
     M = np.array([[c, -1.0, 0, 0.3], [1.0, c, 0, 0.1], [0, 0, 1.0, 0.5], [0, 0, 0, 1.0]])
     chain = SerialChain.from_poe(S, M)
-    source = _generate_scalar(chain.solver_model.kernel.A, chain.solver_model.kernel.prismatic, "pose")
+    source = _generate_scalar(
+        chain.solver_model.kernel.A, chain.solver_model.kernel.prismatic, "pose"
+    )
     assert "e-1" not in source  # no ~1e-17 constants survive: they were folded to 0
     for q in rng.uniform(-3, 3, (20, 5)):
         np.testing.assert_allclose(chain.fk(q), _poe(chain, q), rtol=0, atol=1e-13)

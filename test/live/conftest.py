@@ -55,5 +55,3 @@ def start_node(client: Client) -> Iterator[Callable[..., NodeProcess]]:
     for node, directory in started:
         node.stop(signal.SIGINT)
         directory.cleanup()
-
-

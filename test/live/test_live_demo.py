@@ -17,7 +17,10 @@ def test_live_demo_runs_both_processes_calls_the_services_and_draws(tmp_path):
     out = tmp_path / "live.png"
     proc = subprocess.run(
         [str(kinematics), "demo", "--duration", "2", "--out", str(out)],
-        capture_output=True, text=True, timeout=180, cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=180,
+        cwd=tmp_path,
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
     text = proc.stdout

@@ -154,7 +154,12 @@ def _bad_fk(**f):
 
 
 BAD = [
-    (ComputeFK, "compute_fk", lambda: _bad_fk(names=["bogus_joint"], positions=[0.0]), "'bogus_joint'"),
+    (
+        ComputeFK,
+        "compute_fk",
+        lambda: _bad_fk(names=["bogus_joint"], positions=[0.0]),
+        "'bogus_joint'",
+    ),
     (ComputeFK, "compute_fk", lambda: _bad_fk(positions=[0.0] * 5), "6 names but 5 positions"),
     (ComputeFK, "compute_fk", lambda: _bad_fk(positions=[0, math.nan, 0, 0, 0, 0]), "nan"),
     (ComputeFK, "compute_fk", lambda: _bad_fk(positions=[0, math.inf, 0, 0, 0, 0]), "inf"),
@@ -167,7 +172,12 @@ BAD = [
     (ComputeIK, "compute_ik", lambda: _ik(timeout=-0.1), "timeout"),
     (ComputeIK, "compute_ik", lambda: _ik(timeout=math.nan), "timeout"),
     (ComputeIK, "compute_ik", lambda: _ik(position_tolerance=-1e-3), "position_tolerance"),
-    (ComputeIK, "compute_ik", lambda: _ik(seed=joint_state(["bogus_joint"], [0.0])), "'bogus_joint'"),
+    (
+        ComputeIK,
+        "compute_ik",
+        lambda: _ik(seed=joint_state(["bogus_joint"], [0.0])),
+        "'bogus_joint'",
+    ),
     (ComputeIK, "compute_ik", lambda: _ik(tip_link="nope"), "'nope'"),
     (ComputeIK, "compute_ik", lambda: _ik(axis_tolerances=[0.1, 0.2]), "axis_tolerances"),
     (ComputeIK, "compute_ik", lambda: _ik(max_solutions=10001), "max_solutions"),
@@ -212,7 +222,9 @@ def test_pose_stream_keeps_flowing_during_a_2_s_ik_call(node, client):
     stream = Stream(client)
     wait_until(lambda: stream.pub.get_subscription_count() > 0, 10, "subscription")
     req = _ik(position=0.0)
-    req.target.pose.position.z = 0.3  # inside the reach but unreachable: the search uses its timeout
+    req.target.pose.position.z = (
+        0.3  # inside the reach but unreachable: the search uses its timeout
+    )
     req.timeout = 2.0
     cli = client.node.create_client(ComputeIK, "compute_ik")
     assert cli.wait_for_service(timeout_sec=10.0)
@@ -223,7 +235,9 @@ def test_pose_stream_keeps_flowing_during_a_2_s_ik_call(node, client):
     sent = 0
     while not future.done() and time.monotonic() - t0 < 10.0:
         sent += 1
-        stream.pub.publish(joint_state(UR5E_JOINTS, Q + 1e-3 * sent, stamp_ns=10**12 + sent * 10**7))
+        stream.pub.publish(
+            joint_state(UR5E_JOINTS, Q + 1e-3 * sent, stamp_ns=10**12 + sent * 10**7)
+        )
         time.sleep(0.01)
     elapsed = time.monotonic() - t0
     assert future.done()

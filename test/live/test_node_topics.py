@@ -88,10 +88,14 @@ def test_moving_stream_matches_fk_and_finite_difference_twist(ur5e, stream):
     stream.connected(ur5e)
     dt = 0.002
     t = np.arange(200) * dt
-    q_of = lambda tt: 0.4 * np.sin(np.outer(tt, [1.0, 1.3, 0.7, 2.0, 1.1, 1.7]) + 0.3)  # noqa: E731
-    qdot_of = lambda tt: 0.4 * np.cos(np.outer(tt, [1.0, 1.3, 0.7, 2.0, 1.1, 1.7]) + 0.3) * [  # noqa: E731
-        1.0, 1.3, 0.7, 2.0, 1.1, 1.7
-    ]
+    w = np.array([1.0, 1.3, 0.7, 2.0, 1.1, 1.7])  # joint frequencies [rad/s]
+
+    def q_of(tt):
+        return 0.4 * np.sin(np.outer(tt, w) + 0.3)
+
+    def qdot_of(tt):
+        return 0.4 * w * np.cos(np.outer(tt, w) + 0.3)
+
     base_ns = 1_000_000_000_000
     sent = {}
     for k, tk in enumerate(t):
@@ -105,7 +109,9 @@ def test_moving_stream_matches_fk_and_finite_difference_twist(ur5e, stream):
     for ns, pose in poses.items():
         k = sent[ns]  # every pose carries the stamp of a joint state we sent
         assert pose.header.frame_id == "base_link"
-        np.testing.assert_allclose(matrix_from_pose(pose.pose), CHAIN.fk(q_of([t[k]])[0]), atol=1e-12)
+        np.testing.assert_allclose(
+            matrix_from_pose(pose.pose), CHAIN.fk(q_of([t[k]])[0]), atol=1e-12
+        )
     for ns, tw in twists.items():
         k = sent[ns]
         assert tw.header.frame_id == "base_link"
@@ -125,13 +131,20 @@ def test_subsets_any_order_foreign_joints_and_no_velocities(ur5e, stream):
     order = [3, 0, 5]
     rest = [1, 2, 4]
     stream.pub.publish(
-        joint_state([UR5E_JOINTS[i] for i in order] + ["gripper_joint"], list(q[order]) + [0.02],
-                    stamp_ns=10_000_000_000)
+        joint_state(
+            [UR5E_JOINTS[i] for i in order] + ["gripper_joint"],
+            list(q[order]) + [0.02],
+            stamp_ns=10_000_000_000,
+        )
     )
     stream.pub.publish(
-        joint_state(["other_arm_joint"] + [UR5E_JOINTS[i] for i in rest], [9.0] + list(q[rest]),
-                    stamp_ns=10_000_000_000)
+        joint_state(
+            ["other_arm_joint"] + [UR5E_JOINTS[i] for i in rest],
+            [9.0] + list(q[rest]),
+            stamp_ns=10_000_000_000,
+        )
     )
+
     # the first half alone may already give a pose (with joints from earlier tests): wait for
     # the pose after both halves, which is the last one with their stamp
     def both_halves_taken() -> bool:
@@ -188,8 +201,13 @@ def test_malformed_joint_states_are_refused_and_warned_about_with_throttling(ur5
     assert warnings, f"no warning for malformed joint_states:\n{log}"
     assert len(warnings) <= 2 * len(MALFORMED), f"warnings are not throttled: {len(warnings)}"
     assert max(len(line) for line in warnings) < 400, "a warning echoes the whole sample"
-    for needle in ("is nan", "is inf", "names but 5 positions", "names but 3 velocities",
-                   "'elbow_joint' more than once"):
+    for needle in (
+        "is nan",
+        "is inf",
+        "names but 5 positions",
+        "names but 3 velocities",
+        "'elbow_joint' more than once",
+    ):
         assert any(needle in line for line in warnings), f"no warning says {needle!r}:\n{log}"
     # the node still works, and its diagnostics carry finite numbers only
     stream.pub.publish(joint_state(UR5E_JOINTS, good, stamp_ns=21_000_000_000))
@@ -240,7 +258,8 @@ def test_description_from_the_topic_then_reloaded_mid_stream(start_node, stream,
     description.publish(String(data=ur5e_description()))
     wait_until(
         lambda: stream.pub.publish(joint_state(UR5E_JOINTS, q, stamp_ns=2_000)) or stream.poses,
-        20, f"a pose after the description arrived:\n{node.log()}",
+        20,
+        f"a pose after the description arrived:\n{node.log()}",
     )
     np.testing.assert_allclose(matrix_from_pose(stream.poses[-1].pose), CHAIN.fk(q), atol=1e-12)
 

@@ -44,7 +44,9 @@ def _fastdds_files() -> set[str]:
 
 def _start() -> subprocess.Popen[str]:
     env = local_ros_env(DOMAIN_ID)
-    process = subprocess.Popen([sys.executable, "-c", PARTICIPANT], env=env, stdout=subprocess.PIPE, text=True)
+    process = subprocess.Popen(
+        [sys.executable, "-c", PARTICIPANT], env=env, stdout=subprocess.PIPE, text=True
+    )
     assert process.stdout is not None and process.stdout.readline().strip() == "up"
     time.sleep(1.0)  # discovery: each participant opens the other's ports
     return process
