@@ -21,6 +21,8 @@ Reported per phase: the fraction of samples answered on ee_pose and ee_twist, la
 stamp) median and p99, CPU of the node process [% of one core] and its resident memory, and for
 IK the answers per second, late answers (> timeout + 20 ms, queueing included), reachable targets
 not solved and unreachable ones reported solved. Ratios are ours / echo's (lower is better).
+Last, a table of issue 10's targets for the phases run, each with its figure and whether it is met
+(`target_checks`).
 Run it on a quiet machine: every figure here is shared-CPU sensitive.
 """
 
@@ -740,6 +742,59 @@ def soak(env: dict[str, str], directory: Path, seconds: float) -> dict[str, Any]
     }
 
 
+def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bool]]:
+    """Issue 10's targets, for the phases in `results`: (target, what was measured, met?).
+
+    Our phases without IK calls are held to the pose targets against the echo at their rate;
+    the phase with IK clients to the same and to the IK ones; the phase with the slow IK call
+    to the fraction answered during it; the soak to its memory growth."""
+    echo = {r["rate_hz"]: r for label, r in results.items() if label.startswith("echo")}
+    checks: list[tuple[str, str, bool]] = []
+
+    def check(target: str, measured: str, met: bool) -> None:
+        checks.append((target, measured, met))
+
+    for label, r in results.items():
+        if label == "soak" or "echo" in label:
+            continue
+        if "pose_rate_during_slow_ik" in r:
+            rate = r["pose_rate_during_slow_ik"]
+            check(f"{label}: ≥ 95 % answered during the call", f"{100 * rate:.1f} %", rate >= 0.95)
+            continue
+        e = echo.get(r["rate_hz"])
+        answered = min(r["pose_answered"], r["twist_answered"])
+        check(f"{label}: ≥ 99 % answered", f"{100 * answered:.1f} %", answered >= 0.99)
+        median = r["pose_latency_median_ms"]
+        if e is None:  # (a run of some phases only: the ratios need the echo's phase)
+            check(f"{label}: median ≤ 1.5 ms (no echo measured)", f"{median:.2f} ms", median <= 1.5)
+        else:
+            ratio = median / e["pose_latency_median_ms"]
+            check(
+                f"{label}: median ≤ 2× the echo's and ≤ 1.5 ms",
+                f"{ratio:.2f}×, {median:.2f} ms",
+                ratio <= 2.0 and median <= 1.5,
+            )
+            cpu = r["cpu_percent"] / e["cpu_percent"]
+            check(f"{label}: CPU ≤ 2× the echo's", f"{cpu:.2f}×", cpu <= 2.0)
+        p99 = r["pose_latency_p99_ms"]
+        check(f"{label}: p99 ≤ 10 ms", f"{p99:.2f} ms", p99 <= 10.0)
+        if "ik_calls" in r:
+            check(
+                f"{label}: every IK answer ≤ timeout + 20 ms",
+                f"{r['ik_late']} later (slowest {r['ik_latency_max_ms']:.1f} ms)",
+                r["ik_late"] == 0,
+            )
+            check(
+                f"{label}: reachable solved, no unreachable solved",
+                f"{r['ik_reachable_unsolved']} and {r['ik_unreachable_solved']}",
+                r["ik_reachable_unsolved"] == 0 and r["ik_unreachable_solved"] == 0,
+            )
+    if "soak" in results:
+        growth = results["soak"]["growth_percent"]
+        check("soak: RSS at the end within 10 % of 1 min", f"{growth:+.1f} %", abs(growth) <= 10.0)
+    return checks
+
+
 def report(results: dict[str, dict[str, Any]]) -> None:
     print(
         "| phase | ee_pose answered | ee_twist answered | latency median / p99 [ms] | "
@@ -811,6 +866,13 @@ def report(results: dict[str, dict[str, Any]]) -> None:
             f"soak {s['seconds']:.0f} s at 1 kHz: RSS {s['rss_1min_mb']:.1f} MB after 1 min, "
             f"{s['rss_end_mb']:.1f} MB at the end ({s['growth_percent']:+.1f} %)"
         )
+    checks = target_checks(results)
+    if checks:
+        print()
+        print("| issue 10's target | measured | met |")
+        print("|---|---|---|")
+        for target, measured, met in checks:
+            print(f"| {target} | {measured} | {'yes' if met else '**no**'} |")
 
 
 if __name__ == "__main__":
