@@ -132,10 +132,14 @@ def dump_json(value: Any, indent: int | None = 2) -> str:
     return json.dumps(strict_json(value), indent=indent, allow_nan=False, ensure_ascii=False)
 
 
+def _for_people(A: np.ndarray) -> np.ndarray:
+    """`A` to print: entries below 1e-10 (round-off, e.g. of printed URDF angles) as 0, never -0."""
+    return np.where(np.abs(A) < 1e-10, 0.0, A)
+
+
 def _fmt_matrix(A: np.ndarray, indent: str = "  ") -> str:
-    """Rows of a matrix for people: entries below 1e-10 (round-off of printed URDF angles) show as 0."""
-    M = np.where(np.abs(A) < 1e-10, 0.0, A)
-    return "\n".join(indent + " ".join(f"{x:10.6g}" for x in row) for row in M)
+    """Rows of a matrix for people (`_for_people`)."""
+    return "\n".join(indent + " ".join(f"{x:10.6g}" for x in row) for row in _for_people(A))
 
 
 def _pose_dict(T: np.ndarray) -> dict[str, Any]:
@@ -308,7 +312,7 @@ def cmd_jacobian(args: argparse.Namespace, chain: SerialChain) -> Output:
         head += f"{args.frame} Jacobian (rows ω then v; columns {', '.join(chain.joint_names)}):"
         body = "\n".join(
             f"  {label:<3}" + " ".join(f"{x:10.6g}" for x in row)
-            for label, row in zip(rows_labels, J, strict=True)
+            for label, row in zip(rows_labels, _for_people(J), strict=True)
         )
         cond = f"{c:.6g}" if math.isfinite(c) else "inf (singular)"
         yield (

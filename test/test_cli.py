@@ -69,6 +69,20 @@ def test_jacobian_from_dh_file(capsys, tmp_path):
     assert data["rows"] == ["wx", "wy", "wz", "vx", "vy", "vz"]
 
 
+def test_jacobian_text_shows_round_off_as_zero_and_the_json_keeps_it(capsys):
+    # the Panda at these angles: cos(π/2) round-off (~6e-17) in several entries
+    q = "0,0,0,-1.5,0,1.5,0"
+    code, out, _ = run(capsys, "jacobian", "--robot", "panda", "--q", q, "--frame", "world")
+    assert code == 0
+    rows = [line.split() for line in out.splitlines() if line.split()[:1] in (["wx"], ["vz"])]
+    values = [float(x) for row in rows for x in row[1:]]
+    assert len(values) == 14 and 0.0 in values
+    assert not any(0 < abs(x) < 1e-10 for x in values) and "-0 " not in out and "e-" not in out
+    code, out, _ = run(capsys, "jacobian", "--robot", "panda", "--q", q, "--json")
+    J = np.array(json.loads(out)["J"])
+    assert np.any((J != 0) & (np.abs(J) < 1e-10))  # the round-off itself, unchanged
+
+
 @pytest.mark.parametrize(
     "argv, message",
     [
