@@ -140,6 +140,27 @@ class RosTypes:
             values[name] = v
         return self.cls(msgtype)(**values)
 
+    def flatten(self, msg: Any, path: str = "") -> dict[str, Any]:
+        """Every leaf value of `msg` by its path ("pose.position.x", "position[2]"), as plain
+        Python values (numpy scalars and arrays, array('d') turned into floats and lists)."""
+        out: dict[str, Any] = {}
+        _, fielddefs = self.store.fielddefs[msg.__msgtype__]
+        for name, (kind, detail) in fielddefs:
+            v = getattr(msg, name)
+            where = f"{path}{name}"
+            kind = int(kind)
+            if kind == 1:
+                out[where] = v.item() if isinstance(v, np.generic) else v
+            elif kind == 2:
+                out.update(self.flatten(v, where + "."))
+            else:
+                for i, x in enumerate(v):
+                    if int(detail[0][0]) == 2:
+                        out.update(self.flatten(x, f"{where}[{i}]."))
+                    else:
+                        out[f"{where}[{i}]"] = x.item() if isinstance(x, np.generic) else x
+        return out
+
     def rclpy_type_problems(self, msg: Any, path: str = "") -> list[str]:
         """Fields whose Python types rclpy's generated setters would reject: float fields must be
         `float` (not int, not numpy scalars), integer fields `int` (not bool), float64[] lists or

@@ -14,6 +14,7 @@ import time
 import numpy as np
 import pytest
 from kin_testing import PinocchioOracle
+from scipy.spatial.transform import Rotation
 from service_testing import T_BASE_CAMERA, chain_of, check_message, js
 
 import msg_adapters as ma
@@ -351,6 +352,10 @@ def test_ik_reaches_targets_given_in_base_link_and_tf_frames(ros, ur5, q_ur5, fr
     assert (resp.solution.header.stamp.sec, resp.solution.header.stamp.nanosec) == (4, 5)
     T_reached = chain.fk(np.asarray(resp.solution.position))  # FK∘IK = identity (within tolerance)
     assert np.linalg.norm(T_reached[:3, 3] - T_base_goal[:3, 3]) <= 1e-5 + 1e-12
+    # the orientation too, measured here (the response's own errors are against the target the
+    # service built from the frame: a wrong frame rotation would not show in them)
+    R_error = T_reached[:3, :3].T @ T_base_goal[:3, :3]
+    assert Rotation.from_matrix(R_error).magnitude() <= 1e-4 + 1e-12
     assert resp.position_error <= 1e-5 and resp.orientation_error <= 1e-4
 
 
