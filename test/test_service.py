@@ -370,19 +370,26 @@ def test_ik_position_only(ros, ur5, q_ur5):
     assert np.linalg.norm(reached - T[:3, 3]) <= 1e-5
 
 
-def test_ik_axis_tolerances_free_the_spin_about_the_tool_axis(ros, ur5, q_ur5):
-    chain = chain_of(ur5)
-    ur5.on_joint_state(js(ros, chain.joint_names, q_ur5, t=1.0))
-    T = chain.fk(q_ur5 + 0.1)
-    spun = T @ se3.exp(np.array([0.0, 0.0, 0.8, 0.0, 0.0, 0.0]))  # Rz(0.8) about the tool z
-    bounds = np.array([1e-4, 1e-4, np.inf, 1e-5, 1e-5, 1e-5])
+def test_ik_axis_tolerances_free_a_spin_the_arm_cannot_make(ros, ur5_path, clock, q_ur5):
+    # a UR5 without its last joint (tip wrist_2_link) cannot spin its tip about the tip's y axis:
+    # the spun target fails as a full pose and is reached with that axis's bound infinite
+    params = {"robot_description": ur5_path.read_text(), "tip_link": "wrist_2_link"}
+    svc = KinematicsService(ros.types, params, clock=clock)
+    chain = chain_of(svc)
+    assert chain.dof == 5
+    svc.on_joint_state(js(ros, chain.joint_names, q_ur5[:5], t=1.0))
+    spun = chain.fk(q_ur5[:5] + 0.1) @ se3.exp(np.array([0.0, 0.8, 0.0, 0.0, 0.0, 0.0]))
+    full = _ik(ros, svc, ros.request("ComputeIK", target=_target(ros, spun), timeout=0.05))
+    assert full.success is False
+    bounds = np.array([1e-4, np.inf, 1e-4, 1e-5, 1e-5, 1e-5])
     req = ros.request("ComputeIK", target=_target(ros, spun), axis_tolerances=bounds, timeout=0.5)
-    resp = _ik(ros, ur5, req)
+    resp = _ik(ros, svc, req)
     assert resp.success, resp.message
+    check_message(ros, resp)
     T_got = chain.fk(np.asarray(resp.solution.position))
     assert np.linalg.norm(T_got[:3, 3] - spun[:3, 3]) <= 2e-5
-    tool_z_angle = math.acos(min(1.0, float(T_got[:3, 2] @ spun[:3, 2])))
-    assert tool_z_angle <= 2e-4  # the tool axis matches; the spin about it was free
+    tip_y_angle = math.acos(min(1.0, float(T_got[:3, 1] @ spun[:3, 1])))
+    assert tip_y_angle <= 2e-4  # the tip's y axis matches; the spin about it was free
 
 
 @pytest.mark.parametrize(
