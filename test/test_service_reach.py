@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -42,6 +43,29 @@ def test_out_of_reach_fails_saying_so_with_the_best_configuration(ros, service):
 def test_a_target_just_inside_the_bound_is_searched_normally(ros, service):
     center, radius = service.model.chain.reach_sphere
     resp = service.compute_ik(
-        request(ros, center[0] + 0.5 * radius, timeout=0.05), ros.response("ComputeIK")
+        request(ros, center[0] + radius - 1e-3, timeout=0.05), ros.response("ComputeIK")
     )
-    assert "reaches at most" not in resp.message
+    assert "reaches at most" not in resp.message, resp.message
+
+
+def test_no_reachable_target_is_refused_as_beyond_reach(ros, service):
+    # targets the arm reaches (FK of random configurations, the farthest ones included) are all
+    # searched and solved: the bound never refuses a reachable target
+    chain = service.model.chain
+    center, _ = chain.reach_sphere
+    rng = np.random.default_rng(7)
+    # and q = 0: a UR's home pose stretches the arm out horizontally, its farthest reach
+    Q = np.vstack([np.zeros(chain.dof), rng.uniform(chain.lower, chain.upper, (40, chain.dof))])
+    T = chain.fk(Q)
+    distances = np.linalg.norm(T[:, :3, 3] - center, axis=1)
+    for k in np.argsort(distances)[-10:]:  # the 10 farthest
+        req = ros.request("ComputeIK", timeout=0.5)
+        req.target.header.frame_id = "base_link"
+        p = T[k, :3, 3]
+        req.target.pose.position.x, req.target.pose.position.y = float(p[0]), float(p[1])
+        req.target.pose.position.z = float(p[2])
+        x, y, z, w = Rotation.from_matrix(T[k, :3, :3]).as_quat()
+        o = req.target.pose.orientation
+        o.x, o.y, o.z, o.w = float(x), float(y), float(z), float(w)
+        resp = service.compute_ik(req, ros.response("ComputeIK"))
+        assert resp.success, resp.message
