@@ -165,6 +165,9 @@ def test_ik_axis_tolerances_free_the_tilt_of_a_planar_arm(capsys):
     assert code == 0 and data["success"]
     T_got = chain.fk(np.array(data["q"]))
     assert np.linalg.norm(T_got[:3, 3] - T[:3, 3]) <= 2e-5
+    rotvec = Rotation.from_matrix(T_got[:3, :3].T @ T[:3, :3]).as_rotvec()  # in the tool's axes
+    assert np.all(np.abs(rotvec[1:]) <= 1e-4)  # the bounded components are met
+    assert rotvec[0] == pytest.approx(0.25, abs=1e-3)  # the free tilt is left as it is
     code, _, err = run(capsys, "ik", "--robot", "planar3r", "--target", target,
                        "--axis-tolerances", "nan,1,1,1,1,1")  # fmt: skip
     assert code == 1 and "--axis-tolerances" in err

@@ -114,7 +114,13 @@ def test_a_root_other_than_robot_is_named():
 def test_duplicated_links_and_joints_are_refused():
     refused(
         with_origin().replace('<link name="b"/>', '<link name="b"/><link name="b"/>'),
-        "'b' is defined twice",
+        "link 'b' is defined twice",
+    )
+    second_joint = (
+        '<link name="c"/><joint name="j" type="fixed"><parent link="b"/><child link="c"/></joint>'
+    )
+    refused(
+        with_origin().replace("</robot>", second_joint + "</robot>"), "joint 'j' is defined twice"
     )
 
 

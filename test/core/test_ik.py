@@ -513,7 +513,8 @@ def test_batch_agrees_with_single_calls(name: str, batch_path: str) -> None:
         single1 = [chain.ik(T[k], options=one) for k in range(N)]
         # rounding differs (NumPy vs plain floats), so an attempt near its limits may end
         # differently; the others end on the same solution, each within the tolerances (a
-        # redundant arm may stop at another point of its self-motion, so only 6 joints compare)
+        # redundant arm may stop at another point of its self-motion, so only the 6-joint arms'
+        # answers are compared joint by joint)
         both = [k for k, s in enumerate(single1) if s.success and res1.success[k]]
         assert len(both) >= 0.8 * N
         for k in both if chain.dof == 6 else []:

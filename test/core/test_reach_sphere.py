@@ -1,4 +1,4 @@
-"""`SerialChain.reach_sphere`: a bound no configuration exceeds, and not a loose one."""
+"""`SerialChain.reach_sphere`: a bound no configuration exceeds, met by arms that stand straight."""
 
 from __future__ import annotations
 
@@ -27,3 +27,14 @@ def test_real_arms_too(real_arm):
     center, radius = chain.reach_sphere
     q = random_q(chain, np.random.default_rng(2), 5_000)
     assert np.linalg.norm(chain.fk(q)[:, :3, 3] - center, axis=1).max() <= radius + 1e-12
+
+
+@pytest.mark.parametrize("robot", ["iiwa14", "planar3r"])
+def test_an_arm_standing_straight_reaches_the_bound_exactly(robot):
+    # at q = 0 an iiwa stands straight up and the planar 3R lies straight out: every joint origin
+    # on one ray from the first, so the triangle inequality is an equality and the tip lies on the
+    # sphere
+    chain = load_robot(robot)
+    center, radius = chain.reach_sphere
+    tip = chain.fk(np.zeros(chain.dof))[:3, 3]
+    assert np.linalg.norm(tip - center) == pytest.approx(radius, abs=1e-12)
