@@ -73,7 +73,7 @@ from numpy.typing import NDArray
 
 from .core import IKOptions, IKResult, SerialChain
 from .core.closed_form import export_family, import_family, pose_errors
-from .core.ik import solve_closed_form
+from .core.ik import beyond_reach, solve_closed_form
 
 FloatArray = NDArray[np.float64]
 
@@ -182,7 +182,11 @@ def solve_job(job: IKJob) -> IKOutcome:
         if len(_chains) >= _CHAINS_KEPT:
             _chains.pop(next(iter(_chains)))
         _chains[job.chain_key] = chain
-    if job.options.num_solutions > 1 and _closed_form_applies(chain, job.options):
+    if (
+        job.options.num_solutions > 1
+        and _closed_form_applies(chain, job.options)
+        and not beyond_reach(chain, job.T_base_target, job.options)  # (`chain.ik` says so)
+    ):
         outcome = _closed_form_set(chain, job)
         if outcome is not None:
             return outcome

@@ -351,7 +351,11 @@ class KinematicsService:
         pending = self.prepare_ik(request, response)
         if pending is None:
             return response
-        return self.finish_ik(pending, solve_job(pending.job), response)
+        try:
+            outcome = solve_job(pending.job)
+        except Exception as exc:  # noqa: BLE001 - as a worker does: every request is answered
+            outcome = IKOutcome.failed(f"IK failed: {exc!r}")
+        return self.finish_ik(pending, outcome, response)
 
     def prepare_ik(
         self, request: Any, response: Any, now: float | None = None, waited: float = 0.0
@@ -455,6 +459,7 @@ class KinematicsService:
         response.base_link = chain.base_link
         response.tip_link = chain.tip_link
         c = conditioning(J_world)
+        _require_finite([c.manipulability, c.min_singular_value], "manipulability")  # (overflow)
         response.manipulability = c.manipulability
         response.min_singular_value = c.min_singular_value
         # the srv's documented -1.0 for an infinite condition number (exact singularity)
@@ -467,7 +472,13 @@ class KinematicsService:
         T_frame_target = matrix_from_pose(request.target.pose, "target.pose")
         frame = str(request.target.header.frame_id)
         T_base_frame = self._frame_pose(model, frame, current)
-        T_base_target = T_base_frame @ T_frame_target
+        with np.errstate(over="ignore", invalid="ignore"):  # checked below
+            T_base_target = T_base_frame @ T_frame_target
+        if not np.all(np.isfinite(T_base_target)):  # finite values whose product overflows
+            raise InvalidInputError(
+                f"target.pose in frame {frame or chain.base_link!r} is too large to express in "
+                f"{chain.base_link} (its values overflow)"
+            )
         options = _ik_options(request, params)
         note = beyond_reach(chain, T_base_target, options)
         seed = request.seed
@@ -528,6 +539,8 @@ class KinematicsService:
             f"{options.orientation_tolerance:g} rad)"
         )
         if pending.note:
+            if response.position_error < 0:  # too far to represent the error
+                return f"no solution: {pending.note}"
             return (
                 f"no solution: {pending.note} (best position error {response.position_error:.3g} m)"
             )

@@ -1240,7 +1240,7 @@ def _fk_errors(solver: _Solver, q: list[float], T: list[list[float]]) -> tuple[f
         return _pose_errors_list(solver.chain.fk(q).tolist(), T)
     t, _ = solver.fk_pose(q)
     a, b, c = T[0], T[1], T[2]
-    dp = math.sqrt((t[9] - a[3]) ** 2 + (t[10] - b[3]) ** 2 + (t[11] - c[3]) ** 2)
+    dp = math.hypot(t[9] - a[3], t[10] - b[3], t[11] - c[3])  # (no overflow for far targets)
     f = (
         (t[0] - a[0]) ** 2 + (t[1] - a[1]) ** 2 + (t[2] - a[2]) ** 2
         + (t[3] - b[0]) ** 2 + (t[4] - b[1]) ** 2 + (t[5] - b[2]) ** 2
@@ -1286,7 +1286,7 @@ def _pose_errors_list(A: list[list[float]], B: list[list[float]]) -> tuple[float
     """`pose_errors` of one pose pair given as nested lists: ‖Δp‖ [m], rotation angle [rad]."""
     a0, a1, a2 = A[0], A[1], A[2]
     b0, b1, b2 = B[0], B[1], B[2]
-    dp = math.sqrt((a0[3] - b0[3]) ** 2 + (a1[3] - b1[3]) ** 2 + (a2[3] - b2[3]) ** 2)
+    dp = math.hypot(a0[3] - b0[3], a1[3] - b1[3], a2[3] - b2[3])  # (no overflow for far targets)
     f = 0.0
     for a, b in ((a0, b0), (a1, b1), (a2, b2)):
         f += (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 + (a[2] - b[2]) ** 2

@@ -198,8 +198,9 @@ def beyond_reach(chain: KinematicChain, T: FloatArray, opts: IKOptions) -> str:
     distance = math.dist(T[:3, 3].tolist(), center.tolist())
     if distance <= radius + slack:
         return ""
+    far = f"{distance:.3f}" if distance < 1e6 else f"{distance:.3g}"
     return (
-        f"the target is {distance:.3f} m from the first joint of {chain.base_link} -> "
+        f"the target is {far} m from the first joint of {chain.base_link} -> "
         f"{chain.tip_link}, which reaches at most {radius:.3f} m"
     )
 
