@@ -26,6 +26,12 @@ from .core.exceptions import InvalidInputError
 FloatArray = NDArray[np.float64]
 
 
+#: A sample stamped this much before a joint's last one starts a new timeline instead of being
+#: ignored as stale: reordering in transit is far shorter, and a single sample stamped far ahead
+#: would otherwise stop every later one [s].
+JUMP_BACK = 1.0
+
+
 class JointStateTracker:
     """Latest position and velocity of each tracked joint, fed by (possibly partial) samples.
 
@@ -56,6 +62,7 @@ class JointStateTracker:
         self._stamp = [-math.inf] * n  # per joint: stamp of its last accepted sample [s]
         self.latest_stamp = -math.inf
         self.stale_samples = 0
+        self.jumps_back = 0  #: samples that started a new timeline (`JUMP_BACK`)
 
     @property
     def complete(self) -> bool:
@@ -92,7 +99,10 @@ class JointStateTracker:
         """Merge one sample; return True if it changed at least one tracked joint.
 
         Untracked joints are ignored. A sample whose stamp is older than the last accepted sample
-        of a joint it names is ignored for that joint (counted in `stale_samples`).
+        of a joint it names is ignored for that joint (counted in `stale_samples`), unless it is
+        older by more than `JUMP_BACK`: then the stamps jumped back (a bag or simulation restarted,
+        or the last sample carried a wrong stamp far ahead), and it is taken as the start of a new
+        timeline, its velocity not estimated across the jump (counted in `jumps_back`).
 
         Raises:
             InvalidInputError: lengths disagree, a tracked joint is named twice, the stamp is not
@@ -133,12 +143,17 @@ class JointStateTracker:
             raise InvalidInputError(f"joint state names {dup!r} more than once")
         changed = False
         q, qdot, stamps = self._q, self._qdot, self._stamp
+        jumped = False
         for i, p, v in updates:
             last = stamps[i]
+            fresh = False  # the first sample of a new timeline: no estimate across the jump
             if stamp < last:
-                self.stale_samples += 1
-                continue
-            if not math.isfinite(v):  # missing or NaN (ros2_control fills absent interfaces so)
+                if last - stamp <= JUMP_BACK:
+                    self.stale_samples += 1
+                    continue
+                jumped = fresh = True
+            if not math.isfinite(v) and not fresh:  # missing or NaN (ros2_control fills absent
+                # interfaces so): estimated from the last sample
                 dt = stamp - last
                 if math.isfinite(q[i]) and dt > 0:
                     dq = p - q[i]
@@ -149,7 +164,10 @@ class JointStateTracker:
                     v = qdot[i]  # duplicate stamp: keep the previous estimate
             q[i], qdot[i], stamps[i] = p, v, stamp
             changed = True
-        if changed:
+        if jumped:
+            self.jumps_back += 1
+            self.latest_stamp = stamp
+        elif changed:
             self.latest_stamp = max(self.latest_stamp, stamp)
         return changed
 

@@ -52,7 +52,7 @@ from .core.analysis import conditioning
 from .core.exceptions import InvalidInputError, KinematicsError, RobotDescriptionError
 from .core.ik import beyond_reach
 from .core.model import Frame
-from .ee_state import EndEffectorState, JointStateTracker, compute_ee_state
+from .ee_state import JUMP_BACK, EndEffectorState, JointStateTracker, compute_ee_state
 from .ik_pool import IKJob, IKOutcome, chain_blob, solve_job
 from .parameters import defaults, validate_parameters
 from .robot_model import RobotModel
@@ -284,18 +284,18 @@ class KinematicsService:
             return self._problem(NO_DESCRIPTION, Severity.WARN)
         try:
             names, positions, velocities, stamp = sample_from_joint_state(msg)
-            stale_before = tracker.stale_samples
+            stale_before, jumps_before = tracker.stale_samples, tracker.jumps_back
             changed = tracker.update(names, positions, velocities, stamp)
         except (KinematicsError, TypeError, ValueError, AttributeError, OverflowError) as exc:
             return self._problem(f"joint_states sample rejected: {_short(exc)}", Severity.ERROR)
-        self._rates.record(self._clock(), stamp)
         if not changed:
             if tracker.stale_samples > stale_before:
-                return EEMessages(
-                    problem="stale joint_states sample (older stamp) ignored",
-                    severity=Severity.WARN,
+                return self._problem(
+                    "stale joint_states sample (older stamp) ignored", Severity.WARN
                 )
             return EEMessages(problem=None)
+        self._rates.record(self._clock(), stamp)
+        jumped = tracker.jumps_back > jumps_before
         index = self._chain_index
         q = tracker.positions(index)
         chain = model.chain
@@ -321,13 +321,22 @@ class KinematicsService:
         twist_ok = V is not None and bool(np.isfinite(V).all())
         self._last_state = state
         self._last_problem = None
+        problem, severity = None, Severity.NOTE
+        if jumped:  # in diagnostics until the next problem or a good sample clears it
+            problem = (
+                f"joint_states stamps jumped back by more than {JUMP_BACK:g} s: a new timeline"
+            )
+            severity = Severity.WARN
+            self._last_problem = (problem, severity)
         types = self._types
         pose = pose_stamped_from_matrix(types, state.T_base_tip, chain.base_link, msg.header.stamp)
         twist = None
         if V is not None and twist_ok:
             frame = chain.tip_link if twist_frame == "body" else chain.base_link
             twist = twist_stamped_from_core(types, V, frame, msg.header.stamp)
-        return EEMessages(pose=pose, twist=twist, problem=None if twist_ok else "velocity unknown")
+        if not twist_ok:
+            problem = "velocity unknown" if problem is None else f"{problem}; velocity unknown"
+        return EEMessages(pose=pose, twist=twist, problem=problem, severity=severity)
 
     def _problem(self, text: str, severity: Severity) -> EEMessages:
         self._last_problem = (text, severity)
@@ -621,7 +630,7 @@ class KinematicsService:
             ]
             if last is None or now - last > params["joint_states_timeout"]:
                 severity = max(severity, 1)
-                notes.append("no recent joint_states")
+                notes.append("no recent joint_states naming the chain's joints")
             values += [
                 ("joint_states_rate_hz", f"{rate:.3f}"),
                 ("joint_states_latency_s", f"{latency:.6f}"),

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from kinematics_node.core.exceptions import InvalidInputError
-from kinematics_node.ee_state import JointStateTracker
+from kinematics_node.ee_state import JUMP_BACK, JointStateTracker
 
 ARM = ("a", "b")
 
@@ -58,3 +58,20 @@ def test_nan_velocity_means_unknown_and_is_estimated():
     assert t.velocities([0, 1]) is None
     t.update(["a", "b"], [0.1, -0.1], [math.nan, 0.5], 0.1)
     np.testing.assert_allclose(t.velocities([0, 1]), [1.0, 0.5])
+
+
+def test_a_jump_back_starts_a_new_timeline_and_a_small_one_is_stale():
+    t = JointStateTracker(["a", "b"])
+    assert t.update(["a", "b"], [0.0, 0.0], None, 10.0)
+    assert t.update(["a", "b"], [0.1, 0.2], None, 10.1)  # velocities estimated: 1 and 2 rad/s
+    np.testing.assert_allclose(t.qdot, [1.0, 2.0])
+    # reordered in transit (older by less than JUMP_BACK): ignored
+    assert not t.update(["a", "b"], [5.0, 5.0], None, 10.1 - 0.5 * JUMP_BACK)
+    assert t.stale_samples == 2 and t.jumps_back == 0
+    # a bag or simulation restarted: taken, with no velocity estimated across the jump
+    assert t.update(["a", "b"], [0.3, 0.4], None, 10.1 - 2 * JUMP_BACK)
+    assert t.jumps_back == 1 and t.qdot is None
+    np.testing.assert_array_equal(t.q, [0.3, 0.4])
+    assert t.update(["a", "b"], [0.4, 0.6], None, 10.2 - 2 * JUMP_BACK)  # estimated again
+    np.testing.assert_allclose(t.qdot, [1.0, 2.0])
+    assert t.latest_stamp == pytest.approx(10.2 - 2 * JUMP_BACK)

@@ -35,3 +35,35 @@ def test_severities_are_diagnostic_levels(ros):
     S = ros.cls("diagnostic_msgs/msg/DiagnosticStatus")
     assert list(Severity) == [Severity.NOTE, Severity.WARN, Severity.ERROR]
     assert (Severity.NOTE, Severity.WARN, Severity.ERROR) == (S.OK, S.WARN, S.ERROR)
+
+
+def test_one_sample_stamped_far_ahead_does_not_stop_the_poses(ros, ur5, clock):
+    names, q = ur5.model.chain.joint_names, [0.3, -1.1, 1.4, -0.6, 0.8, 0.2]
+    assert ur5.on_joint_state(js(ros, names, q, t=100.0)).pose is not None
+    assert ur5.on_joint_state(js(ros, names, q, t=(2**31 - 1, 0))).pose is not None  # a glitch
+    out = ur5.on_joint_state(js(ros, names, q, t=100.01))  # the real clock again
+    assert out.pose is not None and out.severity == Severity.WARN and "jumped back" in out.problem
+    diag = ur5.diagnostics().status[0]
+    assert diag.level == 1 and "jumped back" in diag.message
+    out = ur5.on_joint_state(js(ros, names, q, t=100.02))
+    assert out.pose is not None and out.twist is not None and out.problem is None
+    assert ur5.diagnostics().status[0].level == 0
+
+
+def test_a_stale_sample_shows_in_diagnostics(ros, ur5, clock):
+    names, q = ur5.model.chain.joint_names, [0.3, -1.1, 1.4, -0.6, 0.8, 0.2]
+    ur5.on_joint_state(js(ros, names, q, t=100.0))
+    out = ur5.on_joint_state(js(ros, names, q, t=99.9))
+    assert out.pose is None and "stale" in out.problem
+    diag = ur5.diagnostics().status[0]
+    assert diag.level == 1 and "stale" in diag.message
+
+
+def test_joint_states_naming_none_of_the_chain_show_as_missing(ros, ur5, clock):
+    names, q = ur5.model.chain.joint_names, [0.3, -1.1, 1.4, -0.6, 0.8, 0.2]
+    ur5.on_joint_state(js(ros, names, q, t=clock.now))
+    for _ in range(5):  # a gripper's joint_states, say: no chain joint in them
+        clock.now += 0.5
+        assert ur5.on_joint_state(js(ros, ["finger"], [0.01], t=clock.now)).pose is None
+    diag = ur5.diagnostics().status[0]
+    assert diag.level == 1 and "no recent joint_states naming the chain's joints" in diag.message
