@@ -46,13 +46,17 @@ def matrix_from_quaternion(quaternion: ArrayLike, *, normalize: bool = True) -> 
     q = as_float_array(quaternion, "quaternion")
     check_trailing_shape(q, (4,), "quaternion")
     check_finite(q, "quaternion")
-    n = np.linalg.norm(q, axis=-1, keepdims=True)
-    if np.any(n < 1e-9):
+    # the norm of q scaled by its largest component: a sum of squares overflows for components
+    # above ~1e154 (to inf, and q / inf is the zero quaternion, read as the identity)
+    s = np.max(np.abs(q), axis=-1, keepdims=True)
+    unit = q / np.where(s > 0, s, 1.0)
+    u = np.linalg.norm(unit, axis=-1, keepdims=True)
+    if np.any(s * u < 1e-9):
         raise InvalidInputError(
             "quaternion (x, y, z, w) has zero norm; give any non-zero quaternion (it is normalised)"
         )
     if normalize:
-        q = q / n
+        q = unit / u
     x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     R = np.empty(q.shape[:-1] + (3, 3))
     R[..., 0, 0] = 1 - 2 * (y * y + z * z)

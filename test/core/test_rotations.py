@@ -36,6 +36,13 @@ def test_matrix_from_quaternion_normalises_and_refuses_zero():
     np.testing.assert_allclose(
         rotations.matrix_from_quaternion(5 * q), Rotation.from_quat(q).as_matrix(), atol=1e-14
     )
+    # components whose sum of squares overflows: the same rotation (it was the identity)
+    for scale in (1e160, 1e300):
+        np.testing.assert_allclose(
+            rotations.matrix_from_quaternion(scale * q),
+            Rotation.from_quat(q).as_matrix(),
+            atol=1e-14,
+        )
     with pytest.raises(InvalidInputError, match="zero norm"):
         rotations.matrix_from_quaternion([0, 0, 0, 0])
     with pytest.raises(InvalidInputError, match="non-finite"):
