@@ -17,6 +17,7 @@ only the first time a URDF file is seen (see `chain_cache`), scipy only for `ik`
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -184,12 +185,14 @@ def get_q(chain: SerialChain, text: str | None, name: str = "--q") -> np.ndarray
     return _check_q(chain, parse_floats(text, name), name)
 
 
-def read_configurations(chain: SerialChain, source: str, stdin: TextIO) -> np.ndarray:
+def read_configurations(chain: SerialChain, source: str, stdin: TextIO | None) -> np.ndarray:
     """(N, n) joint values from a file (or stdin for '-'): one configuration per line, numbers
     separated by commas or spaces; blank lines and lines starting with '#' are skipped."""
     name = "--q-file"
     try:
         if source == "-":
+            if stdin is None:  # (started with standard input closed)
+                raise CliError(f"{name}: standard input is closed")
             lines = stdin.read().splitlines()
         else:
             with open(source, encoding="utf-8") as fh:
@@ -711,14 +714,33 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(sys.argv[1:] if argv is None else list(argv))
+        if args.command == "ik" and args.all:
+            ignored = [
+                option
+                for option, given in (
+                    ("--position-only", args.position_only),
+                    ("--axis-tolerances", args.axis_tolerances is not None),
+                    ("--method numeric", args.method == "numeric"),
+                    ("--mode distance", args.mode == "distance"),
+                )
+                if given
+            ]
+            if ignored:
+                parser.error(
+                    f"ik: --all gives every closed-form solution of the whole pose; it does not "
+                    f"combine with {', '.join(ignored)}"
+                )
     except SystemExit as exc:  # --help, --version, usage errors: argparse printed them
         return exc.code if isinstance(exc.code, int) else 2
     try:
         if args.command == "demo":
             return _demo(args)
-        chain = load_chain(args)
-        results = COMMANDS[args.command][1](args, chain)
-        _emit(results, args.json, getattr(args, "q_file", None) is not None)
+        # overflow in extreme but finite inputs shows in the results (checked finite), not as
+        # numpy's warnings on stderr
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            chain = load_chain(args)
+            results = COMMANDS[args.command][1](args, chain)
+            _emit(results, args.json, getattr(args, "q_file", None) is not None)
         sys.stdout.flush()
     except (CliError, KinematicsError) as exc:
         sys.stdout.flush()
@@ -732,6 +754,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         except (OSError, ValueError):
             pass
         return 141  # 128 + SIGPIPE, what a shell reports for a tool killed by the closed pipe
+    except OSError as exc:  # e.g. output to a full disk
+        print(f"kinematics: error: {exc.strerror or exc}", file=sys.stderr)
+        try:
+            sys.stdout.flush()
+        except OSError:  # the interpreter's final flush would fail again
+            with contextlib.suppress(OSError, ValueError):
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
+    except KeyboardInterrupt:
+        print("kinematics: interrupted", file=sys.stderr)
+        return 130  # 128 + SIGINT
     return 0
 
 

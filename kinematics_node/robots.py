@@ -123,8 +123,12 @@ def robot_path(name: str) -> Path:
     """
     directory = robots_directory()
     path = directory / f"{name}.urdf"
-    if not isinstance(name, str) or "/" in name or os.sep in name or not path.is_file():
-        raise UnknownNameError("robot", str(name), available_robots())
+    try:
+        found = isinstance(name, str) and "/" not in name and os.sep not in name and path.is_file()
+    except OSError:  # e.g. a name longer than a file name may be
+        found = False
+    if not found:
+        raise UnknownNameError("robot", str(name)[:80], available_robots())
     return path
 
 

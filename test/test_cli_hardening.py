@@ -240,3 +240,68 @@ def test_broken_pipe_is_quiet():
     err = proc.stderr.read().decode()
     proc.wait(timeout=60)
     assert "Traceback" not in err and "BrokenPipe" not in err and err == ""
+
+
+# ---- found by an adversarial hunt: each printed a traceback or quietly ignored an option
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [["--position-only"], ["--axis-tolerances", "inf,1,1,1,1,1"], ["--method", "numeric"]]
+    + [["--mode", "distance"]],
+)
+def test_ik_all_refuses_the_options_it_would_ignore(capsys, extra):
+    argv = ["ik", "--robot", "ur5e", "--target", "0.3,0.2,0.4,1,0,0,0", "--all", *extra]
+    code, out, err = run(capsys, *argv)
+    option = (
+        extra[0]
+        if extra[0].endswith("-only") or extra[0].endswith("tolerances")
+        else " ".join(extra)
+    )
+    assert code == 2 and out == "" and f"does not combine with {option}" in err
+
+
+def test_q_file_from_a_closed_stdin_is_one_line(capsys, monkeypatch):
+    monkeypatch.setattr(sys, "stdin", None)  # what Python gives a process started with stdin closed
+    code, _, err = run(capsys, "fk", "--robot", "ur5e", "--q-file", "-")
+    assert code == 1 and "standard input is closed" in one_line_error(err)
+
+
+def test_a_robot_name_too_long_for_a_file_name_is_an_unknown_robot(capsys):
+    code, _, err = run(capsys, "info", "--robot", "x" * 300)
+    assert code == 1 and "unknown robot" in one_line_error(err) and len(err) < 400
+
+
+def test_interrupted_is_one_line_and_status_130(capsys, monkeypatch):
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("kinematics_node.cli.load_chain", interrupted)
+    code, _, err = run(capsys, "info", "--robot", "ur5e")
+    assert code == 130 and err == "kinematics: interrupted\n"
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs Linux's /dev/full")
+def test_output_to_a_full_disk_is_one_line():
+    with open("/dev/full", "w") as full:
+        out = subprocess.run(
+            [sys.executable, "-m", "kinematics_node.cli", "info", "--robot", "ur5e"],
+            stdout=full,
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=ROOT,
+        )
+    assert out.returncode == 1 and out.stderr == "kinematics: error: No space left on device\n"
+
+
+def test_a_huge_but_finite_target_prints_no_numpy_warning():
+    # (a subprocess: pytest would catch the warning before it reached stderr)
+    argv = ["ik", "--robot", "ur5e", "--target", "1e200,0,0,0,0,0,1", "--position-only"]
+    out = subprocess.run(
+        [sys.executable, "-m", "kinematics_node.cli", *argv],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    assert out.returncode == 1 and out.stderr.startswith("kinematics: error: no solution")
+    assert out.stderr.count("\n") == 1, out.stderr
