@@ -42,11 +42,17 @@ def _keys(table: Mapping[Any, Any]) -> str:
     return "{" + ", ".join(keys) + (", …}" if len(table) > 8 else "}")
 
 
+#: The keys a DH row may have (the module docstring says what each means).
+ROW_KEYS = ("a", "alpha", "d", "theta", "type", "name", "lower", "upper", "velocity")
+
+
 def _number(row: Mapping[str, Any], key: str, i: int, default: float | None = None) -> float:
     if key not in row or row[key] is None:
         if default is None:
             raise RobotDescriptionError(f"DH row {i} has no {key!r}")
         return default
+    if isinstance(row[key], bool):  # (float(True) is 1.0: a typo, not a length)
+        raise RobotDescriptionError(f"DH row {i}: {key!r} must be a number, got {row[key]!r}")
     try:
         value = float(row[key])
     except (TypeError, ValueError, OverflowError):
@@ -93,6 +99,12 @@ def spec_from_dh(
         if not isinstance(row, Mapping):
             raise RobotDescriptionError(
                 f"DH row {i} must be a mapping with a, alpha, d, theta, type"
+            )
+        unknown = [k for k in row if k not in ROW_KEYS]
+        if unknown:  # a misspelt limit would otherwise be silently absent (±inf)
+            raise RobotDescriptionError(
+                f"DH row {i} has unknown key {repr(unknown[0])[:40]}; the keys are "
+                f"{', '.join(ROW_KEYS)}"
             )
         kind = str(row.get("type", "revolute"))[:40].lower()
         if kind in ("r", "revolute"):

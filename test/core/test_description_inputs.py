@@ -95,6 +95,9 @@ def test_dh_tables_of_the_wrong_shape_are_refused():
         ("a, alpha, d", "must be a list of rows"),
         ({"rows": []}, "needs a 'joints' list"),
         ([{"a": 0, "alpha": 0, "d": 0, "name": 3}], "'name' must be a non-empty string"),
+        # a misspelt limit was silently absent (±inf), and true was read as 1 m
+        ([{"a": 0, "alpha": 0, "d": 0, "lowr": -1}], "unknown key 'lowr'; the keys are a, alpha"),
+        ([{"a": True, "alpha": 0, "d": 0}], "'a' must be a number, got True"),
     ]:
         with pytest.raises(RobotDescriptionError, match=match):
             SerialChain.from_dh(table)
