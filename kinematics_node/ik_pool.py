@@ -174,6 +174,11 @@ def solve_job(job: IKJob) -> IKOutcome:
     """Solve `job` in this process with the time left before its deadline (what a worker runs)."""
     left = job.deadline - time.monotonic()
     if left < MIN_SOLVE_TIME:
+        if job.options.timeout < MIN_SOLVE_TIME:
+            return _timed_out(
+                f"{job.options.timeout * 1e3:.2g} ms is shorter than the "
+                f"{MIN_SOLVE_TIME * 1e3:g} ms a solve needs at least"
+            )
         return _timed_out(f"waited {job.options.timeout * 1e3:.1f} ms for a free IK worker")
     chain = _chains.get(job.chain_key)
     if chain is None:

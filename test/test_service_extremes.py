@@ -61,3 +61,18 @@ def test_a_jacobian_whose_manipulability_overflows_is_refused_saying_so(ros, clo
     req = ros.request("ComputeJacobian", joint_state=state)
     resp = svc.compute_jacobian(ros.roundtrip(req), ros.response("ComputeJacobian"))
     assert resp.success and resp.manipulability > 0
+
+
+def test_a_timeout_below_what_a_solve_needs_says_so(ros, ur5):
+    ur5.on_joint_state(js(ros, ur5.model.chain.joint_names, Q, t=1.0))
+    req = ros.request(
+        "ComputeIK", timeout=1e-4, max_solutions=2
+    )  # (2: not the closed form at once)
+    req.target.pose.position.x = 0.4
+    req.target.pose.orientation.w = 1.0
+    resp = ur5.compute_ik(ros.roundtrip(req), ros.response("ComputeIK"))
+    assert (
+        resp.success is False and "0.1 ms is shorter than the 0.5 ms a solve needs" in resp.message
+    )
+    assert "worker" not in resp.message
+    check_message(ros, resp)
