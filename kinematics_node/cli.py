@@ -393,7 +393,10 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
     ms = (time.perf_counter() - t0) * 1e3
     q = np.asarray(res.q, dtype=float)
     _require_finite(q, "IK solution")
-    free = bool(args.position_only)
+    # orientation free: position-only, or every rotation axis unbounded (the solver then reports 0)
+    free = bool(args.position_only) or (
+        axis_tolerances is not None and all(math.isinf(b) for b in axis_tolerances[:3])
+    )
     data = {
         "success": bool(res.success),
         "joint_names": list(chain.joint_names),

@@ -305,3 +305,22 @@ def test_a_huge_but_finite_target_prints_no_numpy_warning():
     )
     assert out.returncode == 1 and out.stderr.startswith("kinematics: error: no solution")
     assert out.stderr.count("\n") == 1, out.stderr
+
+
+def test_every_rotation_axis_free_reports_the_orientation_as_free(capsys):
+    # the solver's 0 covers the bounded rotation components only: with none, "free", not "0 rad"
+    bounds = "inf,inf,inf,1e-5,1e-5,1e-5"
+    argv = [
+        "ik",
+        "--robot",
+        "panda",
+        "--target",
+        "0.4,0.1,0.5,1,0,0,0",
+        "--axis-tolerances",
+        bounds,
+    ]
+    code, out, _ = run(capsys, *argv, "--json")
+    data = json.loads(out)
+    assert code == 0 and data["success"] and data["orientation_error"] is None
+    code, out, _ = run(capsys, *argv)
+    assert code == 0 and "orientation free" in out and "orientation error" not in out
