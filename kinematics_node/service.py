@@ -467,8 +467,9 @@ class KinematicsService:
         response.reference_point_frame = chain.base_link if frame == "space" else chain.tip_link
         response.base_link = chain.base_link
         response.tip_link = chain.tip_link
-        c = conditioning(J_world)
-        _require_finite([c.manipulability, c.min_singular_value], "manipulability")  # (overflow)
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused just below
+            c = conditioning(J_world)
+        _require_finite([c.manipulability, c.min_singular_value], "manipulability")
         response.manipulability = c.manipulability
         response.min_singular_value = c.min_singular_value
         # the srv's documented -1.0 for an infinite condition number (exact singularity)
