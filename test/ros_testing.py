@@ -4,6 +4,7 @@ types parsed from srv/*.srv (fixture `ros` in conftest.py). No rclpy needed."""
 from __future__ import annotations
 
 import array
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -140,15 +141,18 @@ class RosTypes:
             values[name] = v
         return self.cls(msgtype)(**values)
 
+    def _fields(self, msg: Any, path: str) -> Iterator[tuple[str, int, Any, Any]]:
+        """(path, kind, detail, value) of each field of `msg` (kind: 1 base type, 2 message, 3
+        array, 4 sequence, as rosbags numbers them)."""
+        _, fielddefs = self.store.fielddefs[msg.__msgtype__]
+        for name, (kind, detail) in fielddefs:
+            yield f"{path}{name}", int(kind), detail, getattr(msg, name)
+
     def flatten(self, msg: Any, path: str = "") -> dict[str, Any]:
         """Every leaf value of `msg` by its path ("pose.position.x", "position[2]"), as plain
         Python values (numpy scalars and arrays, array('d') turned into floats and lists)."""
         out: dict[str, Any] = {}
-        _, fielddefs = self.store.fielddefs[msg.__msgtype__]
-        for name, (kind, detail) in fielddefs:
-            v = getattr(msg, name)
-            where = f"{path}{name}"
-            kind = int(kind)
+        for where, kind, detail, v in self._fields(msg, path):
             if kind == 1:
                 out[where] = v.item() if isinstance(v, np.generic) else v
             elif kind == 2:
@@ -166,11 +170,7 @@ class RosTypes:
         `float` (not int, not numpy scalars), integer fields `int` (not bool), float64[] lists or
         array('d') of Python floats (never numpy arrays), strings `str`."""
         problems: list[str] = []
-        _, fielddefs = self.store.fielddefs[msg.__msgtype__]
-        for name, (kind, detail) in fielddefs:
-            v = getattr(msg, name)
-            where = f"{path}{name}"
-            kind = int(kind)
+        for where, kind, detail, v in self._fields(msg, path):
             if kind == 1:
                 problems += _base_problem(detail[0], v, where)
             elif kind == 2:
