@@ -274,7 +274,8 @@ class KinematicsService:
 
         Both are stamped with this message's stamp and expressed in base_link (the twist in tip_link
         axes when twist_frame is "body"); the twist's reference point is the tip origin. Nothing is
-        returned until every chain joint has been received, for stale (older-stamped) samples, for
+        returned until every chain joint has been received, for stale samples (stamped before the
+        last, by up to `ee_state.JUMP_BACK`; older ones start a new timeline, with a WARN), for
         invalid samples (NaN position, length mismatch, a joint named twice), or if a result is not
         finite. The twist is None until velocities are known (from the message, or estimated from
         two samples).
