@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+import msg_adapters as ma
 from kinematics_node.core import SerialChain
 from kinematics_node.service import KinematicsService
 
@@ -63,6 +64,17 @@ def js(ros, names, positions, t=0.0, velocity=()):
         position=np.asarray(positions, dtype=float),
         velocity=np.asarray(velocity, dtype=float),
     )
+
+
+def ik_target(ros, T, frame_id=""):
+    """A ComputeIK `target` (geometry_msgs/PoseStamped, stamped 4 s 5 ns) of the 4×4 pose T."""
+    ps = ma.pose_stamped_from_matrix(
+        ros.types, T, frame_id, ros.new("builtin_interfaces/msg/Time", sec=4, nanosec=5)
+    )
+    ps.pose = ros.new(
+        "geometry_msgs/msg/Pose", position=ps.pose.position, orientation=ps.pose.orientation
+    )
+    return ps
 
 
 def check_message(ros, msg) -> None:

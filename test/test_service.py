@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from kin_testing import PinocchioOracle
 from scipy.spatial.transform import Rotation
-from service_testing import T_BASE_CAMERA, chain_of, check_message, js
+from service_testing import T_BASE_CAMERA, chain_of, check_message, ik_target, js
 
 import msg_adapters as ma
 from kinematics_node.core import SerialChain, se3
@@ -316,16 +316,6 @@ def _ik(ros, svc, req):
     return svc.compute_ik(ros.roundtrip(req), ros.response("ComputeIK"))
 
 
-def _target(ros, T, frame_id=""):
-    ps = ma.pose_stamped_from_matrix(
-        ros.types, T, frame_id, ros.new("builtin_interfaces/msg/Time", sec=4, nanosec=5)
-    )
-    ps.pose = ros.new(
-        "geometry_msgs/msg/Pose", position=ps.pose.position, orientation=ps.pose.orientation
-    )
-    return ps
-
-
 @pytest.mark.parametrize("frame_id", ["", "base_link", "/base_link", "shoulder_link", "camera"])
 def test_ik_reaches_targets_given_in_base_link_and_tf_frames(ros, ur5, q_ur5, frame_id):
     chain = chain_of(ur5)
@@ -342,7 +332,7 @@ def test_ik_reaches_targets_given_in_base_link_and_tf_frames(ros, ur5, q_ur5, fr
         T_base_frame = np.eye(4)
     req = ros.request(
         "ComputeIK",
-        target=_target(ros, np.linalg.inv(T_base_frame) @ T_base_goal, frame_id),
+        target=ik_target(ros, np.linalg.inv(T_base_frame) @ T_base_goal, frame_id),
         timeout=0.5,
     )
     resp = _ik(ros, ur5, req)
@@ -363,7 +353,7 @@ def test_ik_position_only(ros, ur5, q_ur5):
     chain = chain_of(ur5)
     T = chain.fk(q_ur5)
     T[:3, :3] = np.eye(3)  # orientation to ignore
-    req = ros.request("ComputeIK", target=_target(ros, T), position_only=True, timeout=0.5)
+    req = ros.request("ComputeIK", target=ik_target(ros, T), position_only=True, timeout=0.5)
     resp = _ik(ros, ur5, req)
     assert resp.success, resp.message
     reached = chain.fk(np.asarray(resp.solution.position))[:3, 3]
@@ -379,10 +369,10 @@ def test_ik_axis_tolerances_free_a_spin_the_arm_cannot_make(ros, ur5_path, clock
     assert chain.dof == 5
     svc.on_joint_state(js(ros, chain.joint_names, q_ur5[:5], t=1.0))
     spun = chain.fk(q_ur5[:5] + 0.1) @ se3.exp(np.array([0.0, 0.8, 0.0, 0.0, 0.0, 0.0]))
-    full = _ik(ros, svc, ros.request("ComputeIK", target=_target(ros, spun), timeout=0.05))
+    full = _ik(ros, svc, ros.request("ComputeIK", target=ik_target(ros, spun), timeout=0.05))
     assert full.success is False
     bounds = np.array([1e-4, np.inf, 1e-4, 1e-5, 1e-5, 1e-5])
-    req = ros.request("ComputeIK", target=_target(ros, spun), axis_tolerances=bounds, timeout=0.5)
+    req = ros.request("ComputeIK", target=ik_target(ros, spun), axis_tolerances=bounds, timeout=0.5)
     resp = _ik(ros, svc, req)
     assert resp.success, resp.message
     check_message(ros, resp)
@@ -399,7 +389,7 @@ def test_ik_axis_tolerances_free_a_spin_the_arm_cannot_make(ros, ur5_path, clock
 def test_ik_bad_axis_tolerances_are_refused_with_the_reason(ros, ur5, q_ur5, bounds, needle):
     chain = chain_of(ur5)
     req = ros.request(
-        "ComputeIK", target=_target(ros, chain.fk(q_ur5)), axis_tolerances=np.array(bounds)
+        "ComputeIK", target=ik_target(ros, chain.fk(q_ur5)), axis_tolerances=np.array(bounds)
     )
     resp = _ik(ros, ur5, req)
     assert resp.success is False and "axis_tolerances" in resp.message and needle in resp.message
@@ -410,7 +400,7 @@ def test_ik_unreachable_target_fails_with_the_best_configuration(ros, ur5, q_ur5
     chain = chain_of(ur5)
     T = np.eye(4)
     T[:3, 3] = [5.0, 0.0, 0.0]  # the UR5 reaches < 1 m
-    req = ros.request("ComputeIK", target=_target(ros, T), timeout=0.05)
+    req = ros.request("ComputeIK", target=ik_target(ros, T), timeout=0.05)
     resp = _ik(ros, ur5, req)
     assert resp.success is False and "no solution" in resp.message
     check_message(ros, resp)
@@ -423,7 +413,7 @@ def test_ik_unreachable_target_fails_with_the_best_configuration(ros, ur5, q_ur5
 
 def test_ik_zero_timeout_means_the_node_default(ros, ur5, q_ur5):
     chain = chain_of(ur5)
-    req = ros.request("ComputeIK", target=_target(ros, chain.fk(q_ur5 + 0.05)), timeout=0.0)
+    req = ros.request("ComputeIK", target=ik_target(ros, chain.fk(q_ur5 + 0.05)), timeout=0.0)
     resp = _ik(ros, ur5, req)
     assert resp.success, resp.message
     # The job the service builds: timeout 0 takes the parameter ik.timeout, any other its own.
@@ -440,7 +430,7 @@ def test_ik_time_waited_before_the_callback_counts_against_the_timeout(ros, ur5,
     """The deadline is the client's send + timeout: arrival − waited + timeout, for a wait
     shorter than the timeout; a wait of the timeout or more (or none to tell) is ignored."""
     chain = chain_of(ur5)
-    req = ros.request("ComputeIK", target=_target(ros, chain.fk(q_ur5 + 0.05)), timeout=0.05)
+    req = ros.request("ComputeIK", target=ik_target(ros, chain.fk(q_ur5 + 0.05)), timeout=0.05)
     cases = ((0.0, 0.05), (0.012, 0.038), (0.0499, 0.0001), (0.05, 0.05), (3.0, 0.05),
              (-0.01, 0.05), (math.nan, 0.05))  # fmt: skip
     for waited, left in cases:
@@ -458,7 +448,7 @@ def test_diagnostics_count_ik_answers_against_their_deadlines(ros, ur5, q_ur5):
     from kinematics_node.ik_pool import solve_job
 
     chain = chain_of(ur5)
-    req = ros.request("ComputeIK", target=_target(ros, chain.fk(q_ur5 + 0.05)), timeout=0.1)
+    req = ros.request("ComputeIK", target=ik_target(ros, chain.fk(q_ur5 + 0.05)), timeout=0.1)
 
     def answered_at(after_deadline: float) -> None:
         t0 = time.monotonic()

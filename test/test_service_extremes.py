@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from service_testing import check_message, js
+from service_testing import check_message, ik_target, js
 
 from kinematics_node.service import KinematicsService
 
@@ -13,12 +13,10 @@ Q = [0.3, -1.1, 1.4, -0.6, 0.8, 0.2]
 
 
 def _ik_request(ros, position, frame_id="", max_solutions=1):
-    req = ros.request("ComputeIK", timeout=0.05, max_solutions=max_solutions)
-    req.target.header.frame_id = frame_id
-    p = req.target.pose.position
-    p.x, p.y, p.z = position
-    req.target.pose.orientation.w = 1.0
-    return req
+    T = np.eye(4)
+    T[:3, 3] = position
+    target = ik_target(ros, T, frame_id)
+    return ros.request("ComputeIK", target=target, timeout=0.05, max_solutions=max_solutions)
 
 
 def test_a_target_that_overflows_in_the_base_is_refused_saying_so(ros, ur5):

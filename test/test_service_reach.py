@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
+from service_testing import ik_target
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -59,13 +59,6 @@ def test_no_reachable_target_is_refused_as_beyond_reach(ros, service):
     T = chain.fk(Q)
     distances = np.linalg.norm(T[:, :3, 3] - center, axis=1)
     for k in np.argsort(distances)[-10:]:  # the 10 farthest
-        req = ros.request("ComputeIK", timeout=0.5)
-        req.target.header.frame_id = "base_link"
-        p = T[k, :3, 3]
-        req.target.pose.position.x, req.target.pose.position.y = float(p[0]), float(p[1])
-        req.target.pose.position.z = float(p[2])
-        x, y, z, w = Rotation.from_matrix(T[k, :3, :3]).as_quat()
-        o = req.target.pose.orientation
-        o.x, o.y, o.z, o.w = float(x), float(y), float(z), float(w)
-        resp = service.compute_ik(req, ros.response("ComputeIK"))
+        req = ros.request("ComputeIK", target=ik_target(ros, T[k], "base_link"), timeout=0.5)
+        resp = service.compute_ik(ros.roundtrip(req), ros.response("ComputeIK"))
         assert resp.success, resp.message
