@@ -742,13 +742,18 @@ def soak(env: dict[str, str], directory: Path, seconds: float) -> dict[str, Any]
     }
 
 
+def _echoes(results: dict[str, dict[str, Any]]) -> dict[float, dict[str, Any]]:
+    """The bare echo's phases (on rclpy's executor) by their joint_states rate: the reference."""
+    return {r["rate_hz"]: r for label, r in results.items() if label.startswith("echo")}
+
+
 def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bool]]:
     """Issue 10's targets, for the phases in `results`: (target, what was measured, met?).
 
     Our phases without IK calls are held to the pose targets against the echo at their rate;
     the phase with IK clients to the same and to the IK ones; the phase with the slow IK call
     to the fraction answered during it; the soak to its memory growth."""
-    echo = {r["rate_hz"]: r for label, r in results.items() if label.startswith("echo")}
+    echo = _echoes(results)
     checks: list[tuple[str, str, bool]] = []
 
     def check(target: str, measured: str, met: bool) -> None:
@@ -810,7 +815,7 @@ def report(results: dict[str, dict[str, Any]]) -> None:
             f"{r['pose_latency_median_ms']:.2f} / {r['pose_latency_p99_ms']:.2f} | "
             f"{r['cpu_percent']:.0f} | {r['rss_mb']:.0f} |"
         )
-    echo = {1000.0: results.get("echo, 1 kHz"), 500.0: results.get("echo, 500 Hz")}
+    echo = _echoes(results)
     print()
     for label, r in results.items():
         e = echo.get(r.get("rate_hz")) if label != "soak" else None
