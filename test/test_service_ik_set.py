@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 from service_testing import Clock, chain_of, check_message, fake_tf, js
 
 import msg_adapters as ma
-from kinematics_node.core import SerialChain
+from kinematics_node.core import IKOptions, SerialChain
 from kinematics_node.service import MAX_SOLUTIONS, KinematicsService
 
 Q_GOAL = np.array([0.5, -1.0, 1.1, -0.4, 0.9, -0.3])
@@ -164,8 +164,15 @@ def test_tolerances_tighter_than_the_closed_forms_keep_only_the_solutions_that_m
     Q = _solutions(resp)
     pos, ori = _errors(chain, Q, T)
     assert np.all(pos <= 1e-11) and np.all(ori <= 1e-11)
-    check_nearest_solutions(Q, every[tight], SEED)
-    assert len(Q) == tight.sum()
+    # with them, the one solution the request asking for one gets (exact: the closed form, not
+    # the nudged ik_all), in place of its nudged copy
+    single = chain.ik(T, SEED, IKOptions(position_tolerance=1e-11, orientation_tolerance=1e-11))
+    assert single.success
+    copies = np.max(np.abs(every - single.q), axis=1) <= 1e-2
+    assert copies.sum() == 1 and not tight[copies][0]  # its copy was nudged
+    expected = np.vstack((single.q, every[tight]))
+    check_nearest_solutions(Q, expected, SEED)
+    assert len(Q) == len(expected)
     assert resp.complete is False  # exact solutions were left out for round-off
     # the default tolerances (1e-5 m, 1e-4 rad) keep them all
     resp = _ask(ros, ur5, T, SEED, max_solutions=MAX_SOLUTIONS)
@@ -197,7 +204,13 @@ def test_a_7r_arm_sweeps_the_held_joint_and_is_not_complete(ros, panda_path):
     resp = _ask(ros, svc, T, q + 0.05, max_solutions=50)
     assert resp.success, resp.message
     Q = _solutions(resp)
-    every = np.array(chain.ik_all(T, q_seed=q + 0.05).solutions)
+    # the swept set, and the solution with panda_joint7 held at the seed's value (what a request
+    # for one solution gets), which is none of the swept values and nearer the seed than them all
+    swept = np.array(chain.ik_all(T, q_seed=q + 0.05).solutions)
+    single = chain.ik(T, q + 0.05).q
+    assert single[6] == pytest.approx(q[6] + 0.05, abs=1e-12)
+    every = np.vstack((single, swept))
+    assert np.linalg.norm(single - q - 0.05) < np.linalg.norm(swept[0] - q - 0.05)
     assert 1 < len(Q) == min(50, len(every))
     check_nearest_solutions(Q, every, q + 0.05)
     pos, ori = _errors(chain, Q, T)

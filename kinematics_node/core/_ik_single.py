@@ -21,10 +21,11 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.linalg.lapack import dposv
 
 from ._ik_problem import (
@@ -367,27 +368,48 @@ class SingleSolver:
                 return False
         return True
 
+    def _found(
+        self,
+        found: list[tuple[float, list[float], float, float]],
+        q: list[float],
+        pos: float,
+        ori: float,
+    ) -> None:
+        """Add solution q to `found` ((distance, q, pos, ori) each), or, if it is the same as one
+        there (`_same`), keep the nearer of the two."""
+        d = self._distance(q)
+        for i, (d_old, q_old, _, _) in enumerate(found):
+            if self._same(q, q_old):
+                if d < d_old:
+                    found[i] = (d, q, pos, ori)
+                return
+        found.append((d, q, pos, ori))
+
     # ------------------------------------------------------------------ restarts
-    def run(self, deadline: float) -> SingleOutcome:
+    def run(
+        self, deadline: float, known: Sequence[tuple[ArrayLike, float, float]] = ()
+    ) -> SingleOutcome:
+        """Attempts from the seed, then from random restarts, until `num_solutions` are found
+        (mode "speed"), or until the deadline or `max_restarts` (mode "distance").
+
+        `known`: solutions found already, as (q (n,), position error [m], orientation error
+        [rad]); they count as found by the search (so a single-solution request's closed-form
+        answer takes part in the ranking of a set)."""
         opts = self.opts
         found: list[tuple[float, list[float], float, float]] = []  # (distance, q, pos, ori)
         want = opts.num_solutions
         distance_mode = opts.mode == "distance"
+        for q_known, pos_known, ori_known in known:
+            self._found(
+                found, self._nearest_seed(np.asarray(q_known).tolist()), pos_known, ori_known
+            )
         q0 = list(self.seed)
         restarts = 0
         reason = ""
         while True:
             ok, q, pos, ori = self.attempt(q0, deadline)
             if ok:
-                q = self._nearest_seed(q)
-                d = self._distance(q)
-                for i, (d_old, q_old, _, _) in enumerate(found):
-                    if self._same(q, q_old):
-                        if d < d_old:
-                            found[i] = (d, q, pos, ori)
-                        break
-                else:
-                    found.append((d, q, pos, ori))
+                self._found(found, self._nearest_seed(q), pos, ori)
                 if not distance_mode and len(found) >= want:
                     reason = "done"
                     break

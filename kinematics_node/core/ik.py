@@ -15,6 +15,12 @@ Solvers (`IKOptions.method`, default "auto"):
   still found.
 * numeric, below.
 
+Sets (num_solutions > 1, or mode "distance") are ranked by the weighted distance to the seed, and
+always hold the answer that the same call asking for one solution in mode "speed" gets: so the
+first of a set is never farther from the seed than that one (a 7R arm's set, found by the numeric
+search, takes in the closed form's answer; a 6R arm's, from its whole solution set, the nearest
+branch's refined solution).
+
 Problem: find joint values q within the limits such that T_base_tip(q) = T_target.
 
 Error (tip-frame, "body" formulation, Modern Robotics §6.2.2). With T_err = T(q)⁻¹ T_target:
@@ -145,7 +151,40 @@ def solve(
         one, _, _ = _prepared(chain, replace(opts, max_restarts=0))
         out = SingleSolver(one, T, seed).run(start + opts.timeout)
         return _numeric_result(out, opts, start, f"unreachable: {far}; best effort: ")
-    return _solve_one(problem, closed, T, seed, start, start + opts.timeout)
+    deadline = start + opts.timeout
+    known = _single_answer(chain, problem, closed, T, seed, start, deadline)
+    return _solve_one(problem, closed, T, seed, start, deadline, known)
+
+
+def _single_answer(
+    chain: KinematicChain,
+    problem: IKProblem,
+    closed: _ClosedForm,
+    T: FloatArray,
+    seed: FloatArray,
+    start: float,
+    deadline: float,
+) -> IKResult | None:
+    """For a request of a set (num_solutions > 1, or mode "distance") that the closed form cannot
+    give (a 7R arm): the answer of the same request with one solution in mode "speed", which the
+    closed form gives, if it succeeds; else None (also where nothing needs it).
+
+    Why: the set comes from the numeric search, whose solutions all start from the seed or
+    random restarts; the single-solution request is answered in closed form with the held joint
+    at the seed's value first, which is often nearer the seed than anything the search finds.
+    The set includes it (`SingleSolver.run`'s `known`), so `solutions[0]` is never farther from
+    the seed than the one solution asked alone would be (issue 22). The closed form costs
+    ~0.1-1 ms; where its first tries miss, the single request's own search runs here too."""
+    opts = problem.opts
+    if not closed.blocker or opts.method == "numeric":
+        return None  # `_ClosedForm.nearest` includes it itself (6R), or the search subsumes it
+    if opts.num_solutions == 1 and opts.mode == "speed":
+        return None  # (a single-solution request itself)
+    single, single_closed, _ = _prepared(chain, replace(opts, mode="speed", num_solutions=1))
+    if single_closed.blocker:
+        return None  # no closed form: the set's search begins with the single request's
+    out = _solve_one(single, single_closed, T, seed, start, deadline)
+    return out if out.success else None
 
 
 def solve_closed_form(
@@ -234,11 +273,14 @@ def _solve_one(
     seed: FloatArray,
     start: float,
     deadline: float,
+    known: IKResult | None = None,
 ) -> IKResult:
-    """One target by the solvers `problem.opts.method` names, within `deadline`."""
+    """One target by the solvers `problem.opts.method` names, within `deadline`. `known`: a
+    solution found already (`_single_answer`), which the numeric search counts as one of its own."""
     opts = problem.opts
     if closed.blocker or opts.method == "numeric":
-        return _numeric_result(SingleSolver(problem, T, seed).run(deadline), opts, start, "")
+        had = () if known is None else ((known.q, known.position_error, known.orientation_error),)
+        return _numeric_result(SingleSolver(problem, T, seed).run(deadline, had), opts, start, "")
     # A 6R arm's closed form is exhaustive; a 7R arm's tries its held joint at a few values
     # (each about a 6R solve), then the numeric search gets half the time, then the closed form sweeps
     # the held joint, then the numeric search gets the rest ("auto": the closed form finds what
@@ -336,12 +378,51 @@ class _ClosedForm:
         self, T: FloatArray, seed: FloatArray, deadline: float, tries: int, first: int = 0
     ) -> Nearest:
         p = self.problem
+        count, w, separation = p.opts.num_solutions, p.joint_weights, p.opts.solution_separation
         found = nearest(
-            p.chain, T, seed, p.opts.num_solutions, *self.tolerances, p.joint_weights,
-            p.opts.solution_separation, deadline, tries, first,
-        )  # fmt: skip
+            p.chain, T, seed, count, *self.tolerances, w, separation, deadline, tries, first
+        )
         assert found is not None  # the family was found in `of`
-        return found
+        if count == 1:
+            return found
+        # A set is ranked from the whole solution set (`closed_form._nearest_of_all`), one
+        # solution from the nearest branches, refined where it is a near miss: at a singular
+        # target the two can differ by ~1e-8 rad, so the set takes the single one in (issue 22).
+        one = nearest(p.chain, T, seed, 1, *self.tolerances, w, separation, deadline, tries, first)
+        assert one is not None
+        if not one.solutions:
+            return found
+        order, _ = nearest_first(one.solutions[0], found.solutions, seed, w, separation)
+        every = [one.solutions[0], *found.solutions]
+        errors = [one.errors[0], *found.errors]
+        return Nearest(
+            [every[i] for i in order][:count],
+            [errors[i] for i in order][:count],
+            found.complete,
+            found.reason,
+        )
+
+
+def nearest_first(
+    q_first: ArrayLike,
+    others: Sequence[ArrayLike] | FloatArray,
+    seed: ArrayLike,
+    joint_weights: ArrayLike,
+    separation: float,
+) -> tuple[list[int], bool]:
+    """How to merge the solution `q_first` (n,) into a set `others` (K, n) of solutions of one
+    target: indices into [q_first, *others], nearest the seed first by the weighted distance
+    Σ wⱼ (qⱼ − seedⱼ)² that `ik` ranks by (ties: `q_first`, then the set's order), leaving out the
+    members of `others` within `separation` of `q_first` in every joint (the same solution). The
+    second value says whether `q_first` was new (no such member)."""
+    Q = np.array([np.asarray(q_first, dtype=np.float64), *others], dtype=np.float64)
+    Q = Q.reshape(len(Q), -1)
+    same = np.max(np.abs(Q[1:] - Q[0]), axis=1, initial=0.0) <= separation
+    keep = np.concatenate(([0], 1 + np.flatnonzero(~same)))
+    w = np.asarray(joint_weights, dtype=np.float64)
+    cost = ((Q[keep] - np.asarray(seed, dtype=np.float64)) ** 2 * w).sum(axis=1)
+    order = keep[np.argsort(cost, kind="stable")]
+    return [int(i) for i in order], not bool(same.any())
 
 
 def _closed_form_result(
@@ -596,6 +677,7 @@ __all__: Sequence[str] = [
     "IKOptions",
     "IKResult",
     "beyond_reach",
+    "nearest_first",
     "check_seed",
     "default_seed",
     "solve",
