@@ -52,7 +52,13 @@ from .core.analysis import conditioning
 from .core.exceptions import InvalidInputError, KinematicsError, RobotDescriptionError
 from .core.ik import beyond_reach
 from .core.model import Frame
-from .ee_state import JUMP_BACK, EndEffectorState, JointStateTracker, compute_ee_state
+from .ee_state import (
+    FROM_ARRIVAL_UNSTAMPED,
+    JUMP_BACK,
+    EndEffectorState,
+    JointStateTracker,
+    compute_ee_state,
+)
 from .ik_pool import IKJob, IKOutcome, chain_blob, solve_job
 from .parameters import defaults, validate_parameters
 from .robot_model import RobotModel
@@ -269,16 +275,25 @@ class KinematicsService:
         self._chain_index = list(range(chain.dof))
 
     # ------------------------------------------------------------------ joint states
-    def on_joint_state(self, msg: Any) -> EEMessages:
+    def on_joint_state(self, msg: Any, received: float | None = None) -> EEMessages:
         """Merge a sensor_msgs/JointState; return the ee_pose / ee_twist messages to publish.
 
-        Both are stamped with this message's stamp and expressed in base_link (the twist in tip_link
+        Args:
+            msg: the JointState.
+            received: when it arrived [s] on a monotonic clock (default: `time.monotonic()` now);
+                the time base of velocity estimates where the stamps cannot be one.
+
+        Both are stamped with this message's stamp as given (zero included, as
+        robot_state_publisher stamps /tf) and expressed in base_link (the twist in tip_link
         axes when twist_frame is "body"); the twist's reference point is the tip origin. Nothing is
         returned until every chain joint has been received, for stale samples (stamped before the
         last, by up to `ee_state.JUMP_BACK`; older ones start a new timeline, with a WARN), for
         invalid samples (NaN position, length mismatch, a joint named twice), or if a result is not
-        finite. The twist is None until velocities are known (from the message, or estimated from
-        two samples).
+        finite. The twist is None until velocities are known: from the message, or estimated from
+        successive positions over the stamps where they advance, else over the arrival times
+        (unstamped joint_states, or stamps that repeat while positions change: a WARN in
+        diagnostics, and in the logs when it begins; `ee_state.JointStateTracker`). Values of mimic
+        followers are not used: the chain takes them from their leaders, as the URDF says.
         """
         model, tracker = self._model, self._tracker
         if model is None or tracker is None:
@@ -286,7 +301,14 @@ class KinematicsService:
         try:
             names, positions, velocities, stamp = sample_from_joint_state(msg)
             stale_before, jumps_before = tracker.stale_samples, tracker.jumps_back
-            changed = tracker.update(names, positions, velocities, stamp)
+            episodes_before = tracker.arrival_episodes
+            changed = tracker.update(
+                names,
+                positions,
+                velocities,
+                stamp,
+                time.monotonic() if received is None else received,
+            )
         except (KinematicsError, TypeError, ValueError, AttributeError, OverflowError) as exc:
             return self._problem(f"joint_states sample rejected: {_short(exc)}", Severity.ERROR)
         if not changed:
@@ -329,6 +351,20 @@ class KinematicsService:
             )
             severity = Severity.WARN
             self._last_problem = (problem, severity)
+        if tracker.from_arrival_times:  # a WARN in diagnostics; logged when it begins
+            if tracker.velocity_source == FROM_ARRIVAL_UNSTAMPED:
+                why = "which are unstamped (stamp 0)"
+                how = " (ros2 topic pub: header: auto)"
+            else:
+                why, how = "whose stamps do not advance while positions change", ""
+            note = (
+                f"ee_twist estimated from the arrival times of joint_states, {why}; stamp each "
+                f"with the time of its sample{how}"
+            )
+            problem = note if problem is None else f"{problem}; {note}"
+            if tracker.arrival_episodes > episodes_before:
+                severity = Severity.WARN
+            self._last_problem = (problem, Severity.WARN)
         types = self._types
         pose = pose_stamped_from_matrix(types, state.T_base_tip, chain.base_link, msg.header.stamp)
         twist = None
@@ -637,6 +673,8 @@ class KinematicsService:
                 ("joint_states_rate_hz", f"{rate:.3f}"),
                 ("joint_states_latency_s", f"{latency:.6f}"),
             ]
+            if self._tracker is not None:  # where ee_twist's joint velocities come from
+                values.append(("velocity_source", self._tracker.velocity_source))
             if state is not None:
                 J = model.chain.jacobian(state.q, "world")
                 c = conditioning(J, params["singular_threshold"])
