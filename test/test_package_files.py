@@ -108,9 +108,11 @@ def _installed_dirs() -> set[str]:
 
 
 def _installed_programs() -> set[str]:
+    """scripts/<name> of every program installed (CMake installs their copies in the build
+    directory, ${CMAKE_CURRENT_BINARY_DIR}/scripts/<name>, whose shebang it sets)."""
     progs = set()
     for block in re.findall(r"install\(PROGRAMS([^)]*)DESTINATION", CMAKE):
-        progs |= set(block.split())
+        progs |= {p.strip('"').replace("${CMAKE_CURRENT_BINARY_DIR}/", "") for p in block.split()}
     return progs
 
 
@@ -140,7 +142,10 @@ def test_executable_wrappers_call_existing_entry_points():
         assert path.exists() and path.stat().st_mode & 0o111, script
         text = path.read_text(encoding="utf-8")
         assert text.startswith("#!/usr/bin/env python3")
-        module = re.search(r"from ([\w.]+) import main", text).group(1)
+        found = re.search(r"from ([\w.]+) import main", text) or re.search(
+            r'run\("\w+", "([\w.]+)"\)', text
+        )
+        module = found.group(1)
         module_file = ROOT / (module.replace(".", "/") + ".py")
         if module == "kinematics_node.sim_arm" and not module_file.exists():
             pytest.skip("kinematics_node/sim_arm.py is written on the sim branch")
