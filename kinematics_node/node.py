@@ -4,8 +4,9 @@
 Topics (relative names, so namespaces and remaps apply):
   sub  joint_states       sensor_msgs/JointState   best effort (matches reliable and best-effort
                                                    publishers), depth 100 (100 ms at 1 kHz)
-  sub  robot_description  std_msgs/String          transient local, reliable (only when the
-                                                   robot_description parameter is empty)
+  sub  robot_description  std_msgs/String          transient local, reliable (used while the
+                                                   robot_description and robot_description_file
+                                                   parameters are empty)
   pub  ee_pose            geometry_msgs/PoseStamped  reliable, depth 100 (100 ms at 1 kHz), as
                                                    the two below
   pub  ee_twist           geometry_msgs/TwistStamped
@@ -160,12 +161,12 @@ class KinematicsNode(Node):
             self.get_logger().info(f"{TF_MISSING}; IK targets in robot links still work")
         self._logic = KinematicsService(
             MessageTypes.from_rclpy(),
-            {k: v for k, v in values.items() if k != "robot_description"},  # validated there
+            values,  # a description that cannot be used is reported, not raised
             lookup_transform=lookup,
             clock=lambda: self.get_clock().now().nanoseconds * 1e-9,
+            node_name=self.get_fully_qualified_name(),
         )
-        if values["robot_description"]:
-            self._load(values["robot_description"], "the robot_description parameter")
+        self._log_description_events()
         self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self._pool = IKPool(int(values["ik.workers"]) or _default_workers(), grace=-EARLY_ANSWER)
@@ -224,27 +225,20 @@ class KinematicsNode(Node):
         )
 
     # -------------------------------------------------------------- callbacks
-    def _load(self, description: str, source: str) -> bool:
-        try:
-            model = self._logic.load_description(description)
-        except KinematicsError as exc:
-            self.get_logger().error(
-                f"cannot use the robot description from {source}: {exc}; "
-                + ("keeping the model loaded before" if self._logic.model else "still no model")
-            )
-            return False
-        chain = model.chain
-        self.get_logger().info(
-            f"loaded {model.robot_name!r} from {source}: {chain.base_link} -> {chain.tip_link}, "
-            f"joints {list(chain.joint_names)}"
-        )
-        _freeze_heap()
-        return True
+    def _log_description_events(self) -> None:
+        """Log what happened to the robot description (loaded, waiting for a tip and which tips
+        there are, refused and why), as the service reports it."""
+        logger = self.get_logger()
+        for level, text in self._logic.take_log():
+            {"info": logger.info, "warn": logger.warn, "error": logger.error}[level](text)
 
     def _on_description(self, msg: String) -> None:
-        if self.get_parameter("robot_description").value:
-            return  # the parameter wins over the topic
-        self._load(msg.data, "the robot_description topic")
+        # used while robot_description and robot_description_file are empty, else kept for later
+        model = self._logic.model
+        self._logic.on_description_message(msg.data)
+        self._log_description_events()
+        if self._logic.model is not model and self._logic.model is not None:
+            _freeze_heap()
 
     def _on_joint_state(self, msg: JointState) -> None:
         self._last_joint_state = time.monotonic()
@@ -340,10 +334,15 @@ class KinematicsNode(Node):
             return SetParametersResult(
                 successful=False, reason=f"{', '.join(fixed)}: read at start-up only"
             )
+        model = self._logic.model
         try:
             self._logic.configure(changes)
         except KinematicsError as exc:
             return SetParametersResult(successful=False, reason=str(exc))
+        finally:
+            self._log_description_events()
+        if self._logic.model is not model and self._logic.model is not None:
+            _freeze_heap()
         return SetParametersResult(successful=True)
 
     def destroy_node(self) -> None:

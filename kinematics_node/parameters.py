@@ -39,14 +39,38 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec(
         "robot_description",
         "",
-        "URDF or xacro XML of the robot. Empty: subscribe to the robot_description topic "
-        "(std_msgs/String, transient local), as published by robot_state_publisher.",
+        "URDF or xacro XML text of the robot (for a file, use robot_description_file). The robot "
+        "description comes from the first of: this parameter, robot_description_file, the "
+        "robot_description topic (std_msgs/String, transient local, as robot_state_publisher "
+        "publishes it), which is used while both parameters are empty.",
     ),
-    ParameterSpec("base_link", "", "Root link of the kinematic chain; empty = the URDF root link."),
+    ParameterSpec(
+        "robot_description_file",
+        "",
+        "Path of a URDF or xacro file of the robot, used when robot_description is empty (it "
+        "takes precedence over the robot_description topic). A .xacro file, or any file when "
+        "xacro_args is set, is expanded with xacro.",
+    ),
+    ParameterSpec(
+        "xacro_args",
+        "",
+        "Arguments for xacro when it expands robot_description_file, as on xacro's command "
+        "line: 'name:=value other:=value' (quote a value with spaces: name:='a b'). An argument "
+        "the file neither declares nor uses is refused.",
+    ),
+    ParameterSpec(
+        "base_link",
+        "",
+        "Root link of the kinematic chain; empty = the URDF root link. Set at run time, it must "
+        "be a link of the description the node holds.",
+    ),
     ParameterSpec(
         "tip_link",
         "",
-        "End-effector link; empty = the single leaf link below base_link.",
+        "End-effector link; empty = the single leaf link below base_link. When there are several "
+        "(a gripper's fingers, cameras, other arms), the node holds the description and waits "
+        "for one, listing the candidates (logs, /diagnostics, service answers). Set at run time, "
+        "it must be a link of the description the node holds.",
     ),
     ParameterSpec(
         "twist_frame",

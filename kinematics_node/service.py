@@ -24,7 +24,7 @@ import logging
 import math
 import time
 from collections import deque
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any
@@ -52,6 +52,7 @@ from .core.analysis import conditioning
 from .core.exceptions import InvalidInputError, KinematicsError, RobotDescriptionError
 from .core.ik import beyond_reach
 from .core.model import Frame
+from .description_file import read_description_file
 from .ee_state import (
     FROM_ARRIVAL_UNSTAMPED,
     JUMP_BACK,
@@ -61,7 +62,7 @@ from .ee_state import (
 )
 from .ik_pool import IKJob, IKOutcome, chain_blob, solve_job
 from .parameters import defaults, validate_parameters
-from .robot_model import RobotModel
+from .robot_model import HeldDescription, RobotModel
 
 FloatArray = NDArray[np.float64]
 
@@ -72,9 +73,12 @@ LookupTransform = Callable[[str, str], ArrayLike]
 JACOBIAN_FRAMES: tuple[Frame, ...] = ("world", "body", "space")
 JACOBIAN_FRAMES_BY_NAME: dict[str, Frame] = {f: f for f in JACOBIAN_FRAMES}
 NO_DESCRIPTION = (
-    "no robot description loaded yet: set the robot_description parameter or publish it on the "
-    "robot_description topic (std_msgs/String, transient local)"
+    "no robot description loaded yet: set the robot_description parameter (URDF text) or "
+    "robot_description_file (a URDF or xacro path), or publish it on the robot_description "
+    "topic (std_msgs/String, transient local)"
 )
+#: The parameters that give the robot description, in order of precedence (then the topic).
+DESCRIPTION_PARAMETERS = ("robot_description", "robot_description_file", "xacro_args")
 
 _log = logging.getLogger(__name__)
 
@@ -103,6 +107,24 @@ class EEMessages:
     twist: Any | None = None
     problem: str | None = None
     severity: Severity = Severity.NOTE
+
+
+@dataclass(frozen=True)
+class DescriptionStatus:
+    """The state of the node's robot model, for logs, /diagnostics and service answers.
+
+    `state` is "none" (no description received yet), "waiting" (a description is held, but its
+    chain is not chosen yet: `message` says why and how to choose, `candidates` are the tips
+    below the base), "loaded" (a model serves), or "refused" (the last description could not be
+    used, and none is held). `source` says where the description came from (a parameter, the
+    file, the topic), `robot_name` its <robot name>.
+    """
+
+    state: str
+    message: str
+    source: str = ""
+    robot_name: str = ""
+    candidates: tuple[str, ...] = ()
 
 
 class _Rates:
@@ -174,15 +196,18 @@ class KinematicsService:
     Args:
         types: message classes to build outputs with.
         params: parameter values by name (see `kinematics_node.parameters`); missing = defaults.
-            A non-empty `robot_description` is loaded at once.
+            A description given by `robot_description` or `robot_description_file` is loaded at
+            once; when it cannot be used, the service starts without a model and says why
+            (`status`, `take_log`, diagnostics, service answers) rather than raising.
         lookup_transform: TF lookup for IK target frames that are not robot links (None = no TF:
             such targets are refused, saying that TF frames need tf2_ros).
         clock: current time [s] in the time base of the joint_states stamps (the node passes its
             ROS clock, so simulated time works); used for diagnostics only.
+        node_name: the node's full name, for the commands that messages suggest
+            (``ros2 param set <node_name> tip_link <link>``).
 
     Raises:
-        InvalidInputError: a parameter value is invalid.
-        RobotDescriptionError, UnknownNameError: the initial robot_description cannot be used.
+        InvalidInputError: a parameter value is invalid (wrong type, out of range).
     """
 
     def __init__(
@@ -191,10 +216,12 @@ class KinematicsService:
         params: Mapping[str, Any] | None = None,
         lookup_transform: LookupTransform | None = None,
         clock: Callable[[], float] = time.time,
+        node_name: str = "/kinematics_node",
     ) -> None:
         self._types = types
         self._lookup = lookup_transform
         self._clock = clock
+        self._node_name = node_name
         self._params: dict[str, Any] = defaults()
         self._model: RobotModel | None = None
         self._tracker: JointStateTracker | None = None
@@ -204,7 +231,32 @@ class KinematicsService:
         self._last_state: EndEffectorState | None = None
         self._last_problem: tuple[str, Severity] | None = None
         self._ik = IKAnswerCounts()
-        self.configure(params or {})
+        self._held: HeldDescription | None = None  # the description in use, or waiting for a tip
+        self._status = DescriptionStatus("none", NO_DESCRIPTION)
+        self._no_model = NO_DESCRIPTION  # what joint_states and requests get without a model
+        self._refusal: tuple[str, str] | None = None  # (source, why) of the last refused one
+        self._topic_text: str | None = None  # the topic's last description (used when allowed)
+        self._log_lines: list[tuple[str, str]] = []
+        given = dict(params or {})
+        problem = validate_parameters(given)
+        if problem is not None:
+            raise InvalidInputError(problem)
+        self._params.update(given)
+        if self._params["robot_description"] and self._params["robot_description_file"]:
+            self._say(
+                "warn",
+                f"robot_description_file {self._params['robot_description_file']!r} is not used: "
+                "the robot_description parameter is set, and takes precedence",
+            )
+        source = self._parameter_source(self._params)
+        if source:
+            try:
+                held = self._read_parameters(self._params)
+            except KinematicsError as exc:
+                self._refuse(source, exc)
+            else:
+                if held is not None:
+                    self._adopt(held, self._params)
 
     # ------------------------------------------------------------------ configuration
     @property
@@ -215,43 +267,294 @@ class KinematicsService:
     def model(self) -> RobotModel | None:
         return self._model
 
+    @property
+    def status(self) -> DescriptionStatus:
+        """The state of the robot model: none, waiting (for a tip), loaded, or refused."""
+        return self._status
+
+    @property
+    def takes_topic(self) -> bool:
+        """True while the robot_description topic is the description's source (both
+        robot_description and robot_description_file are empty)."""
+        return not (self._params["robot_description"] or self._params["robot_description_file"])
+
+    def take_log(self) -> list[tuple[str, str]]:
+        """What happened to the robot description since the last call, for the node's log:
+        (level, text) with level "info", "warn" or "error"; then forgotten."""
+        lines, self._log_lines = self._log_lines, []
+        return lines
+
     def configure(self, changes: Mapping[str, Any]) -> None:
-        """Validate and apply parameter changes; rebuilds the model when the description, base_link
-        or tip_link change. On any error nothing changes.
+        """Validate and apply parameter changes. On any error nothing changes.
+
+        * `robot_description`, `robot_description_file`, `xacro_args`: the description they give
+          (in that order of precedence; when both are empty, the topic's last one, else the one
+          held) replaces the one held, checked with base_link and tip_link: when those do not
+          give a chain of the new robot, it is held, waiting for them (`status`). Naming
+          `robot_description_file` or `xacro_args` reads the file again.
+        * `base_link`, `tip_link`: checked against the description held (the newest one): a
+          link it does not have, or a chain that cannot be built, is refused. A link that is
+          stale (of an earlier robot) while the other is set keeps the description waiting.
+          Without a description, they are kept for the one to come.
 
         Raises:
-            InvalidInputError: a value is invalid (message names the parameter).
-            RobotDescriptionError, UnknownNameError: the new chain cannot be built.
+            InvalidInputError: a value is invalid (message names the parameter), or
+                robot_description_file is set while robot_description takes precedence.
+            RobotDescriptionError, UnknownNameError: the new description or chain cannot be used.
         """
         problem = validate_parameters(changes)
         if problem is not None:
             raise InvalidInputError(problem)
         merged = {**self._params, **changes}
-        model = self._model
-        structural = ("robot_description", "base_link", "tip_link")
-        rebuild = any(merged[k] != self._params[k] for k in structural)
-        new_model = model
-        if rebuild:
-            if merged["robot_description"]:
-                new_model = RobotModel(
-                    merged["robot_description"], merged["base_link"], merged["tip_link"]
-                )
-            elif model is not None:  # description came from the topic: rebuild from it
-                new_model = RobotModel(model.xml, merged["base_link"], merged["tip_link"])
-        self._params = merged
-        if new_model is not model:
-            self._install(new_model)
+        changed = {k for k in changes if merged[k] != self._params[k]}
+        reread = {"robot_description_file", "xacro_args"} & set(changes)
+        if merged["robot_description_file"] and not merged["robot_description"]:
+            changed |= reread  # naming the file (or its arguments) again reads it again
+        if (
+            "robot_description_file" in changed
+            and merged["robot_description_file"]
+            and merged["robot_description"]
+        ):
+            raise InvalidInputError(
+                "robot_description_file is not used while the robot_description parameter is "
+                "set (it takes precedence); clear it first: ros2 param set "
+                f"{self._node_name} robot_description ''"
+            )
+        links = changed & {"base_link", "tip_link"}
+        held = self._held
+        if changed & set(DESCRIPTION_PARAMETERS):
+            source = self._parameter_source(merged)
+            try:
+                held = self._read_parameters(merged)
+            except KinematicsError as exc:
+                self._refuse(source, exc)
+                raise
+            if held is None:  # both parameters cleared: the topic's description, else the held
+                held = self._topic_description() or self._held
+        if held is None or (held is self._held and not links):
+            self._params = merged  # nothing to build now: base/tip wait for a description
+            return
+        if held is self._held:
+            model = self._chain_for(held, merged, links)  # a refusal raises: nothing changes
+            self._params = merged
+            self._apply(held, model)
+        else:
+            self._params = merged
+            self._adopt(held, merged, links)
 
-    def load_description(self, description: str) -> RobotModel:
-        """Load a robot description (e.g. from the robot_description topic), keeping base_link
-        and tip_link parameters. On error the previous model stays in use.
+    def load_description(
+        self, description: str, source: str = "the robot_description topic"
+    ) -> DescriptionStatus:
+        """Use a robot description (URDF or xacro XML text, e.g. from the robot_description
+        topic), replacing the one held, with the base_link and tip_link parameters checked
+        against it: when they give no chain of it (a tip to choose among several leaves, links
+        of another robot), it is held, waiting (`status`). On error the previous model and
+        description stay in use.
 
         Raises:
-            RobotDescriptionError, UnknownNameError: as `RobotModel`.
+            RobotDescriptionError: the description is malformed (naming the culprit).
         """
-        model = RobotModel(description, self._params["base_link"], self._params["tip_link"])
-        self._install(model)
-        return model
+        try:
+            held = HeldDescription.parse(description, source)
+        except KinematicsError as exc:
+            self._refuse(source, exc)
+            raise
+        self._adopt(held, self._params)
+        return self._status
+
+    def on_description_message(self, text: str) -> bool:
+        """A message of the robot_description topic: used at once while the topic is the
+        source (`takes_topic`), else kept for when both description parameters are cleared.
+        Never raises: a refusal is reported (`status`, `take_log`). Returns whether it was used."""
+        self._topic_text = text
+        if not self.takes_topic:
+            self._say(
+                "info",
+                "a robot description arrived on the robot_description topic; not used while the "
+                f"{'robot_description' if self._params['robot_description'] else 'robot_description_file'}"
+                " parameter is set",
+            )
+            return False
+        try:
+            self.load_description(text)
+        except KinematicsError:
+            return False
+        return True
+
+    # ------------------------------------------------------------------ description state
+    def _parameter_source(self, params: Mapping[str, Any]) -> str:
+        if params["robot_description"]:
+            return "the robot_description parameter"
+        if params["robot_description_file"]:
+            path = params["robot_description_file"]
+            args = params["xacro_args"]
+            return f"the robot_description_file parameter ({path!r}" + (
+                f", xacro_args {args!r})" if args else ")"
+            )
+        return ""
+
+    def _read_parameters(self, params: Mapping[str, Any]) -> HeldDescription | None:
+        """The description the parameters give (None when both are empty), parsed.
+
+        Raises:
+            RobotDescriptionError: unreadable, malformed, bad xacro arguments.
+        """
+        source = self._parameter_source(params)
+        if params["robot_description"]:
+            return HeldDescription.parse(params["robot_description"], source)
+        if params["robot_description_file"]:
+            description = read_description_file(
+                params["robot_description_file"], params["xacro_args"]
+            )
+            return HeldDescription.of(description, source)
+        return None
+
+    def _topic_description(self) -> HeldDescription | None:
+        """The topic's last description, parsed (None if none or refused, saying why)."""
+        if self._topic_text is None:
+            return None
+        source = "the robot_description topic"
+        try:
+            return HeldDescription.parse(self._topic_text, source)
+        except KinematicsError as exc:
+            self._refuse(source, exc)
+            return None
+
+    def _chain_for(
+        self, held: HeldDescription, params: Mapping[str, Any], changed: set[str]
+    ) -> RobotModel | str:
+        """The model of `held` with the params' base_link and tip_link, or, when they give no
+        chain, why not (a sentence). A link in `changed` that `held` does not have, or a chain
+        that fails on a description unchanged (`held` is the one held), raises instead.
+
+        Raises:
+            UnknownNameError, RobotDescriptionError: as said above.
+        """
+        tree, robot = held.tree, held.tree.robot_name
+        base, tip = params["base_link"], params["tip_link"]
+        for key, link in (("base_link", base), ("tip_link", tip)):
+            if link and link not in held.description.link_names and key in changed:
+                raise InvalidInputError(
+                    f"{key} {link!r} is not a link of {robot!r} (from {held.source}); its links "
+                    f"are: {_names(tree.links)}"
+                )
+        for key, link in (("base_link", base), ("tip_link", tip)):
+            if link and link not in held.description.link_names:
+                return f"{key} {link!r} is not a link of {robot!r}"
+        strict = bool(changed) and held is self._held  # a link changed on the held description
+        if not tip and len(tree.leaves_below(base)) > 1:
+            if strict and self._model is not None:  # would drop a working model: refused
+                raise RobotDescriptionError(
+                    f"several leaf links below {base or tree.root_link!r}; choose one with "
+                    f"tip_link: {', '.join(tree.tips_below(base))}"
+                )
+            return f"several leaf links below {base or tree.root_link!r} and tip_link is not set"
+        try:
+            return RobotModel(held.description, base, tip, tree)
+        except KinematicsError as exc:
+            if strict:
+                raise
+            return str(exc)
+
+    def _adopt(
+        self, held: HeldDescription, params: Mapping[str, Any], changed: set[str] | None = None
+    ) -> None:
+        """Replace the held description with `held` (a new robot), built with the params' links:
+        loaded, or held waiting. Raises only for a link in `changed` that `held` lacks."""
+        if not changed and self._model is not None and self._model.xml == held.description.xml:
+            # the same robot again (robot_state_publisher restarted): keep the model and state
+            self._held = HeldDescription(self._model.description, self._model.tree, held.source)
+            self._refusal = None
+            self._set_status(self._loaded_status(self._model))
+            return
+        self._apply(held, self._chain_for(held, params, changed or set()))
+
+    def _apply(self, held: HeldDescription, model: RobotModel | str) -> None:
+        self._held = held
+        self._refusal = None
+        if isinstance(model, RobotModel):
+            self._install(model)
+            chain = model.chain
+            self._say(
+                "info",
+                f"loaded {model.robot_name!r} from {held.source}: {chain.base_link} -> "
+                f"{chain.tip_link}, joints {list(chain.joint_names)}",
+            )
+            self._set_status(self._loaded_status(model))
+            for note in held.description.notes:
+                self._say("info", f"{model.robot_name!r}: {note}")
+            return
+        self._install(None)
+        status = self._waiting_status(held, model)
+        self._set_status(status)
+        self._say("warn", status.message)
+
+    def _loaded_status(self, model: RobotModel) -> DescriptionStatus:
+        chain = model.chain
+        held = self._held
+        return DescriptionStatus(
+            "loaded",
+            f"loaded {model.robot_name!r}: {chain.base_link} -> {chain.tip_link}, {chain.dof} "
+            "joints",
+            held.source if held is not None else "",
+            model.robot_name,
+        )
+
+    def _waiting_status(self, held: HeldDescription, reason: str) -> DescriptionStatus:
+        """Status of a description held without a chain: why, the tips to choose from, and how."""
+        tree, robot, node = held.tree, held.tree.robot_name, self._node_name
+        base = self._params["base_link"]
+        if base and base not in held.description.link_names:
+            candidates = tree.tips_below("")
+            what = "a base_link"
+            how = (
+                f"ros2 param set {node} base_link <link> ('' = its root link "
+                f"{tree.root_link!r}), then tip_link"
+            )
+        else:
+            candidates = tree.tips_below(base)
+            what = "a tip"
+            how = f"ros2 param set {node} tip_link <link>"
+        tips = ", ".join(candidates) if candidates else "none (no leaf below it moves)"
+        message = (
+            f"robot {robot!r} from {held.source} is waiting for {what}: {reason}. Candidate tips "
+            f"below {(base if what == 'a tip' and base else tree.root_link)!r}: {tips}. Choose "
+            f"one: {how}"
+        )
+        return DescriptionStatus("waiting", message, held.source, robot, candidates)
+
+    def _refuse(self, source: str, exc: BaseException) -> None:
+        """Record (diagnostics, log) that the description from `source` was refused; the model
+        and description held before stay."""
+        reason = str(exc)
+        self._refusal = (source, reason)
+        kept = (
+            f"keeping {self._model.robot_name!r}"
+            if self._model is not None
+            else (
+                f"still waiting with {self._held.tree.robot_name!r}"
+                if self._held is not None
+                else "still no model"
+            )
+        )
+        self._say("error", f"cannot use the robot description from {source}: {reason}; {kept}")
+        if self._held is None:
+            self._set_status(
+                DescriptionStatus(
+                    "refused",
+                    f"no robot description loaded: the one from {source} was refused: {reason}",
+                    source,
+                )
+            )
+
+    def _set_status(self, status: DescriptionStatus) -> None:
+        self._status = status
+        self._no_model = status.message if self._model is None else NO_DESCRIPTION
+
+    def _say(self, level: str, text: str) -> None:
+        self._log_lines.append((level, text))
+        if len(self._log_lines) > 100:  # nobody takes them (tests, tools): keep the newest
+            del self._log_lines[:50]
 
     def _install(self, model: RobotModel | None) -> None:
         """Swap in `model` (all at once: every later message and request sees only the new one)."""
@@ -297,7 +600,7 @@ class KinematicsService:
         """
         model, tracker = self._model, self._tracker
         if model is None or tracker is None:
-            return self._problem(NO_DESCRIPTION, Severity.WARN)
+            return self._problem(self._no_model, Severity.WARN)
         try:
             names, positions, velocities, stamp = sample_from_joint_state(msg)
             stale_before, jumps_before = tracker.stale_samples, tracker.jumps_back
@@ -458,7 +761,7 @@ class KinematicsService:
         """(model, {joint: current position} of the joints received so far, params)."""
         model, tracker = self._model, self._tracker
         if model is None or tracker is None:
-            raise RobotDescriptionError(NO_DESCRIPTION)
+            raise RobotDescriptionError(self._no_model)
         current = {
             n: v
             for n, v in zip(tracker.joint_names, tracker.q.tolist(), strict=True)
@@ -476,13 +779,36 @@ class KinematicsService:
 
     def _fk(self, request: Any, response: Any) -> None:
         model, current, _ = self._snapshot()
+        js, stamp = request.joint_state, request.joint_state.header.stamp
         chain = model.chain_to(str(request.tip_link))
-        q = self._q(model, chain, request.joint_state, current, "joint_state")
+        q = self._q(model, chain, js, current, "joint_state")
         T = chain.fk(q)
         _require_finite(T, "pose")
-        response.pose = pose_stamped_from_matrix(
-            self._types, T, chain.base_link, request.joint_state.header.stamp
-        )
+        poses = []
+        default_poses: FloatArray | None = None  # every link of the default chain, when asked
+        for k, name in enumerate(request.link_names):
+            link = str(name)
+            try:
+                source = model.link_pose_source(link)
+            except KinematicsError as exc:
+                raise InvalidInputError(f"link_names[{k}]: {exc}") from None
+            if source is model.chain:
+                if default_poses is None:
+                    q_chain = (
+                        q
+                        if chain is model.chain
+                        else self._q(model, model.chain, js, current, "joint_state")
+                    )
+                    default_poses = model.chain.link_poses(q_chain)
+                T_link = default_poses[model.chain.link_names.index(link)]
+            elif isinstance(source, SerialChain):
+                T_link = source.fk(self._q(model, source, js, current, "joint_state"))
+            else:  # no moving joint between the base and the link
+                T_link = source
+            _require_finite(T_link, f"pose of link_names[{k}] {link!r}")
+            poses.append(pose_stamped_from_matrix(self._types, T_link, model.base_link, stamp))
+        response.pose = pose_stamped_from_matrix(self._types, T, chain.base_link, stamp)
+        response.poses = poses
         return None
 
     def _jacobian(self, request: Any, response: Any) -> None:
@@ -644,11 +970,31 @@ class KinematicsService:
         return np.array(T_base_frame, dtype=np.float64)
 
     # ------------------------------------------------------------------ diagnostics
+    def _description_values(self) -> list[tuple[str, str]]:
+        """Diagnostics values of the robot model's state (`DescriptionStatus`): description =
+        none | waiting | loaded | refused, its source, the robot's name, the candidate tips while
+        waiting, the description's notes, and the last refusal (source: why)."""
+        status, held = self._status, self._held
+        values = [("description", status.state)]
+        if status.source:
+            values.append(("description_source", status.source))
+        if status.robot_name:
+            values.append(("robot_name", status.robot_name))
+        if status.state == "waiting":
+            values.append(("candidate_tips", ", ".join(status.candidates)))
+        if held is not None and held.description.notes:
+            values.append(("description_notes", "; ".join(held.description.notes)))
+        if self._refusal is not None:
+            values.append(("last_refusal", "{}: {}".format(*self._refusal)))
+        return values
+
     def diagnostics(self, pool: Mapping[str, int] | None = None) -> Any:
         """diagnostic_msgs/DiagnosticArray: one status with manipulability, condition number,
         near-singularity (WARN), joint_states rate [Hz] and latency [s] (stale → WARN), the last
-        problem (rejected samples → ERROR; no description → ERROR), and the IK answers so far
-        (`IKAnswerCounts`) with the worker pool's counts `pool` (keys prefixed "ik_pool_")."""
+        problem (rejected samples → ERROR), the robot model's state (`_description_values`; no
+        description or a refused one → ERROR, waiting for a tip → WARN, a refused one while
+        another is held → WARN), and the IK answers so far (`IKAnswerCounts`) with the worker
+        pool's counts `pool` (keys prefixed "ik_pool_")."""
         types = self._types
         S = types.DiagnosticStatus
         now = self._clock()
@@ -657,9 +1003,10 @@ class KinematicsService:
         last = self._rates.last_arrival
         rate, latency = self._rates.rate(), self._rates.latency()
         severity, notes = 0, []
-        values: list[tuple[str, str]] = []
+        values: list[tuple[str, str]] = self._description_values()
         if model is None:
-            severity, notes = 2, [NO_DESCRIPTION]
+            severity = 1 if self._status.state == "waiting" else 2
+            notes = [self._status.message]
         else:
             values += [
                 ("base_link", model.base_link),
@@ -691,18 +1038,31 @@ class KinematicsService:
                 text, level = problem
                 severity = max(severity, int(level))
                 notes.append(text)
+        if self._refusal is not None and self._held is not None:  # refused, but one is held
+            source, why = self._refusal
+            severity = max(severity, 1)
+            notes.append(
+                f"the robot description from {source} was refused ({why}); still using "
+                f"{self._held.tree.robot_name!r} from {self._held.source}"
+            )
         values += self._ik.values()
         values += [(f"ik_pool_{k}", str(v)) for k, v in (pool or {}).items()]
         status = S(
             level=(S.OK, S.WARN, S.ERROR)[severity],
             name="kinematics_node: end effector",
             message="; ".join(notes) if notes else "ok",
-            hardware_id=model.robot_name if model is not None else "",
+            hardware_id=self._status.robot_name,
             values=[types.KeyValue(key=k, value=v) for k, v in values],
         )
         return types.DiagnosticArray(
             header=types.Header(stamp=time_from_seconds(types, now), frame_id=""), status=[status]
         )
+
+
+def _names(names: Sequence[str], limit: int = 40) -> str:
+    """'a', 'b', ... for a message: at most `limit` names, then how many more."""
+    shown = ", ".join(repr(n) for n in names[:limit])
+    return shown + (f" (+{len(names) - limit} more)" if len(names) > limit else "")
 
 
 def _short(exc: BaseException, limit: int = 200) -> str:

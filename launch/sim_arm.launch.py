@@ -69,7 +69,7 @@ def _nodes(context, *args, **kwargs):
             parameters=[
                 os.path.join(share, "config", "kinematics.yaml"),
                 {
-                    "robot_description": robot_description,
+                    "robot_description_file": description_file,
                     "base_link": base_link,
                     "tip_link": tip_link,
                 },
