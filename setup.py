@@ -33,6 +33,8 @@ setup(
     extras_require={
         "xacro": ["xacro>=2.0"],
         "demo": ["matplotlib>=3.5"],
+        # Jerk-limited smoothing of kinematics_node.core.servo (the rest of the package runs without)
+        "servo": ["ruckig>=0.9"],
         "test": [
             "pytest>=7",
             "pin>=2.7",  # Pinocchio: the independent FK/Jacobian oracle
@@ -42,6 +44,7 @@ setup(
             "xacro>=2.0",
             "matplotlib>=3.5",
             "pyyaml>=5",  # reads config/kinematics.yaml in the package-file tests
+            "ruckig>=0.9",  # the servo's smoothing (extra "servo")
         ],
         # Peers for the side-by-side benchmarks; KDL comes from Debian (apt install python3-pykdl).
         "bench": [
@@ -51,6 +54,7 @@ setup(
             "ikpy>=3.3",
             "roboticstoolbox-python>=1.1",
             "pybullet>=3.2",  # only for its KUKA iiwa description
+            "ruckig>=0.9",  # benchmarks/servo_benchmark.py
         ],
         # ruff within one minor release: `make test` checks the formatting, whose output may
         # change between minor releases

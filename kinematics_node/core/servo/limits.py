@@ -1,0 +1,118 @@
+"""Joint limits as the servo uses them: positions less a margin, and velocity, acceleration and
+jerk limits, taken from the robot description with `ServoConfig` overrides.
+
+A URDF gives position and velocity limits only; acceleration and jerk limits come from the
+overrides, else from the velocity limit and the ramp times of `ServoConfig`
+(a = v / acceleration_time_s, j = a / jerk_time_s).
+
+`braking_speed` is the speed from which a joint at rest acceleration can still stop within a
+distance under these limits: the servo asks no more of a joint near its limit, so it decelerates
+before the limit instead of at it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..chain import SerialChain
+from ..exceptions import InvalidInputError, UnknownNameError
+from ..model import readonly
+from .config import ServoConfig
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ServoLimits:
+    """Per-joint limits of one chain, in the chain's joint order (read-only arrays).
+
+    Attributes:
+        joint_names: the chain's actuated joints.
+        lower, upper: position bounds the servo keeps to: the description's limits moved inwards by
+            the margin [rad or m]; ±inf for continuous joints.
+        velocity: [rad/s or m/s], > 0, already multiplied by `ServoConfig.velocity_scale`.
+        acceleration: [rad/s² or m/s²], > 0.
+        jerk: [rad/s³ or m/s³], > 0.
+    """
+
+    joint_names: tuple[str, ...]
+    lower: FloatArray
+    upper: FloatArray
+    velocity: FloatArray
+    acceleration: FloatArray
+    jerk: FloatArray
+
+    @classmethod
+    def from_chain(cls, chain: SerialChain, config: ServoConfig) -> ServoLimits:
+        """The limits of `chain` under `config`.
+
+        Raises:
+            UnknownNameError: an override names a joint that is not in the chain.
+            InvalidInputError: a joint's range is narrower than twice its margin.
+        """
+        names = chain.joint_names
+        for field_name in ("velocity_limits", "acceleration_limits", "jerk_limits"):
+            for joint in getattr(config, field_name):
+                if joint not in names:
+                    raise UnknownNameError("joint", joint, names)
+        prismatic = np.array([t == "prismatic" for t in chain.joint_types])
+        margin = np.where(prismatic, config.position_margin_m, config.position_margin_rad)
+        lower = np.asarray(chain.lower, dtype=np.float64) + margin
+        upper = np.asarray(chain.upper, dtype=np.float64) - margin
+        for k, name in enumerate(names):
+            if lower[k] > upper[k]:
+                raise InvalidInputError(
+                    f"joint {name!r} has limits [{chain.lower[k]:g}, {chain.upper[k]:g}], narrower "
+                    f"than twice the servo's margin {margin[k]:g}; lower the margin"
+                )
+        given = np.asarray(chain.velocity_limit, dtype=np.float64)
+        velocity = np.where(
+            np.isfinite(given) & (given > 0), given, config.default_velocity_limit
+        ).astype(np.float64)
+        for joint, value in config.velocity_limits.items():
+            velocity[names.index(joint)] = value
+        velocity = velocity * config.velocity_scale
+        acceleration = velocity / config.acceleration_time_s
+        for joint, value in config.acceleration_limits.items():
+            acceleration[names.index(joint)] = value
+        jerk = acceleration / config.jerk_time_s
+        for joint, value in config.jerk_limits.items():
+            jerk[names.index(joint)] = value
+        return cls(
+            joint_names=tuple(names),
+            lower=readonly(lower),
+            upper=readonly(upper),
+            velocity=readonly(velocity),
+            acceleration=readonly(acceleration),
+            jerk=readonly(jerk),
+        )
+
+
+def braking_distance(speed: FloatArray, acceleration: FloatArray, jerk: FloatArray) -> FloatArray:
+    """Distance to stop from `speed` ≥ 0 at zero acceleration, braking as hard as the acceleration
+    limit A and jerk limit J allow (jerk −J, then −A held, then +J).
+
+    d = v √(v/J) when v ≤ A²/J (the acceleration never reaches −A), else v²/(2A) + vA/(2J).
+    """
+    v, A, J = speed, acceleration, jerk
+    short = v <= A * A / J
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(short, v * np.sqrt(v / J), v * v / (2 * A) + v * A / (2 * J))
+
+
+def braking_speed(distance: FloatArray, acceleration: FloatArray, jerk: FloatArray) -> FloatArray:
+    """The inverse of `braking_distance`: the highest speed (at zero acceleration) from which a
+    joint stops within `distance` ≥ 0 [rad or m]; inf where the distance is inf.
+
+    v = (d √J)^(2/3) when that is ≤ A²/J, else the positive root of v² + (A²/J) v − 2 A d = 0.
+    """
+    d, A, J = np.maximum(distance, 0.0), acceleration, jerk
+    with np.errstate(invalid="ignore", over="ignore"):
+        v_short = np.cbrt(d * d * J)  # (d √J)^(2/3)
+        b = A * A / J
+        v_long = 0.5 * (-b + np.sqrt(b * b + 8.0 * A * d))
+        out = np.where(v_short <= b, v_short, v_long)
+    return np.where(np.isinf(d), np.inf, out)

@@ -1,0 +1,768 @@
+"""`Servo`: from the measured joint state and a command, the next joint command for one period.
+
+One period (`Servo.step`) does, on the last *commanded* joint state q (so that the output is
+continuous whatever the arm's controller does):
+
+1. Twist: the commanded pose T_ref is integrated from the commanded twist (ω, v) [base axes,
+   about the tip origin], and the loop is closed on it: V = V_cmd + K e, e = (log(R_ref Rᵀ),
+   p_ref − p). The error kept is bounded (`max_kept_error_*`): beyond it T_ref is pulled back
+   towards the arm, so a blocked arm does not wind up, and a pure rotation does not drift.
+   Pose: V points at the target, at min(K_pose d, v_max, √(2 a d)) for a distance d, which brakes
+   to zero at the target. Jog: the joint velocities as given.
+2. The followed rows of V are solved for q̇ by damped least squares (`dls`), which never stops at
+   a singularity; a redundant arm adds null-space motion towards the middle of its joint ranges.
+3. Joint limits: a joint near a position limit may move towards it no faster than it can still
+   brake (`limits.braking_speed`); when the solution asks more, the joint is held at that speed
+   and the task is solved again by the other joints (saturation, as in Flacco, De Luca & Khatib
+   2012's SNS). The result is scaled into the velocity limits, the null-space motion giving way
+   first, then the damped directions, then the whole (which keeps the tool's direction).
+4. Ruckig moves the commanded state toward that velocity within the velocity, acceleration and
+   jerk limits, and a position guard makes a joint brake if it could no longer stop inside its
+   limits (`smoothing`).
+
+Stopping (command timeout, a refused command, pause, the arm not following) is step 4 with a
+target velocity of zero: a jerk-limited stop along the current path.
+
+Not thread-safe: call `submit`, `step`, `pause` and `resume` from one thread (or lock).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .. import so3
+from .._checks import check_transform
+from ..chain import SerialChain
+from ..exceptions import InvalidInputError, UnknownNameError
+from ..model import readonly
+from . import _quat, dls
+from .axes import select_axes, task_jacobian_rows
+from .commands import JointJogCommand, PoseCommand, TwistCommand
+from .config import TWIST_AXES, ServoConfig
+from .limits import ServoLimits, braking_distance, braking_speed
+from .smoothing import JerkLimitedIntegrator
+from .status import ServoStatus, StatusCode
+
+FloatArray = NDArray[np.float64]
+
+_NULLSPACE_SPEED_FRACTION = 0.2  # null-space motion uses at most this share of a joint's speed
+
+
+@dataclass(frozen=True)
+class ServoOutput:
+    """The joint command for the coming period and the servo's status.
+
+    Attributes:
+        positions: (n,) joint positions to reach at `time_s` [rad or m], chain joint order.
+        velocities: (n,) joint velocities at `time_s` [rad/s or m/s].
+        accelerations: (n,) joint accelerations at `time_s` [rad/s² or m/s²].
+        time_s: the `now_s` of the step plus one period [s].
+        status: what the servo did on this cycle.
+    """
+
+    positions: FloatArray
+    velocities: FloatArray
+    accelerations: FloatArray
+    time_s: float
+    status: ServoStatus
+
+
+def _finite_reals(values: Any, count: int | None) -> tuple[float, ...] | None:
+    """The values as floats if they are `count` finite real numbers (any count if None)."""
+    try:
+        items = list(values)
+    except TypeError:
+        return None
+    if count is not None and len(items) != count:
+        return None
+    out = []
+    for x in items:
+        if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
+            return None
+        f = float(x)
+        if not math.isfinite(f):
+            return None
+        out.append(f)
+    return tuple(out)
+
+
+def _norm3(x: float, y: float, z: float) -> float:
+    return math.sqrt(x * x + y * y + z * z)
+
+
+class Servo:
+    """Servoing of one serial chain: twist, joint jog and pose commands in, joint commands out.
+
+    Usage (one `step` per `config.period_s`, commands whenever they arrive)::
+
+        servo = Servo(chain, q_measured, ServoConfig(period_s=0.002))
+        servo.submit(TwistCommand((0, 0, 0.5), (0.1, 0, 0), "base_link", stamp_s=t), now_s=t)
+        out = servo.step(now_s=t, measured_positions=q_measured)
+        send(out.positions, out.velocities); publish(out.status)
+
+    Args:
+        chain: the arm.
+        initial_positions: (n,) measured joint positions; the servo starts at rest there.
+        config: settings (defaults: `ServoConfig()`).
+
+    Raises:
+        InvalidInputError: bad initial positions, or a configuration the chain cannot meet (a joint
+            range narrower than its margins, more task axes than joints).
+        UnknownNameError: a limit override names a joint the chain does not have.
+        MissingDependencyError: Ruckig is not installed.
+    """
+
+    def __init__(
+        self, chain: SerialChain, initial_positions: ArrayLike, config: ServoConfig | None = None
+    ) -> None:
+        if not isinstance(chain, SerialChain):
+            raise InvalidInputError(f"chain must be a SerialChain, got {type(chain).__name__}")
+        cfg = ServoConfig() if config is None else config
+        if not isinstance(cfg, ServoConfig):
+            raise InvalidInputError(f"config must be a ServoConfig, got {type(cfg).__name__}")
+        q0 = chain.check_q(initial_positions, "initial_positions")
+        if q0.shape != (chain.dof,):
+            raise InvalidInputError(
+                f"initial_positions must have shape ({chain.dof},), got {q0.shape}"
+            )
+        self.chain = chain
+        self.config = cfg
+        self.limits = ServoLimits.from_chain(chain, cfg)
+        rows, dropped = select_axes(chain, cfg)
+        self._rows = np.array(rows)
+        self._all_rows = len(rows) == 6
+        self.task_axes: tuple[str, ...] = tuple(TWIST_AXES[i] for i in rows)
+        self.dropped_axes: tuple[str, ...] = dropped
+        keep = np.zeros(6, dtype=bool)
+        keep[self._rows] = True
+        self._dropped_mask = ~keep
+        self._integrator = JerkLimitedIntegrator(self.limits, cfg.period_s, q0)
+        n = chain.dof
+        lim = self.limits
+        # Beyond this distance from a bound, braking never limits a joint's speed.
+        self._slow_zone = braking_distance(lim.velocity, lim.acceleration, lim.jerk) + (
+            2.0 * lim.velocity * cfg.period_s
+        )
+        bounded = np.isfinite(lim.lower) & np.isfinite(lim.upper)
+        self._mid = np.where(bounded, 0.5 * (lim.lower + lim.upper), 0.0)
+        self._null_weight = np.where(bounded, 1.0, 0.0)
+        self._null_cap = _NULLSPACE_SPEED_FRACTION * lim.velocity
+        self._base = chain.link_names[0]
+        self._tip = chain.link_names[-1]
+        self._n = n
+        # Active command, in the form the steps use.
+        self._mode: str | None = None
+        self._stamp = 0.0
+        self._twist_frame = self._base
+        self._twist: tuple[float, ...] = (
+            0.0,
+        ) * 6  # (ω, v) in the command frame's axes, already speed-limited
+        self._twist_scaled = False
+        self._jog = np.zeros(n)
+        self._jog_scaled = False
+        self._goal_p = (0.0, 0.0, 0.0)
+        self._goal_q: _quat.Quat = (0.0, 0.0, 0.0, 1.0)
+        self._ref_valid = False
+        self._ref_p = (0.0, 0.0, 0.0)
+        self._ref_q: _quat.Quat = (0.0, 0.0, 0.0, 1.0)
+        self._stop: tuple[StatusCode, str] = (StatusCode.IDLE, "waiting for a command")
+        self._paused = False
+        self._measured: FloatArray | None = q0.copy()
+
+    # ------------------------------------------------------------------ state
+    @property
+    def positions(self) -> FloatArray:
+        """The last commanded joint positions (n,) [rad or m] (read-only copy)."""
+        return readonly(self._integrator.q)
+
+    @property
+    def velocities(self) -> FloatArray:
+        """The last commanded joint velocities (n,) [rad/s or m/s] (read-only copy)."""
+        return readonly(self._integrator.v)
+
+    @property
+    def accelerations(self) -> FloatArray:
+        """The last commanded joint accelerations (n,) [rad/s² or m/s²] (read-only copy)."""
+        return readonly(self._integrator.a)
+
+    @property
+    def paused(self) -> bool:
+        return self._paused
+
+    def reset(self, positions: ArrayLike) -> None:
+        """Forget the command and the commanded state: at rest at `positions` (n,), idle.
+
+        Raises:
+            InvalidInputError: wrong length or non-finite positions.
+        """
+        q = self.chain.check_q(positions, "positions")
+        if q.shape != (self._n,):
+            raise InvalidInputError(f"positions must have shape ({self._n},), got {q.shape}")
+        self._integrator.reset(q)
+        self._measured = q.copy()
+        self._end(StatusCode.IDLE, "reset; waiting for a command")
+
+    def pause(self) -> None:
+        """Stop smoothly and refuse commands until `resume`."""
+        self._paused = True
+        self._end(StatusCode.PAUSED, "paused; commands are refused until resumed")
+
+    def resume(self) -> None:
+        """Accept commands again (the command active before the pause is not resumed)."""
+        if self._paused:
+            self._paused = False
+            self._end(StatusCode.IDLE, "resumed; waiting for a command")
+
+    def _end(self, code: StatusCode, message: str) -> None:
+        """Drop the active command: the arm stops smoothly, and the status says why."""
+        self._mode = None
+        self._ref_valid = False
+        self._stop = (code, message)
+
+    # ------------------------------------------------------------------ commands
+    def submit(self, command: Any, now_s: float) -> ServoStatus:
+        """Take a new command (it replaces the active one) or refuse it.
+
+        A refused command also ends the active one: the arm stops smoothly, and every `step`
+        reports the refusal until a command is accepted. Never raises.
+
+        Args:
+            command: a `TwistCommand`, `JointJogCommand` or `PoseCommand`.
+            now_s: the current time [s], on the clock of the command's `stamp_s`.
+
+        Returns:
+            OK if accepted; COMMAND_STALE (stamp older than the timeout, or as far in the future)
+            or COMMAND_REFUSED (with the reason) otherwise.
+        """
+        problem = self._check_time(now_s, "now_s")
+        if problem is None:
+            problem = self._accept(command, float(now_s))
+        if problem is not None:
+            code, message = problem
+            if not self._paused:
+                self._end(code, message)
+            return ServoStatus(code, message, dropped_axes=self.dropped_axes)
+        return ServoStatus(
+            StatusCode.OK, f"{type(command).__name__} accepted", dropped_axes=self.dropped_axes
+        )
+
+    @staticmethod
+    def _check_time(value: Any, name: str) -> tuple[StatusCode, str] | None:
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float, np.integer, np.floating))
+            or not math.isfinite(value)
+        ):
+            return StatusCode.COMMAND_REFUSED, f"{name} must be a finite number [s], got {value!r}"
+        return None
+
+    def _accept(self, command: Any, now: float) -> tuple[StatusCode, str] | None:
+        cfg = self.config
+        kind = type(command).__name__
+        if not isinstance(command, (TwistCommand, JointJogCommand, PoseCommand)):
+            return (
+                StatusCode.COMMAND_REFUSED,
+                f"unknown command type {kind}; expected TwistCommand, JointJogCommand or "
+                "PoseCommand",
+            )
+        if self._paused:
+            return StatusCode.COMMAND_REFUSED, f"{kind} refused: the servo is paused"
+        problem = self._check_time(command.stamp_s, f"{kind}.stamp_s")
+        if problem is not None:
+            return problem
+        age = now - float(command.stamp_s)
+        if age > cfg.command_timeout_s:
+            return (
+                StatusCode.COMMAND_STALE,
+                f"{kind} stamped {age:.3f} s ago, older than the {cfg.command_timeout_s:g} s "
+                "command timeout",
+            )
+        if -age > cfg.command_timeout_s:
+            return (
+                StatusCode.COMMAND_STALE,
+                f"{kind} stamped {-age:.3f} s in the future (beyond the "
+                f"{cfg.command_timeout_s:g} s command timeout): is the sender's clock off?",
+            )
+        if isinstance(command, TwistCommand):
+            return self._accept_twist(command)
+        if isinstance(command, JointJogCommand):
+            return self._accept_jog(command)
+        return self._accept_pose(command)
+
+    def _frame_problem(self, kind: str, frame: Any) -> tuple[StatusCode, str] | None:
+        if isinstance(frame, str) and frame in self.chain.link_names:
+            return None
+        shown = frame if isinstance(frame, str) else repr(frame)
+        err = UnknownNameError("frame", str(shown)[:80], self.chain.link_names)
+        return StatusCode.COMMAND_REFUSED, f"{kind} refused: {err}"
+
+    def _begin(self, mode: str, stamp: float) -> None:
+        """Make `mode` the active command; starts from the measured state if at rest."""
+        if self._mode is None and self._integrator.at_rest and self._measured is not None:
+            self._integrator.reset(self._measured)
+        if self._mode != mode:
+            self._ref_valid = False
+        self._mode = mode
+        self._stamp = stamp
+
+    def _accept_twist(self, cmd: TwistCommand) -> tuple[StatusCode, str] | None:
+        cfg = self.config
+        w = _finite_reals(cmd.angular, 3)
+        v = _finite_reals(cmd.linear, 3)
+        if w is None or v is None:
+            bad = "angular" if w is None else "linear"
+            return (
+                StatusCode.COMMAND_REFUSED,
+                f"TwistCommand refused: {bad} must be 3 finite numbers, got {getattr(cmd, bad)!r}"[
+                    :300
+                ],
+            )
+        problem = self._frame_problem("TwistCommand", cmd.frame)
+        if problem is not None:
+            return problem
+        speed_w, speed_v = _norm3(*w), _norm3(*v)
+        factor = cfg.huge_command_factor
+        if (
+            speed_v > factor * cfg.max_linear_speed_m_s
+            or speed_w > factor * cfg.max_angular_speed_rad_s
+        ):
+            return (
+                StatusCode.COMMAND_REFUSED,
+                f"TwistCommand refused: |v| = {speed_v:.4g} m/s, |ω| = {speed_w:.4g} rad/s is more "
+                f"than {factor:g}× the maximum ({cfg.max_linear_speed_m_s:g} m/s, "
+                f"{cfg.max_angular_speed_rad_s:g} rad/s): a unit error?",
+            )
+        scale = min(
+            1.0,
+            cfg.max_linear_speed_m_s / speed_v if speed_v > 0 else 1.0,
+            cfg.max_angular_speed_rad_s / speed_w if speed_w > 0 else 1.0,
+        )
+        self._begin("twist", float(cmd.stamp_s))
+        self._twist_frame = cmd.frame
+        self._twist = tuple(x * scale for x in w + v)
+        self._twist_scaled = scale < 1.0
+        return None
+
+    def _accept_jog(self, cmd: JointJogCommand) -> tuple[StatusCode, str] | None:
+        names = cmd.joint_names
+        if isinstance(names, str) or not isinstance(names, Sequence):
+            return (
+                StatusCode.COMMAND_REFUSED,
+                f"JointJogCommand refused: joint_names must be a sequence of names, got {names!r}",
+            )
+        vel = _finite_reals(cmd.velocities, len(names))
+        if vel is None:
+            return (
+                StatusCode.COMMAND_REFUSED,
+                f"JointJogCommand refused: velocities must be {len(names)} finite numbers (one per "
+                f"joint name), got {cmd.velocities!r}"[:300],
+            )
+        jog = np.zeros(self._n)
+        seen: set[str] = set()
+        for name, value in zip(names, vel, strict=True):
+            if not isinstance(name, str) or name not in self.chain.joint_names:
+                err = UnknownNameError("joint", str(name)[:80], self.chain.joint_names)
+                return StatusCode.COMMAND_REFUSED, f"JointJogCommand refused: {err}"
+            if name in seen:
+                return (
+                    StatusCode.COMMAND_REFUSED,
+                    f"JointJogCommand refused: joint {name!r} is named twice",
+                )
+            seen.add(name)
+            jog[self.chain.joint_names.index(name)] = value
+        vmax = self.limits.velocity
+        factor = self.config.huge_command_factor
+        huge = np.abs(jog) > factor * vmax
+        if huge.any():
+            k = int(np.flatnonzero(huge)[0])
+            return (
+                StatusCode.COMMAND_REFUSED,
+                f"JointJogCommand refused: joint {self.chain.joint_names[k]!r} at {jog[k]:.4g} is "
+                f"more than {factor:g}× its velocity limit {vmax[k]:.4g}: a unit error?",
+            )
+        self._begin("jog", float(cmd.stamp_s))
+        self._jog = jog
+        return None
+
+    def _accept_pose(self, cmd: PoseCommand) -> tuple[StatusCode, str] | None:
+        problem = self._frame_problem("PoseCommand", cmd.frame)
+        if problem is not None:
+            return problem
+        try:
+            T = check_transform(cmd.T_frame_tip, "PoseCommand.T_frame_tip")
+        except InvalidInputError as exc:
+            return StatusCode.COMMAND_REFUSED, f"PoseCommand refused: {exc}"[:400]
+        if T.shape != (4, 4):
+            return (
+                StatusCode.COMMAND_REFUSED,
+                f"PoseCommand refused: T_frame_tip must be one 4×4 transform, got shape {T.shape}",
+            )
+        if cmd.frame != self._base:
+            T = self.chain.link_pose(self._integrator.q, cmd.frame) @ T
+        center, radius = self.chain.reach_sphere
+        dist = float(np.linalg.norm(T[:3, 3] - center))
+        if not dist <= radius + self.config.max_kept_error_m:
+            return (
+                StatusCode.COMMAND_REFUSED,
+                f"PoseCommand refused: the target is {dist:.4g} m from the arm's first joint, out "
+                f"of its reach ({radius:.4g} m at most)",
+            )
+        self._begin("pose", float(cmd.stamp_s))
+        self._goal_p = (float(T[0, 3]), float(T[1, 3]), float(T[2, 3]))
+        self._goal_q = so3.quaternion_from_rows(T[:3, :3].ravel().tolist())
+        return None
+
+    # ------------------------------------------------------------------ the period
+    def step(self, now_s: float, measured_positions: ArrayLike | None = None) -> ServoOutput:
+        """The joint command for the period starting at `now_s`. Never raises; never non-finite.
+
+        Args:
+            now_s: the current time [s], on the clock of the commands' stamps.
+            measured_positions: (n,) the arm's joint positions now, chain order, if known. Used to
+                start from where the arm is and to notice an arm that does not follow; the
+                servo's trajectory itself continues from its own commanded state.
+        """
+        cfg = self.config
+        integ = self._integrator
+        trouble: tuple[StatusCode, str] | None = self._check_time(now_s, "now_s")
+        now = float(now_s) if trouble is None else self._stamp
+        if trouble is not None:
+            trouble = (StatusCode.STATE_REFUSED, trouble[1])
+        if measured_positions is not None and trouble is None:
+            trouble = self._take_measurement(measured_positions)
+        if trouble is not None and self._mode is not None:
+            self._end(*trouble)
+        if self._mode is not None and now - self._stamp > cfg.command_timeout_s:
+            self._end(
+                StatusCode.TIMEOUT_STOP,
+                f"no command for {now - self._stamp:.3f} s (timeout {cfg.command_timeout_s:g} s): "
+                "stopping",
+            )
+        details: dict[str, Any] = {}
+        if self._mode is None:
+            target = np.zeros(self._n)
+        elif self._mode == "jog":
+            target = self._jog_target(details)
+        else:
+            target = self._task_target(details)
+        braking = integ.step(target)
+        if braking.any():
+            at_limit = details.get("at_limit", np.zeros(self._n, dtype=bool)) | braking
+            details["at_limit"] = at_limit
+        status = self._status(trouble, details)
+        return ServoOutput(
+            readonly(integ.q), readonly(integ.v), readonly(integ.a), now + cfg.period_s, status
+        )
+
+    def _take_measurement(self, measured: ArrayLike) -> tuple[StatusCode, str] | None:
+        try:
+            q = np.asarray(measured, dtype=np.float64)
+        except (TypeError, ValueError):
+            return StatusCode.STATE_REFUSED, "measured_positions must be numbers"
+        if q.shape != (self._n,):
+            return (
+                StatusCode.STATE_REFUSED,
+                f"measured_positions must have {self._n} values (joints "
+                f"{list(self.chain.joint_names)}), got shape {q.shape}",
+            )
+        if not np.all(np.isfinite(q)):
+            return StatusCode.STATE_REFUSED, "measured_positions contains a non-finite value"
+        self._measured = q
+        integ = self._integrator
+        if self._mode is not None and not integ.at_rest:
+            dev = np.abs(q - integ.q)
+            k = int(np.argmax(dev))
+            if dev[k] > self.config.max_following_error:
+                return (
+                    StatusCode.NOT_FOLLOWING,
+                    f"joint {self.chain.joint_names[k]!r} is {dev[k]:.3g} from its command (more "
+                    f"than {self.config.max_following_error:g}): the arm is not following; stopping",
+                )
+        return None
+
+    # ------------------------------------------------------------------ velocity bounds
+    def _velocity_box(self) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
+        """(lo, hi, position-limited mask): the joint velocities allowed this period."""
+        lim, integ = self.limits, self._integrator
+        q = integ.q
+        vmax = lim.velocity
+        d_up = lim.upper - q
+        d_lo = q - lim.lower
+        if (d_up > self._slow_zone).all() and (d_lo > self._slow_zone).all():
+            return -vmax, vmax, np.zeros(self._n, dtype=bool)
+        lead = np.abs(integ.v) * (2.0 * self.config.period_s)  # decided now, felt a period later
+        hi = np.minimum(vmax, braking_speed(d_up - lead, lim.acceleration, lim.jerk))
+        lo = -np.minimum(vmax, braking_speed(d_lo - lead, lim.acceleration, lim.jerk))
+        limited = (hi < vmax) | (lo > -vmax)
+        return lo, hi, limited
+
+    @staticmethod
+    def _max_scale(base: FloatArray, part: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
+        """The largest s ∈ [0, 1] with lo ≤ base + s·part ≤ hi (base inside the box)."""
+        trial = base + part
+        if ((trial <= hi) & (trial >= lo)).all():
+            return 1.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            up = np.where(part > 0.0, (hi - base) / part, np.inf)
+            down = np.where(part < 0.0, (lo - base) / part, np.inf)
+        return float(min(1.0, max(0.0, min(up.min(), down.min()))))
+
+    # ------------------------------------------------------------------ jog
+    def _jog_target(self, details: dict[str, Any]) -> FloatArray:
+        lo, hi, _ = self._velocity_box()
+        want = self._jog
+        qd = np.clip(want, lo, hi)
+        details["at_limit"] = np.abs(qd - want) > 1e-12
+        vmax = self.limits.velocity
+        speed = np.abs(qd)
+        if np.any(speed > vmax):
+            qd = qd * float(np.min(np.where(speed > 0, vmax / np.maximum(speed, 1e-300), np.inf)))
+            details["scaled"] = True
+        details["condition"] = None
+        return qd
+
+    # ------------------------------------------------------------------ twist and pose
+    def _task_target(self, details: dict[str, Any]) -> FloatArray:
+        cfg = self.config
+        q = self._integrator.q
+        T, J = self.chain.fk_jacobian(q, "world")
+        R = T[:3, :3]
+        p = (float(T[0, 3]), float(T[1, 3]), float(T[2, 3]))
+        q_now = so3.quaternion_from_rows(R.ravel().tolist())
+        tip_axes = cfg.task_axes_frame == "tip"
+        if self._mode == "twist":
+            x = self._twist_task(R, p, q_now, tip_axes, details)
+        else:
+            x = self._pose_task(R, p, q_now, tip_axes, details)
+        Jt = task_jacobian_rows(J, R, cfg.task_axes_frame)
+        if not self._all_rows:
+            Jt = Jt[self._rows]
+            x = x[self._rows]
+        return self._solve(Jt, x, details)
+
+    def _kept_error(
+        self, R: FloatArray, e: FloatArray, tip_axes: bool
+    ) -> tuple[FloatArray, FloatArray]:
+        """(error in task axes with dropped components zeroed, the same in base axes)."""
+        if tip_axes:
+            e_task = np.concatenate((R.T @ e[:3], R.T @ e[3:]))
+        else:
+            e_task = e
+        if not self._all_rows:
+            e_task = np.where(self._dropped_mask, 0.0, e_task)
+            e_base = np.concatenate((R @ e_task[:3], R @ e_task[3:])) if tip_axes else e_task
+        else:
+            e_base = e
+        return e_task, e_base
+
+    def _twist_task(
+        self,
+        R: FloatArray,
+        p: tuple[float, float, float],
+        q_now: _quat.Quat,
+        tip_axes: bool,
+        details: dict[str, Any],
+    ) -> FloatArray:
+        cfg = self.config
+        if not self._ref_valid:
+            self._ref_p, self._ref_q, self._ref_valid = p, q_now, True
+        # e = (log(R_ref Rᵀ), p_ref − p), base axes
+        ew = _quat.to_rotvec(_quat.mul(self._ref_q, _quat.conj(q_now)))
+        rp = self._ref_p
+        e = np.array((ew[0], ew[1], ew[2], rp[0] - p[0], rp[1] - p[1], rp[2] - p[2]))
+        e_task, e_base = self._kept_error(R, e, tip_axes)
+        # Bound the kept error (anti wind-up): scale each part down to its bound.
+        nw, nv = _norm3(*e_base[:3]), _norm3(*e_base[3:])
+        sw = min(1.0, cfg.max_kept_error_rad / nw) if nw > 0 else 1.0
+        sv = min(1.0, cfg.max_kept_error_m / nv) if nv > 0 else 1.0
+        if sw < 1.0 or sv < 1.0 or not self._all_rows:
+            scale = np.array((sw, sw, sw, sv, sv, sv))
+            e_base = e_base * scale
+            e_task = e_task * scale
+            self._ref_q = _quat.mul(_quat.from_rotvec(*e_base[:3]), q_now)
+            self._ref_p = (p[0] + e_base[3], p[1] + e_base[4], p[2] + e_base[5])
+        details["errors"] = (min(nv, cfg.max_kept_error_m), min(nw, cfg.max_kept_error_rad))
+        # The commanded twist in base axes.
+        frame = self._twist_frame
+        tw = self._twist
+        if frame == self._base:
+            w_b = np.array(tw[:3])
+            v_b = np.array(tw[3:])
+        else:
+            R_bf = (
+                R if frame == self._tip else self.chain.link_pose(self._integrator.q, frame)[:3, :3]
+            )
+            w_b = R_bf @ tw[:3]
+            v_b = R_bf @ tw[3:]
+        if tip_axes:
+            V_task = np.concatenate((R.T @ w_b, R.T @ v_b))
+        else:
+            V_task = np.concatenate((w_b, v_b))
+        # Integrate the commanded pose over the period: R_ref ← exp([ω] dt) R_ref, p_ref += v dt.
+        dt = cfg.period_s
+        self._ref_q = _quat.normalized(
+            _quat.mul(_quat.from_rotvec(w_b[0] * dt, w_b[1] * dt, w_b[2] * dt), self._ref_q)
+        )
+        rp = self._ref_p
+        self._ref_p = (rp[0] + v_b[0] * dt, rp[1] + v_b[1] * dt, rp[2] + v_b[2] * dt)
+        details["scaled"] = self._twist_scaled
+        return V_task + cfg.tracking_gain_1_per_s * e_task
+
+    def _pose_task(
+        self,
+        R: FloatArray,
+        p: tuple[float, float, float],
+        q_now: _quat.Quat,
+        tip_axes: bool,
+        details: dict[str, Any],
+    ) -> FloatArray:
+        cfg = self.config
+        ew = _quat.to_rotvec(_quat.mul(self._goal_q, _quat.conj(q_now)))
+        g = self._goal_p
+        e = np.array((ew[0], ew[1], ew[2], g[0] - p[0], g[1] - p[1], g[2] - p[2]))
+        e_task, _ = self._kept_error(R, e, tip_axes)
+        ang, dist = _norm3(*e_task[:3]), _norm3(*e_task[3:])
+        K = cfg.pose_gain_1_per_s
+        speed_v = min(
+            cfg.pose_linear_speed_m_s,
+            K * dist,
+            math.sqrt(2.0 * cfg.pose_linear_acceleration_m_s2 * dist),
+        )
+        speed_w = min(
+            cfg.pose_angular_speed_rad_s,
+            K * ang,
+            math.sqrt(2.0 * cfg.pose_angular_acceleration_rad_s2 * ang),
+        )
+        V = np.zeros(6)
+        if ang > 0:
+            V[:3] = e_task[:3] * (speed_w / ang)
+        if dist > 0:
+            V[3:] = e_task[3:] * (speed_v / dist)
+        details["errors"] = (dist, ang)
+        details["reached"] = (
+            dist <= cfg.pose_position_tolerance_m and ang <= cfg.pose_orientation_tolerance_rad
+        )
+        return V
+
+    def _null_motion(self, active: NDArray[np.bool_], rows: FloatArray) -> FloatArray:
+        """Joint velocities in the null space of the task (active joints) toward mid-range:
+        (I − V Vᵀ) g, V = the task's right singular vectors `rows` (k, n_active)."""
+        out = np.zeros(self._n)
+        if rows.shape[0] >= rows.shape[1] or self.config.nullspace_gain_1_per_s == 0.0:
+            return out
+        q = self._integrator.q
+        grad = self.config.nullspace_gain_1_per_s * self._null_weight * (self._mid - q)
+        grad = np.minimum(np.maximum(grad, -self._null_cap), self._null_cap)[active]
+        out[active] = grad - rows.T @ (rows @ grad)
+        return out
+
+    def _solve(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> FloatArray:
+        cfg = self.config
+        n = self._n
+        lo, hi, limited = self._velocity_box()
+        active = np.ones(n, dtype=bool)
+        fixed = np.zeros(n)
+        at_limit = np.zeros(n, dtype=bool)
+        sol = dls.solve(Jt, x, cfg.singular_value_threshold, cfg.max_damping)
+        s = sol.singular_values
+        details["condition"] = (float(s[0] / s[-1]) if s[-1] > 0 else math.inf, float(s[-1]))
+        undamped = sol.undamped
+        damped = sol.damped
+        basis = sol.row_basis
+        if limited.any():
+            # Saturate joints that would run into a position bound; re-solve with the others.
+            for _ in range(n):
+                qd = fixed + undamped + damped
+                bad = active & limited & ((qd > hi + 1e-12) | (qd < lo - 1e-12))
+                if not bad.any():
+                    break
+                at_limit |= bad
+                fixed[bad] = np.clip(qd[bad], lo[bad], hi[bad])
+                active &= ~bad
+                if not active.any():
+                    undamped = np.zeros(n)
+                    damped = np.zeros(n)
+                    basis = np.zeros((0, 0))  # no joint left to move
+                    break
+                part = dls.solve(
+                    Jt[:, active],
+                    x - Jt[:, ~active] @ fixed[~active],
+                    cfg.singular_value_threshold,
+                    cfg.max_damping,
+                )
+                undamped = np.zeros(n)
+                damped = np.zeros(n)
+                undamped[active] = part.undamped
+                damped[active] = part.damped
+                basis = part.row_basis
+        null = self._null_motion(active, basis) if active.any() else np.zeros(n)
+        details["at_limit"] = at_limit
+        total = fixed + undamped + damped + null
+        if ((total <= hi) & (total >= lo)).all():
+            return total
+        # Fit into the box: the whole undamped part first (uniform scaling keeps its direction),
+        # then as much of the damped part, then of the null-space motion.
+        base = fixed + undamped
+        s_base = self._max_scale(np.zeros(n), base, lo, hi)
+        base = base * s_base
+        s_damped = self._max_scale(base, damped, lo, hi)
+        base = base + s_damped * damped
+        base = base + self._max_scale(base, null, lo, hi) * null
+        details["scaled"] = details.get("scaled", False) or s_base < 1.0 or s_damped < 1.0
+        return np.minimum(np.maximum(base, lo), hi)
+
+    # ------------------------------------------------------------------ status
+    def _status(
+        self, trouble: tuple[StatusCode, str] | None, details: dict[str, Any]
+    ) -> ServoStatus:
+        cfg = self.config
+        names = self.chain.joint_names
+        at_limit_mask = details.get("at_limit")
+        at_limit = (
+            tuple(names[k] for k in np.flatnonzero(at_limit_mask))
+            if at_limit_mask is not None
+            else ()
+        )
+        condition = details.get("condition")
+        kappa = condition[0] if condition else 1.0
+        sigma_min = condition[1] if condition else math.inf
+        pos_err, ang_err = details.get("errors", (0.0, 0.0))
+        dropped = self.dropped_axes
+        if self._mode is None:
+            code, message = self._stop if trouble is None else trouble
+            if self._integrator.at_rest and code == StatusCode.TIMEOUT_STOP:
+                message = "stopped: no fresh command"
+        elif at_limit:
+            code = StatusCode.AT_JOINT_LIMIT
+            message = f"at the position limit of {', '.join(at_limit)}; the other joints go on"
+        elif sigma_min < cfg.singular_value_threshold:
+            code = StatusCode.NEAR_SINGULARITY
+            message = (
+                f"near a singularity (condition number {kappa:.3g}, smallest singular value "
+                f"{sigma_min:.3g}): slowed in the ill-conditioned directions only"
+            )
+        else:
+            code = StatusCode.OK
+            message = f"following the {self._mode} command"
+        if dropped and self._mode in ("twist", "pose"):
+            message += (
+                f"; follows {', '.join(self.task_axes)} in {cfg.task_axes_frame} axes, "
+                f"drops {', '.join(dropped)}"
+            )
+        return ServoStatus(
+            code=code,
+            message=message,
+            condition_number=kappa,
+            joints_at_limit=at_limit,
+            dropped_axes=dropped,
+            position_error_m=pos_err,
+            orientation_error_rad=ang_err,
+            target_reached=bool(details.get("reached", False)),
+            velocity_scaled=bool(details.get("scaled", False)),
+        )

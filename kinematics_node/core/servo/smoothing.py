@@ -1,0 +1,177 @@
+"""Jerk-limited joint motion toward a target velocity, one period at a time, with Ruckig.
+
+Ruckig (Berscheid & Kröger 2021, "Jerk-limited real-time trajectory generation with arbitrary
+target states"; `pip install ruckig`, the smoothing moveit_servo offers too) plans, from the last
+commanded state (q, q̇, q̈), the time-optimal motion to a target velocity within the velocity,
+acceleration and jerk limits, and the servo takes its first period. The commanded trajectory is
+therefore continuous in acceleration with bounded jerk, so its samples' finite differences stay
+within the limits too. Phase synchronisation moves all joints' velocities along one straight line
+in joint space, so a change of speed does not bend the tool's path.
+
+Ruckig's velocity interface does not know position limits, so each period is checked here: from
+the new state, each joint's time-optimal braking motion must stay inside [lower, upper] (or not
+reach further out than the braking motion from the previous state, for a joint that starts outside).
+A joint that would break this brakes instead, from the previous state, along that braking motion;
+it then stops inside the bound. The servo's velocity planning (`limits.braking_speed`) slows the
+joints before this guard has to act, so it only catches what the planning could not foresee.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..exceptions import KinematicsError
+from .limits import ServoLimits
+
+FloatArray = NDArray[np.float64]
+
+try:  # an optional dependency: kinematics_service[servo]
+    import ruckig as _ruckig
+except ImportError:  # pragma: no cover - exercised where ruckig is missing
+    _ruckig = None
+
+_TOL = 1e-9  # [rad or m] slack on the position checks (rounding of Ruckig's profiles)
+
+
+class MissingDependencyError(KinematicsError, ImportError):
+    """A feature needs a package that is not installed; the message says which and how."""
+
+
+def ruckig_available() -> bool:
+    """True if the `ruckig` package can be imported."""
+    return _ruckig is not None
+
+
+class JerkLimitedIntegrator:
+    """The commanded joint state (q, q̇, q̈) of the servo, advanced one period per `step`.
+
+    Mutable on purpose: it is the servo's memory between periods. Not thread-safe.
+    """
+
+    def __init__(self, limits: ServoLimits, period_s: float, positions: FloatArray) -> None:
+        if _ruckig is None:
+            raise MissingDependencyError(
+                "the servo's jerk-limited smoothing needs Ruckig: pip install ruckig "
+                "(or pip install 'kinematics_service[servo]')"
+            )
+        n = len(limits.joint_names)
+        self.limits = limits
+        self.period_s = period_s
+        self._n = n
+        self._otg: Any = _ruckig.Ruckig(n, period_s)
+        self._planner: Any = _ruckig.Ruckig(n)
+        self._traj: Any = _ruckig.Trajectory(n)
+        self._inp: Any = self._make_input()
+        self._brake: Any = self._make_input()
+        self._brake.synchronization = _ruckig.Synchronization.No
+        self._out: Any = _ruckig.OutputParameter(n)
+        self._bounded = np.isfinite(limits.lower) | np.isfinite(limits.upper)
+        # An upper bound on the braking distance from any state within the limits: the speed
+        # never exceeds v_max + A²/(2J) while braking, which lasts at most 3A/J + that speed / A.
+        A, J = limits.acceleration, limits.jerk
+        top = limits.velocity + A * A / (2 * J)
+        self._zone = top * (3 * A / J + top / A) + 1e-6
+        self.q = np.array(positions, dtype=np.float64)
+        self.v = np.zeros(n)
+        self.a = np.zeros(n)
+        self._reach_lo = self.q.copy()  # extent of the braking motion from the current state
+        self._reach_hi = self.q.copy()
+
+    def _make_input(self) -> Any:
+        assert _ruckig is not None
+        inp = _ruckig.InputParameter(self._n)
+        inp.control_interface = _ruckig.ControlInterface.Velocity
+        inp.synchronization = _ruckig.Synchronization.Phase
+        inp.max_velocity = self.limits.velocity.tolist()
+        inp.max_acceleration = self.limits.acceleration.tolist()
+        inp.max_jerk = self.limits.jerk.tolist()
+        inp.target_velocity = [0.0] * self._n
+        inp.target_acceleration = [0.0] * self._n
+        return inp
+
+    def reset(self, positions: FloatArray) -> None:
+        """At rest at `positions` (no velocity, no acceleration)."""
+        self.q = np.array(positions, dtype=np.float64)
+        self.v = np.zeros(self._n)
+        self.a = np.zeros(self._n)
+        self._reach_lo = self.q.copy()
+        self._reach_hi = self.q.copy()
+
+    @property
+    def at_rest(self) -> bool:
+        return not (self.v.any() or self.a.any())
+
+    def step(self, target_velocity: FloatArray) -> NDArray[np.bool_]:
+        """Advance one period toward `target_velocity` (n,) [rad/s or m/s]; returns the mask of
+        joints that the position guard made brake."""
+        braking = np.zeros(self._n, dtype=bool)
+        target = np.clip(target_velocity, -self.limits.velocity, self.limits.velocity)
+        q, v, a = self._advance(target, braking)
+        if self._near_bounds(q):
+            for _ in range(self._n):
+                lo, hi = self._reach(q, v, a)
+                bad = self._bounded & ~braking
+                bad &= (hi > np.maximum(self.limits.upper, self._reach_hi) + _TOL) | (
+                    lo < np.minimum(self.limits.lower, self._reach_lo) - _TOL
+                )
+                if not bad.any():
+                    break
+                braking |= bad
+                target = np.where(braking, 0.0, target)
+                q, v, a = self._advance(target, braking)
+            self._reach_lo, self._reach_hi = self._reach(q, v, a)
+        else:
+            self._reach_lo, self._reach_hi = q, q
+        self.q, self.v, self.a = q, v, a
+        return braking
+
+    def _advance(
+        self, target: FloatArray, braking: NDArray[np.bool_]
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        assert _ruckig is not None
+        inp = self._inp
+        inp.current_position = self.q.tolist()
+        inp.current_velocity = self.v.tolist()
+        inp.current_acceleration = self.a.tolist()
+        inp.target_velocity = target.tolist()
+        # A braking joint must follow its own time-optimal stop, not a synchronised one.
+        inp.synchronization = (
+            _ruckig.Synchronization.No if braking.any() else _ruckig.Synchronization.Phase
+        )
+        result = self._otg.update(inp, self._out)
+        if result not in (_ruckig.Result.Working, _ruckig.Result.Finished):
+            # Ruckig refuses only inputs outside its limits; they come from our own state, so this
+            # is rounding: fall back to braking every joint independently.
+            inp.synchronization = _ruckig.Synchronization.No
+            inp.target_velocity = [0.0] * self._n
+            self._otg.update(inp, self._out)
+        out = self._out
+        return (
+            np.array(out.new_position),
+            np.array(out.new_velocity),
+            np.array(out.new_acceleration),
+        )
+
+    def _near_bounds(self, q: FloatArray) -> bool:
+        """False when no joint can reach a bound while braking from a state within the limits
+        (|v| ≤ v_max, |a| ≤ A): then the exact check is not needed."""
+        zone = self._zone
+        return not (
+            ((q - self.limits.lower) > zone).all() and ((self.limits.upper - q) > zone).all()
+        )
+
+    def _reach(self, q: FloatArray, v: FloatArray, a: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """(min, max) position of each joint's time-optimal braking motion from (q, v, a)."""
+        assert _ruckig is not None
+        brake = self._brake
+        brake.current_position = q.tolist()
+        brake.current_velocity = v.tolist()
+        brake.current_acceleration = a.tolist()
+        result = self._planner.calculate(brake, self._traj)
+        if result not in (_ruckig.Result.Working, _ruckig.Result.Finished):
+            return q.copy(), q.copy()
+        ext = self._traj.position_extrema
+        return np.array([e.min for e in ext]), np.array([e.max for e in ext])
