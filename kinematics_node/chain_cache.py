@@ -25,7 +25,7 @@ import numpy as np
 from .core import SerialChain
 from .core.model import ChainSpec, JointModel
 
-FORMAT = "kinematics-chain-cache-1"
+FORMAT = "kinematics-chain-cache-2"
 
 
 def cache_directory() -> Path | None:
@@ -83,7 +83,7 @@ def _spec_to_json(spec: ChainSpec) -> dict[str, Any]:
         "format": FORMAT,
         "base_link": spec.base_link,
         "tip_link": spec.tip_link,
-        "joints": [[j.name, j.prismatic, j.H.tolist()] for j in spec.joints],
+        "joints": [[j.name, j.prismatic, j.H.tolist(), j.lower, j.upper] for j in spec.joints],
         "M": spec.M.tolist(),
         "actuated_names": list(spec.actuated_names),
         "joint_types": list(spec.joint_types),
@@ -93,6 +93,8 @@ def _spec_to_json(spec: ChainSpec) -> dict[str, Any]:
         "G": spec.G.tolist(),
         "offset": spec.offset.tolist(),
         "links": [[name, T.tolist(), k] for name, T, k in spec.links],
+        "leader_index": None if spec.leader_index is None else list(spec.leader_index),
+        "notes": list(spec.notes),
     }
 
 
@@ -102,7 +104,10 @@ def _spec_from_json(d: dict[str, Any]) -> ChainSpec:
     return ChainSpec(
         base_link=str(d["base_link"]),
         tip_link=str(d["tip_link"]),
-        joints=[JointModel(str(n), bool(p), np.array(H, dtype=float)) for n, p, H in d["joints"]],
+        joints=[
+            JointModel(str(n), bool(p), np.array(H, dtype=float), float(lo), float(up))
+            for n, p, H, lo, up in d["joints"]
+        ],
         M=np.array(d["M"], dtype=float),
         actuated_names=[str(n) for n in d["actuated_names"]],
         joint_types=[str(t) for t in d["joint_types"]],
@@ -112,4 +117,8 @@ def _spec_from_json(d: dict[str, Any]) -> ChainSpec:
         G=np.array(d["G"], dtype=float),
         offset=np.array(d["offset"], dtype=float),
         links=[(str(n), np.array(T, dtype=float), int(k)) for n, T, k in d["links"]],
+        leader_index=None
+        if d["leader_index"] is None
+        else tuple(int(i) for i in d["leader_index"]),
+        notes=tuple(str(note) for note in d["notes"]),
     )

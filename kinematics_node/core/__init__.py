@@ -30,7 +30,7 @@ from .exceptions import (
     RobotDescriptionError,
     UnknownNameError,
 )
-from .model import ChainSpec, JointModel
+from .model import ChainSpec, JointModel, MimicJoint
 
 if TYPE_CHECKING:
     from .closed_form import ClosedFormBatchResult, ClosedFormFamily, ClosedFormResult
@@ -64,6 +64,7 @@ __all__ = [
     "InvalidInputError",
     "JointModel",
     "KinematicsError",
+    "MimicJoint",
     "NoClosedFormError",
     "RobotDescriptionError",
     "SerialChain",

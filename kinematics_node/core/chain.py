@@ -8,16 +8,20 @@ Conventions (see docs/conventions.md):
 * ``frame="world"``: the geometric Jacobian of De Luca's slides: angular velocity and the linear
   velocity of the tip origin, both in base-frame axes, still ordered (ω, v).
 * Angles in rad, lengths in m (prismatic joint values in m).
+* Mimic joints: the n actuated variables q drive the m moving joints of the chain through
+  θ = G q + offset (G is (m, n)); `S`, `B` are the screw axes of the m moving joints, so
+  T(q) = e^{[S₁]θ₁} ⋯ e^{[Sₘ]θₘ} M, and every Jacobian is J_θ(θ) G, (6, n). Without mimic joints
+  m = n, G = I, offset = 0 and θ = q.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property, partial
 from os import PathLike
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -27,10 +31,11 @@ from ._checks import as_float_array, check_finite, check_transform
 from ._joint_space import periodic_mask
 from ._kernel import Kernel
 from .exceptions import InvalidInputError, RobotDescriptionError, UnknownNameError
-from .model import ChainSpec, Frame, SolverModel, readonly
+from .model import ChainSpec, Frame, MimicJoint, SolverModel, mimic_rule, readonly
 
 if TYPE_CHECKING:
     from .closed_form import ClosedFormBatchResult, ClosedFormResult
+    from .dh import DHTable
     from .ik_options import IKOptions
     from .ik_result import IKBatchResult, IKResult
 
@@ -82,6 +87,80 @@ def _check_spec_numbers(spec: ChainSpec) -> None:
             raise RobotDescriptionError(f"joint {name!r} has velocity limit {vel}; need ≥ 0")
     if not (np.all(np.isfinite(spec.G)) and np.all(np.isfinite(spec.offset))):
         raise RobotDescriptionError("a mimic joint has a non-finite multiplier or offset")
+    for j in spec.joints:
+        if not j.lower <= j.upper:
+            raise RobotDescriptionError(
+                f"joint {j.name!r} has lower limit {j.lower} > upper limit {j.upper}"
+            )
+
+
+def _leaders(spec: ChainSpec) -> tuple[int, ...]:
+    """The actuated variable each moving joint follows (`ChainSpec.leader_index`, else the first
+    non-zero entry of its row of G; 0 for a row of zeros, whose joint does not move)."""
+    if spec.leader_index is not None:
+        if len(spec.leader_index) != len(spec.joints) or not all(
+            0 <= i < len(spec.actuated_names) for i in spec.leader_index
+        ):
+            raise RobotDescriptionError("the mimic map's leader indices do not fit the chain")
+        return tuple(int(i) for i in spec.leader_index)
+    out = []
+    for row in spec.G:
+        nz = np.flatnonzero(row)
+        out.append(int(nz[0]) if nz.size else 0)
+    return tuple(out)
+
+
+#: [rad or m] Narrowing of a leader's range by less than this is round-off, not a note.
+_NARROWING_NOTED = 1e-12
+
+
+def _limits_with_followers(
+    spec: ChainSpec, leaders: tuple[int, ...]
+) -> tuple[FloatArray, FloatArray, list[str]]:
+    """(lower, upper, notes): the actuated joints' own limits intersected with what each mimic
+    follower on the chain allows, lower_f ≤ m·q + c ≤ upper_f, i.e. q between (lower_f − c)/m and
+    (upper_f − c)/m (swapped for m < 0; for m = 0 the follower stays at c, which must lie within
+    its limits).
+
+    Raises:
+        RobotDescriptionError: a follower held outside its limits, or a leader whose range and a
+            follower's leave no common value; naming both joints.
+    """
+    lower = np.array(spec.lower, dtype=np.float64)
+    upper = np.array(spec.upper, dtype=np.float64)
+    notes: list[str] = []
+    for k, joint in enumerate(spec.joints):
+        i = leaders[k]
+        leader = spec.actuated_names[i]
+        m, c = float(spec.G[k, i]), float(spec.offset[k])
+        if joint.name == leader or not (math.isfinite(joint.lower) or math.isfinite(joint.upper)):
+            continue
+        rule = f"value {mimic_rule(leader, m, c)}"
+        own = f"[{joint.lower:g}, {joint.upper:g}]"
+        if m == 0.0:
+            if not joint.lower <= c <= joint.upper:
+                raise RobotDescriptionError(
+                    f"mimic joint {joint.name!r} is held at {c:g} (multiplier 0 of {leader!r}, "
+                    f"offset {c:g}), outside its limits {own}"
+                )
+            continue
+        a, b = (joint.lower - c) / m + 0.0, (joint.upper - c) / m + 0.0  # (+ 0.0: no −0)
+        lo_f, hi_f = (a, b) if m > 0 else (b, a)
+        lo, hi = max(lower[i], lo_f), min(upper[i], hi_f)
+        if lo > hi:
+            raise RobotDescriptionError(
+                f"joint {leader!r} (limits [{lower[i]:g}, {upper[i]:g}]) and its mimic joint "
+                f"{joint.name!r} ({rule}, limits {own}) have no value in common: {leader!r} would "
+                f"need to lie in [{lo_f:g}, {hi_f:g}]"
+            )
+        if lo > lower[i] + _NARROWING_NOTED or hi < upper[i] - _NARROWING_NOTED:
+            notes.append(
+                f"joint {leader!r}: limits [{lower[i]:g}, {upper[i]:g}] narrowed to "
+                f"[{lo:g}, {hi:g}] so that its mimic joint {joint.name!r} ({rule}) stays "
+                f"within its own limits {own}"
+            )
+        lower[i], upper[i] = lo, hi
+    return lower, upper, notes
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -91,14 +170,30 @@ class SerialChain:
     Build with `from_urdf`, `from_dh` or `from_poe`; never mutated afterwards, so one instance can
     serve many threads. Exposed arrays are read-only.
 
+    The n actuated variables q (`joint_names`) drive the m moving joints of the chain
+    (`moving_joint_names`: mimic followers included) through θ = G q + offset. Without mimic
+    joints, m = n, G = I, offset = 0 and θ = q; with them, S and B have one column per moving
+    joint: T(q) = e^{[S₁]θ₁} ⋯ e^{[Sₘ]θₘ} M = M e^{[B₁]θ₁} ⋯ e^{[Bₘ]θₘ} and J(q) = J_θ(θ) G.
+
     Attributes:
-        joint_names: actuated joints, base to tip.
+        joint_names: actuated joints, base to tip (a mimic leader off the chain included).
         joint_types: "revolute", "continuous" or "prismatic" per actuated joint.
-        lower, upper: joint limits [rad or m]; ±inf for continuous joints.
+        lower, upper: (n,) the limits IK enforces [rad or m]: each joint's own limits, narrowed
+            where a mimic follower on the chain would otherwise leave its own limits
+            (lower_f ≤ m q + c ≤ upper_f); ±inf for continuous joints.
+        own_lower, own_upper: (n,) the actuated joints' own limits, as the description gives them.
         velocity_limit: [rad/s or m/s]; inf when the description gives none.
-        S: (6, n) space screw axes at home, rows (ω, v) (MR eq. 4.14).
-        B: (6, n) body screw axes at home, B = [Ad_{M⁻¹}] S (MR eq. 4.16).
-        M: (4, 4) home pose of the tip in the base (all joint values 0).
+        S: (6, m) space screw axes of the moving joints at home, rows (ω, v) (MR eq. 4.14).
+        B: (6, m) body screw axes at home, B = [Ad_{M⁻¹}] S (MR eq. 4.16).
+        M: (4, 4) home pose of the tip in the base (every joint value 0).
+        moving_joint_names: (m,) the moving joints on the chain, base to tip.
+        moving_lower, moving_upper: (m,) each moving joint's own limits [rad or m].
+        G: (m, n) mimic map, θ = G q + offset (G[k, i] = multiplier of leader i for joint k).
+        offset: (m,) [rad or m].
+        mimic_joints: the followers on the chain (moving joints that are not actuated variables,
+            or whose value is not q itself), as `MimicJoint(name, leader, multiplier, offset)`.
+        notes: what building the model accepted and adjusted or ignored (axes normalised,
+            followers on the chain, limits narrowed), as sentences for users; () when nothing.
         link_names: links of the chain, base to tip (fixed-joint links included).
         solver_model: what the numeric IK solvers use beyond the arrays above (the generated
             scalar kernel, the mimic map, the 2π-periodic joints); see `model.SolverModel`.
@@ -115,6 +210,15 @@ class SerialChain:
     B: FloatArray
     M: FloatArray
     link_names: tuple[str, ...]
+    own_lower: FloatArray
+    own_upper: FloatArray
+    moving_joint_names: tuple[str, ...]
+    moving_lower: FloatArray
+    moving_upper: FloatArray
+    G: FloatArray
+    offset: FloatArray
+    mimic_joints: tuple[MimicJoint, ...]
+    notes: tuple[str, ...]
     solver_model: SolverModel = field(compare=False)
     _kernel: Kernel = field(compare=False)
     _G: FloatArray | None = field(compare=False)
@@ -148,19 +252,29 @@ class SerialChain:
             z, o = j.H[:3, 2], j.H[:3, 3]
             S_int[:, k] = np.r_[0.0, 0.0, 0.0, z] if j.prismatic else np.r_[z, np.cross(o, z)]
         G, offset = spec.G, spec.offset
-        trivial = (
-            G.shape[0] == G.shape[1] and np.array_equal(G, np.eye(G.shape[0])) and not offset.any()
-        )
-        S = S_int @ G
+        n = len(spec.actuated_names)
+        if G.shape != (n_int, n) or offset.shape != (n_int,):
+            raise RobotDescriptionError(
+                f"the mimic map has shape {G.shape} and offsets {offset.shape}; expected "
+                f"({n_int}, {n}) and ({n_int},)"
+            )
+        trivial = n_int == n and np.array_equal(G, np.eye(n)) and not offset.any()
+        # The PoE model of the moving joints: T = e^{[S₁]θ₁} ⋯ e^{[Sₘ]θₘ} M with θ = G q + offset.
+        S = S_int
         B = se3.adjoint(se3.inverse(spec.M)) @ S
+        leaders = _leaders(spec)
+        lower, upper, limit_notes = _limits_with_followers(spec, leaders)
 
         mimic_index = None
         if not trivial:  # θ_int[k] = m·q[i] + c, with one leader per internal joint
-            idx = []
-            for k in range(n_int):
-                nz = np.flatnonzero(G[k])
-                idx.append((int(nz[0]), float(G[k, nz[0]]), float(offset[k])))
-            mimic_index = tuple(idx)
+            mimic_index = tuple(
+                (i, float(G[k, i]), float(offset[k])) for k, i in enumerate(leaders)
+            )
+        mimic_joints = tuple(
+            MimicJoint(j.name, spec.actuated_names[i], float(G[k, i]), float(offset[k]))
+            for k, (j, i) in enumerate(zip(joints, leaders, strict=True))
+            if j.name != spec.actuated_names[i] or G[k, i] != 1.0 or offset[k] != 0.0
+        )
 
         G_used = None if trivial else readonly(G)
         to_internal = None if mimic_index is None else partial(_internal_from_index, mimic_index)
@@ -174,13 +288,22 @@ class SerialChain:
             tip_link=spec.tip_link,
             joint_names=tuple(spec.actuated_names),
             joint_types=tuple(spec.joint_types),
-            lower=readonly(spec.lower),
-            upper=readonly(spec.upper),
+            lower=readonly(lower),
+            upper=readonly(upper),
             velocity_limit=readonly(spec.velocity_limit),
             S=readonly(S),
             B=readonly(B),
             M=readonly(spec.M),
             link_names=tuple(name for name, _, _ in spec.links),
+            own_lower=readonly(spec.lower),
+            own_upper=readonly(spec.upper),
+            moving_joint_names=tuple(j.name for j in joints),
+            moving_lower=readonly([j.lower for j in joints]),
+            moving_upper=readonly([j.upper for j in joints]),
+            G=readonly(G),
+            offset=readonly(offset),
+            mimic_joints=mimic_joints,
+            notes=tuple(spec.notes) + tuple(limit_notes),
             solver_model=SolverModel(kernel, to_internal, G_used, readonly(periodic, np.bool_)),
             _kernel=kernel,
             _G=G_used,
@@ -202,8 +325,9 @@ class SerialChain:
         Args:
             path_or_xml: a file path (.urdf, .xacro, …), the XML text itself, or XML bytes (decoded
                 as XML says: byte-order mark, else the declared encoding, else UTF-8).
-            base_link: defaults to the root link.
-            tip_link: defaults to the single leaf below `base_link` (an error lists them if several).
+            base_link: defaults to the root link (None or "", as in the node and the CLI).
+            tip_link: defaults to the single leaf below `base_link` (an error lists them if
+                several); None or "".
 
         Raises:
             RobotDescriptionError: malformed or unsupported description, naming the joint or link.
@@ -216,14 +340,16 @@ class SerialChain:
     @classmethod
     def from_dh(
         cls,
-        table: Sequence[Mapping[str, Any]] | Mapping[str, Any],
+        table: DHTable,
         *,
         base: ArrayLike | None = None,
         tool: ArrayLike | None = None,
     ) -> SerialChain:
         """Model from a standard Denavit–Hartenberg table (De Luca's convention).
 
-        See `kinematics_node.core.dh.spec_from_dh` for the table format.
+        Rows are lists ``[a, alpha, d, theta, type]`` (type optional, "R"/"P") or mappings with
+        those keys and optionally name, lower, upper, velocity; lengths in m, angles in rad.
+        See `kinematics_node.core.dh` for the table format.
         """
         from .dh import spec_from_dh
 
@@ -266,18 +392,19 @@ class SerialChain:
         slides along) an axis through its frame's origin o_k, so a revolute joint keeps
         |o_{k+1} − o_k| constant and a prismatic one changes it by at most its travel: the
         triangle inequality along the chain gives R = Σ |o_{k+1} − o_k| at home (o_{n+1} = the
-        tip) + the prismatic travels. An upper bound, cheap to test: a target farther than R from
-        c is out of reach. R is inf when a prismatic joint has no limits (or follows a mimic
-        leader, whose travel this does not bound).
+        tip) + the prismatic travels, max |θ_k| over the limits (θ = G q + offset for a mimic
+        follower). An upper bound, cheap to test: a target farther than R from c is out of reach.
+        R is inf when a prismatic joint has no limits.
         """
         A = self._kernel.A
         radius = float(np.sum(np.linalg.norm(A[1:, :3, 3], axis=1)))
         for k, prismatic in enumerate(self._kernel.prismatic):
             if not prismatic:
                 continue
-            if self._mimic_index is not None:
-                return readonly(A[0, :3, 3]), math.inf
-            radius += float(max(abs(self.lower[k]), abs(self.upper[k])))
+            i = int(np.flatnonzero(self.G[k])[0]) if self.G[k].any() else 0
+            m, c = float(self.G[k, i]), float(self.offset[k])
+            ends = [c] if m == 0.0 else [m * self.lower[i] + c, m * self.upper[i] + c]
+            radius += float(max(abs(x) for x in ends))
         return readonly(A[0, :3, 3]), radius
 
     def __repr__(self) -> str:
@@ -381,11 +508,13 @@ class SerialChain:
         lead = arr.shape[:-1]
         return _poses_from_soa(C, p).reshape(lead + (4, 4)), J.reshape(lead + (6, self.dof))
 
-    def jacobian(self, q: ArrayLike, frame: Frame = "space") -> FloatArray:
+    def jacobian(self, q: ArrayLike, frame: Frame = "world") -> FloatArray:
         """Jacobian (..., 6, n) with rows (ω, v) in the chosen `frame` (see the module docstring).
 
-        * "space": J_s (MR eq. 5.11), * "body": J_b (MR eq. 5.18), * "world": geometric Jacobian
-          of the tip origin in base axes (De Luca), J_world = [[I, 0], [−[p], I]] J_s.
+        * "world" (the default, as for `fk_jacobian`, the node and the CLI): geometric Jacobian
+          of the tip origin in base axes (De Luca), J_world = [[I, 0], [−[p], I]] J_s,
+        * "space": J_s (MR eq. 5.11), * "body": J_b (MR eq. 5.18).
+        With mimic joints the columns are those of the actuated variables: J = J_θ G.
         """
         return self.fk_jacobian(q, frame)[1]
 

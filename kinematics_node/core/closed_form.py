@@ -609,6 +609,8 @@ def _why_not(chain: KinematicChain) -> str:
         return "it has prismatic joints (only all-revolute arms have a closed form here)"
     if chain.dof not in (6, 7):
         return f"it has {chain.dof} joints (closed forms here are for 6R and 7R arms)"
+    if chain.solver_model.G is not None:
+        return "it has mimic joints (closed forms here are for arms whose joints move alone)"
     w, r = _lines(np.asarray(chain.S))
     parts = []
     for rev, label in ((False, "last"), (True, "first")):
@@ -632,10 +634,12 @@ def detect(chain: KinematicChain) -> _Solver | None:
     """The closed-form solver of `chain`, or None. Geometry only: the lines of the screw axes S."""
     if any(t == "prismatic" for t in chain.joint_types) or chain.dof not in (6, 7):
         return None
+    if chain.solver_model.G is not None:
+        return None  # mimic joints: S has a column per moving joint, θ = G q + offset ≠ q
     S = np.asarray(chain.S)
     w, r = _lines(S)
     if not np.allclose(sp.norm(w), 1.0, atol=1e-9) or np.abs(sp.dot(w, S[3:].T)).max() > 1e-9:
-        return None  # not pure revolute screws (e.g. mimic joints folded into a column)
+        return None  # not pure revolute screws
     if chain.dof == 6:
         for st in _candidates(w, r):
             solver = _Solver(chain, st, None)

@@ -7,8 +7,11 @@ i is z_{i−1}.
 
 A table is a sequence of rows, each a mapping with keys ``a`` [m], ``alpha`` [rad], ``d`` [m],
 ``theta`` [rad] (the constant part), ``type`` ("revolute"/"R" or "prismatic"/"P"), and optionally
-``name``, ``lower``, ``upper`` (limits; ±inf when absent) and ``velocity``. A mapping
-``{"joints": [...], "base": 4×4, "tool": 4×4}`` is also accepted (the JSON file format of the CLI).
+``name``, ``lower``, ``upper`` (limits; ±inf when absent) and ``velocity``. A row may also be a
+list (or tuple) of its values in the order ``a, alpha, d, theta[, type]``, and the whole table a
+2-D array of ``a, alpha, d, theta`` rows (revolute joints); use mappings to give names and limits.
+A mapping ``{"joints": [...], "base": 4×4, "tool": 4×4}`` is also accepted (the JSON file format
+of the CLI).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from ._checks import as_float_array, check_finite, check_transform
 from .exceptions import RobotDescriptionError
@@ -42,8 +45,37 @@ def _keys(table: Mapping[Any, Any]) -> str:
     return "{" + ", ".join(keys) + (", …}" if len(table) > 8 else "}")
 
 
+#: A DH table: rows as mappings or lists, a 2-D array, or {"joints": rows, "base", "tool"}.
+DHTable = Sequence[Mapping[str, Any] | Sequence[Any]] | Mapping[str, Any] | NDArray[Any]
+
 #: The keys a DH row may have (the module docstring says what each means).
 ROW_KEYS = ("a", "alpha", "d", "theta", "type", "name", "lower", "upper", "velocity")
+#: The values of a row given as a list, in this order (the last may be left out).
+LIST_ROW_KEYS = ("a", "alpha", "d", "theta", "type")
+
+
+def _row_mapping(row: Any, i: int) -> Mapping[str, Any]:
+    """Row `i` as a mapping: a mapping as it is, a list or tuple ``a, alpha, d, theta[, type]``
+    (a NumPy row included) keyed in that order.
+
+    Raises:
+        RobotDescriptionError: anything else, or a list of the wrong length.
+    """
+    if isinstance(row, Mapping):
+        return row
+    if isinstance(row, np.ndarray):
+        row = row.tolist()
+    if isinstance(row, (list, tuple)):
+        if len(row) not in (4, 5):
+            raise RobotDescriptionError(
+                f"DH row {i} has {len(row)} values; a list row is a, alpha, d, theta[, type] "
+                "(use a mapping for name, lower, upper, velocity)"
+            )
+        return dict(zip(LIST_ROW_KEYS, row, strict=False))
+    raise RobotDescriptionError(
+        f"DH row {i} must be a list a, alpha, d, theta[, type] or a mapping with those keys, "
+        f"got {type(row).__name__}"
+    )
 
 
 def _number(row: Mapping[str, Any], key: str, i: int, default: float | None = None) -> float:
@@ -65,7 +97,7 @@ def _number(row: Mapping[str, Any], key: str, i: int, default: float | None = No
 
 
 def spec_from_dh(
-    table: Sequence[Mapping[str, Any]] | Mapping[str, Any],
+    table: DHTable,
     *,
     base: ArrayLike | None = None,
     tool: ArrayLike | None = None,
@@ -78,11 +110,18 @@ def spec_from_dh(
             )
         base = table.get("base", base)
         tool = table.get("tool", tool)
-        rows: Sequence[Mapping[str, Any]] = table["joints"]
+        rows: Any = table["joints"]
         what = "the DH table's 'joints'"
     else:
         rows = table
         what = "a DH table"
+    if isinstance(rows, np.ndarray):
+        if rows.ndim != 2:
+            raise RobotDescriptionError(
+                f"{what} given as an array must be 2-D (one row a, alpha, d, theta per joint), "
+                f"got shape {rows.shape}"
+            )
+        rows = rows.tolist()
     if isinstance(rows, (str, bytes)) or not isinstance(rows, Sequence):
         raise RobotDescriptionError(
             f"{what} must be a list of rows {{a, alpha, d, theta, type}}, got {type(rows).__name__}"
@@ -95,11 +134,8 @@ def spec_from_dh(
     joints: list[JointModel] = []
     names, types, lower, upper, vel = [], [], [], [], []
     links: list[tuple[str, np.ndarray, int]] = [("link0", T.copy(), -1)]
-    for i, row in enumerate(rows, start=1):
-        if not isinstance(row, Mapping):
-            raise RobotDescriptionError(
-                f"DH row {i} must be a mapping with a, alpha, d, theta, type"
-            )
+    for i, raw_row in enumerate(rows, start=1):
+        row = _row_mapping(raw_row, i)
         unknown = [k for k in row if k not in ROW_KEYS]
         if unknown:  # a misspelt limit would otherwise be silently absent (±inf)
             raise RobotDescriptionError(
@@ -130,7 +166,7 @@ def spec_from_dh(
                 f"DH row {i} ({name!r}): lower limit {lo} > upper limit {up}"
             )
         H = T @ _rot_z(theta)  # joint i turns (or slides) about z_{i−1}
-        joints.append(JointModel(name, prismatic, H))
+        joints.append(JointModel(name, prismatic, H, lo, up))
         T = H @ _dh_fixed(d, a, alpha)
         names.append(name)
         types.append(
@@ -196,11 +232,11 @@ def spec_from_poe(
                 )
             H[:3, :3] = frame_aligned_with(w)
             H[:3, 3] = np.cross(w, v)  # the point of the axis closest to the origin
-            joints.append(JointModel(names[k], False, H))
+            joints.append(JointModel(names[k], False, H, float(lo[k]), float(up[k])))
             types.append("continuous" if np.isinf(lo[k]) and np.isinf(up[k]) else "revolute")
         elif nw < 1e-9 and abs(nv - 1.0) < 1e-6:
             H[:3, :3] = frame_aligned_with(v)
-            joints.append(JointModel(names[k], True, H))
+            joints.append(JointModel(names[k], True, H, float(lo[k]), float(up[k])))
             types.append("prismatic")
         else:
             raise RobotDescriptionError(

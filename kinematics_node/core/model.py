@@ -1,11 +1,13 @@
 """The robot model's shared types, below everything that builds or uses a chain.
 
 * `JointModel`, `ChainSpec`: what a description parser (`urdf`, `dh`) hands to `SerialChain`.
+* `MimicJoint`: one mimic follower of a chain (`SerialChain.mimic_joints`).
 * `SolverModel`: the small interface the numeric solvers use beyond the chain's public attributes
   (`SerialChain.solver_model`).
 * `KinematicChain`: the part of `SerialChain` the solvers and the closed-form module rely on, as a
   `Protocol`, so that they need not import `chain` (which imports them).
-* One source each for `TWO_PI`, `MOVING_JOINT_TYPES`, `readonly` and `middle_of_limits`.
+* One source each for `TWO_PI`, `MOVING_JOINT_TYPES`, `readonly`, `middle_of_limits` and
+  `mimic_rule`.
 
 Imports numpy and `_kernel` only.
 """
@@ -15,7 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal, Protocol
+from typing import Any, Literal, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -63,21 +65,52 @@ class JointModel:
         name: joint name.
         prismatic: True for prismatic (value in m), False for revolute/continuous (value in rad).
         H: 4×4 home pose of the joint frame in the base: origin on the axis, z along the axis.
+        lower, upper: the joint's own position limits [rad or m] as its description gives them
+            (±inf: unbounded). For a mimic follower these bound its own value θ = m·q + c, and
+            `SerialChain` narrows its leader's limits so that θ stays inside them.
     """
 
     name: str
     prismatic: bool
     H: FloatArray
+    lower: float = -math.inf
+    upper: float = math.inf
+
+
+def mimic_rule(leader: str, multiplier: float, offset: float) -> str:
+    """A mimic follower's value as users read it, e.g. "-0.5·finger_joint + 0.1"."""
+    sign = "−" if offset < 0 else "+"
+    return f"{multiplier:g}·{leader} {sign} {abs(offset):g}"
+
+
+class MimicJoint(NamedTuple):
+    """A mimic follower on a chain: its value is θ = multiplier · q[leader] + offset.
+
+    Attributes:
+        name: the follower (a moving joint of the chain, not an actuated variable).
+        leader: the actuated joint it follows (in `SerialChain.joint_names`).
+        multiplier: m [1 or m/rad, …, as the units of the two joints require].
+        offset: c [rad or m].
+    """
+
+    name: str
+    leader: str
+    multiplier: float
+    offset: float
 
 
 @dataclass(frozen=True)
 class ChainSpec:
     """Everything a description parser hands to `SerialChain` (internal, but documented).
 
-    `joints` are all moving joints on the path, including mimic followers. The actuated variables
-    map to them as θ_internal = G q + offset (G is the identity unless there are mimic joints).
+    `joints` are all m moving joints on the path, including mimic followers. The n actuated
+    variables map to them as θ_internal = G q + offset (G is the identity unless there are mimic
+    joints). `lower`/`upper` are the actuated joints' own limits (a leader's own, before
+    `SerialChain` narrows them by its followers'). `leader_index[k]` is the actuated variable
+    moving joint k follows (None: from G's non-zero entries; needed where a multiplier is 0).
     `links` lists the chain's links base→tip as (name, home pose in base, index of the last moving
-    joint before the link or −1).
+    joint before the link or −1). `notes` says what the parser accepted and adjusted or ignored on
+    this chain (human-readable sentences).
     """
 
     base_link: str
@@ -92,6 +125,8 @@ class ChainSpec:
     G: FloatArray
     offset: FloatArray
     links: list[tuple[str, FloatArray, int]]
+    leader_index: tuple[int, ...] | None = None
+    notes: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -1,11 +1,15 @@
 """URDF / xacro → `ChainSpec`, using yourdfpy for parsing and the `xacro` package for macros.
 
 Joint origins are T_parent_joint = Trans(xyz) · R_Z(yaw) R_Y(pitch) R_X(roll) (URDF rpy = fixed
-XYZ). A moving joint then applies a rotation about (or translation along) its unit `axis`, given in
-the joint frame. Fixed joints are folded into the constant transforms; mimic joints (value =
-multiplier · leader + offset) are folded into the leader's column. Floating and planar joints on
-the chain, kinematic loops, missing links and zero or non-unit axes are refused with an error that
-names the joint or link.
+XYZ). A moving joint then applies a rotation about (or translation along) its `axis`, given in
+the joint frame and normalised to a unit vector, as Pinocchio does ("0.707 0 0.707" and "0 0 2"
+are accepted; a zero or non-finite axis is refused). Fixed joints are folded into the constant
+transforms. A mimic joint (value = multiplier · leader + offset) stays a moving joint of the chain
+whose value follows its leader, which becomes the chain's actuated variable (see
+`SerialChain`). Floating and planar joints on the chain, kinematic loops, missing links and
+zero axes are refused with an error that names the joint or link. What is accepted and adjusted
+(normalised axes) or taken as given (mimic joints) is listed in `RobotDescription.notes` and,
+for one chain, in `ChainSpec.notes`.
 """
 
 from __future__ import annotations
@@ -24,9 +28,11 @@ from typing import Any
 import numpy as np
 
 from .exceptions import RobotDescriptionError, UnknownNameError
-from .model import MOVING_JOINT_TYPES, ChainSpec, JointModel, frame_aligned_with
+from .model import MOVING_JOINT_TYPES, ChainSpec, JointModel, frame_aligned_with, mimic_rule
 
-_AXIS_TOLERANCE = 1e-4  # URDFs often print axes with 4–6 digits, e.g. "0 0.7071 0.7071"
+#: An axis whose norm differs from 1 by more than this is noted as normalised (less is the
+#: rounding of an axis printed to six or more digits, e.g. "0 0.7071068 0.7071068").
+_AXIS_NOTED = 1e-6
 
 
 _XACRO_NAMESPACE_MARK = "xacro"  # every xacro namespace URI in use ends in /xacro
@@ -314,6 +320,9 @@ class RobotDescription:
         joint_names: every joint (any type). link_names: every link.
         moving_joint_names: joints of a type in `MOVING_JOINT_TYPES` (mimic followers included),
             in document order.
+        notes: what the description has that is accepted and adjusted or ignored, as sentences
+            for users, in document order: moving joints whose axis is normalised, mimic joints
+            (and whom they follow), <mimic> on joints that cannot move. () when nothing.
 
     Raises:
         RobotDescriptionError: as `read_description`.
@@ -328,6 +337,7 @@ class RobotDescription:
             str(j.get("name")) for j in joints if j.get("type") in MOVING_JOINT_TYPES
         )
         self.link_names = frozenset(str(link.get("name")) for link in self.root.findall("link"))
+        self.notes = _description_notes(joints)
         self._robot: Any = None  # yourdfpy's model; loading it twice in a race is harmless
 
     def chain_spec(self, base_link: str | None = None, tip_link: str | None = None) -> ChainSpec:
@@ -381,6 +391,47 @@ class RobotDescription:
         return names, np.array(lower), np.array(upper), np.array(vel)
 
 
+def _axis_note(name: str, xyz: Any, norm: float) -> str:
+    shown = " ".join(f"{float(v):g}" for v in xyz)
+    return f"joint {name!r}: axis ({shown}) has norm {norm:.6g}; normalised to a unit vector"
+
+
+def _description_notes(joints: list[ET.Element]) -> tuple[str, ...]:
+    """`RobotDescription.notes`: one pass over the <joint> elements, reading attributes only
+    (malformed numbers are left to `check_kinematic_elements`, which names them)."""
+    notes: list[str] = []
+    for j in joints:
+        name, kind = j.get("name"), j.get("type")
+        axis = j.find("axis")
+        if kind in MOVING_JOINT_TYPES and axis is not None:
+            try:
+                xyz = [float(v) for v in str(axis.get("xyz", "")).split()]
+            except ValueError:
+                xyz = []
+            norm = math.sqrt(sum(v * v for v in xyz)) if len(xyz) == 3 else math.nan
+            if math.isfinite(norm) and norm > 0.0 and abs(norm - 1.0) > _AXIS_NOTED:
+                notes.append(_axis_note(str(name), xyz, norm))
+        mimic = j.find("mimic")
+        if mimic is None:
+            continue
+        leader = mimic.get("joint")
+        if kind not in MOVING_JOINT_TYPES:
+            notes.append(f"joint {name!r} is {kind!r}: its <mimic> of {leader!r} is ignored")
+            continue
+        try:
+            rule = mimic_rule(
+                str(leader),
+                float(mimic.get("multiplier", "1")),
+                float(mimic.get("offset", "0")),
+            )
+        except ValueError:  # refused by check_kinematic_elements when a chain is built
+            rule = f"{mimic.get('multiplier', '1')}·{leader} + {mimic.get('offset', '0')}"
+        notes.append(
+            f"joint {name!r} mimics {leader!r}: its value is {rule}, not a variable of its own"
+        )
+    return tuple(notes)
+
+
 def spec_from_urdf(
     path_or_xml: str | bytes | PathLike[str],
     base_link: str | None = None,
@@ -391,6 +442,7 @@ def spec_from_urdf(
 
 
 def _chain_spec(robot: Any, base_link: str | None, tip_link: str | None) -> ChainSpec:
+    base_link, tip_link = base_link or None, tip_link or None  # "" = the default, as in the node
     links = [link.name for link in robot.links]
     if not links:
         raise RobotDescriptionError("the robot description has no <link>")
@@ -499,17 +551,36 @@ def _joint_limits(j: Any) -> tuple[str, float, float, float]:
     return j.type, lower, upper, vel
 
 
-def _unit_axis(j: Any) -> np.ndarray:
+def _unit_axis(j: Any) -> tuple[np.ndarray, float]:
+    """(the joint's axis normalised, its norm as written); URDF's default axis is (1, 0, 0)."""
     axis = np.array([1.0, 0.0, 0.0]) if j.axis is None else np.asarray(j.axis, dtype=np.float64)
-    norm = float(np.linalg.norm(axis))
-    if not np.all(np.isfinite(axis)) or norm < 1e-12:
-        raise RobotDescriptionError(f"joint {j.name!r} has a zero or invalid axis {axis.tolist()}")
-    if abs(norm - 1.0) > _AXIS_TOLERANCE:
+    with np.errstate(over="ignore"):  # a norm beyond 1e308 is refused below as non-finite
+        norm = float(np.linalg.norm(axis))
+    if not (np.all(np.isfinite(axis)) and math.isfinite(norm)) or norm < 1e-12:
         raise RobotDescriptionError(
-            f"joint {j.name!r} has a non-unit axis {axis.tolist()} (norm {norm:.6g}); URDF axes "
-            "must be unit vectors"
+            f"joint {j.name!r} has a zero or invalid axis {axis.tolist()}; a moving joint needs "
+            "a non-zero direction"
         )
-    return axis / norm
+    return axis / norm, norm
+
+
+def _own_limits(j: Any, notes: list[str]) -> tuple[float, float]:
+    """A mimic follower's own position limits [rad or m]; ±inf where it gives none (noted)."""
+    lim = j.limit
+    if j.type == "continuous":
+        return -math.inf, math.inf
+    if lim is None or (lim.lower is None and lim.upper is None):
+        notes.append(
+            f"mimic joint {j.name!r} gives no lower/upper limits: only its leader's limits apply"
+        )
+        return -math.inf, math.inf
+    lower = 0.0 if lim.lower is None else float(lim.lower)  # URDF's defaults
+    upper = 0.0 if lim.upper is None else float(lim.upper)
+    if not lower <= upper:
+        raise RobotDescriptionError(
+            f"joint {j.name!r} has lower limit {lower} > upper limit {upper}"
+        )
+    return lower, upper
 
 
 def _build_spec(base: str, tip: str, path: list[Any], joints: dict[str, Any]) -> ChainSpec:
@@ -518,6 +589,8 @@ def _build_spec(base: str, tip: str, path: list[Any], joints: dict[str, Any]) ->
     followers: list[
         tuple[str, float, float]
     ] = []  # (leader name, multiplier, offset) per moving joint
+    notes: list[str] = []
+    own: list[tuple[float, float] | None] = []  # a follower's own limits; None: an actuated joint
     chain_links: list[tuple[str, np.ndarray, int]] = [(base, np.eye(4), -1)]
     for j in path:
         if j.type not in MOVING_JOINT_TYPES and j.type != "fixed":
@@ -530,7 +603,9 @@ def _build_spec(base: str, tip: str, path: list[Any], joints: dict[str, Any]) ->
         if j.type == "fixed":
             T = T_joint
         else:
-            axis = _unit_axis(j)
+            axis, norm = _unit_axis(j)
+            if abs(norm - 1.0) > _AXIS_NOTED:
+                notes.append(_axis_note(j.name, np.asarray(j.axis, dtype=np.float64), norm))
             R_align = frame_aligned_with(axis)
             H = T_joint.copy()
             H[:3, :3] = T_joint[:3, :3] @ R_align
@@ -539,8 +614,15 @@ def _build_spec(base: str, tip: str, path: list[Any], joints: dict[str, Any]) ->
                 m = 1.0 if j.mimic.multiplier is None else float(j.mimic.multiplier)
                 c = 0.0 if j.mimic.offset is None else float(j.mimic.offset)
                 followers.append((j.mimic.joint, m, c))
+                own.append(_own_limits(j, notes))
+                notes.append(
+                    f"joint {j.name!r} on the chain mimics {j.mimic.joint!r}: its value is "
+                    f"{mimic_rule(j.mimic.joint, m, c)}, and {j.mimic.joint!r} is the chain's "
+                    "variable"
+                )
             else:
                 followers.append((j.name, 1.0, 0.0))
+                own.append(None)
             T = T_joint
         chain_links.append((j.child, T.copy(), len(moving) - 1))
 
@@ -571,9 +653,15 @@ def _build_spec(base: str, tip: str, path: list[Any], joints: dict[str, Any]) ->
         vel.append(v)
     G = np.zeros((len(moving), len(actuated)))
     offset = np.zeros(len(moving))
+    leader_index = []
     for k, (leader, m, c) in enumerate(followers):
-        G[k, actuated.index(leader)] = m
+        i = actuated.index(leader)
+        G[k, i] = m
         offset[k] = c
+        leader_index.append(i)
+        own_k = own[k]
+        lo, up = (lower[i], upper[i]) if own_k is None else own_k
+        moving[k] = JointModel(moving[k].name, moving[k].prismatic, moving[k].H, lo, up)
     if not moving:
         raise RobotDescriptionError(f"the chain {base!r} → {tip!r} has no moving joint")
     return ChainSpec(
@@ -589,4 +677,6 @@ def _build_spec(base: str, tip: str, path: list[Any], joints: dict[str, Any]) ->
         G=G,
         offset=offset,
         links=chain_links,
+        leader_index=tuple(leader_index),
+        notes=tuple(notes),
     )

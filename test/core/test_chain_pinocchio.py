@@ -53,7 +53,7 @@ def test_every_chain_link_pose_matches_pinocchio(real_arm):
 
 
 def test_mimic_finger_chain_matches_pinocchio_with_mimic_applied():
-    """Panda base → right finger: finger_joint2 mimics finger_joint1 (folded into its column)."""
+    """Panda base → right finger: finger_joint2 mimics finger_joint1 (its column, θ = q)."""
     from kin_testing import erd_path
 
     from kinematics_node.core import SerialChain
