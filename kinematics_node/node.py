@@ -60,6 +60,7 @@ from rclpy.qos import (
     QoSProfile,
     ReliabilityPolicy,
 )
+from rclpy.subscription import Subscription
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -118,6 +119,9 @@ STREAMING_GAP = 0.0025
 EARLY_ANSWER = 0.004
 #: An IK answer sent this long after its deadline is logged (with where the time went) [s].
 LATE_ANSWER_WARNING = 0.02
+#: rclpy (Iron and later) hands a two-argument subscription callback the message's info, whose
+#: source_timestamp [ns] says when its publisher sent it; Humble's hands over the message only.
+MESSAGE_INFO = hasattr(Subscription, "CallbackType")
 #: Seconds between two log lines about the same joint_states problem.
 WARN_PERIOD = 5.0
 TF_MISSING = "TF frames need tf2_ros, which is not installed here (it comes with a full ROS 2)"
@@ -183,10 +187,13 @@ class KinematicsNode(Node):
         self._pose_pub = self._publisher(PoseStamped, "ee_pose")
         self._twist_pub = self._publisher(TwistStamped, "ee_twist")
         self._diag_pub = self._publisher(DiagnosticArray, "/diagnostics")
+        on_joint_state: Any = self._on_joint_state
+        if not MESSAGE_INFO:  # pragma: no cover - Humble
+            on_joint_state = lambda msg: self._on_joint_state(msg, {})  # noqa: E731
         self.create_subscription(
             JointState,
             "joint_states",
-            self._on_joint_state,
+            on_joint_state,
             JOINT_STATES_QOS,
             callback_group=group,
             event_callbacks=NO_SUBSCRIPTION_EVENTS,
@@ -230,7 +237,13 @@ class KinematicsNode(Node):
         there are, refused and why), as the service reports it."""
         logger = self.get_logger()
         for level, text in self._logic.take_log():
-            {"info": logger.info, "warn": logger.warn, "error": logger.error}[level](text)
+            # one call site per severity: rclpy refuses a call site whose severity changes
+            if level == "error":
+                logger.error(text)
+            elif level == "warn":
+                logger.warn(text)
+            else:
+                logger.info(text)
 
     def _on_description(self, msg: String) -> None:
         # used while robot_description and robot_description_file are empty, else kept for later
@@ -240,9 +253,13 @@ class KinematicsNode(Node):
         if self._logic.model is not model and self._logic.model is not None:
             _freeze_heap()
 
-    def _on_joint_state(self, msg: JointState) -> None:
+    def _on_joint_state(self, msg: JointState, info: dict[str, Any]) -> None:
         self._last_joint_state = time.monotonic()
-        out = self._logic.on_joint_state(msg)
+        # A sample's arrival time (the time base of velocities its stamps cannot give) is when its
+        # publisher sent it, the DDS source timestamp, which the transport's and this executor's
+        # delays (up to ms on a busy machine) do not blur; without one, now on the same clock.
+        sent = info.get("source_timestamp", 0)
+        out = self._logic.on_joint_state(msg, sent * 1e-9 if sent else time.time())
         if out.pose is not None:
             self._pose_pub.publish(out.pose)
         if out.twist is not None:

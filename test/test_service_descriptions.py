@@ -296,18 +296,19 @@ def test_a_bad_robot_description_file_is_reported_naming_it(ros, clock, path, ne
 
 @pytest.fixture
 def prefixed_xacro(tmp_path) -> Path:
-    """The UR5e as a xacro file whose link and joint names take a `prefix` argument (no default)
-    and whose tool0 moves by an optional `tool_z` [m]."""
+    """The UR5e as a xacro file whose link and joint names take a `prefix` argument (without a
+    default: the file cannot be expanded without it)."""
     text = UR5E.read_text(encoding="utf-8")
-    text = re.sub(r'(<(?:link|joint) name=")', r"\1$(arg prefix)", text)
-    text = re.sub(r'(<(?:parent|child) link=")', r"\1$(arg prefix)", text)
-    text = text.replace(
-        "<robot ",
-        '<robot xmlns:xacro="http://www.ros.org/wiki/xacro" ',
-        1,
+    text = re.sub(r'(<(?:link|joint) name="|<(?:parent|child) link=")', r"\1$(arg prefix)", text)
+    # an argument it declares but does not use (as files do for options of other parts)
+    text = re.sub(
+        r"(<robot [^>]*>)",
+        r'<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="ur5e">'
+        r'<xacro:arg name="with_gripper" default="false"/>',
+        text,
+        count=1,
     )
-    head, tail = text.split(">", 2)[:2], text.split(">", 2)[2]
-    text = ">".join(head) + '>\n  <xacro:arg name="prefix"/>\n' + tail
+    assert "with_gripper" in text
     path = tmp_path / "ur5e_prefixed.urdf.xacro"
     path.write_text(text, encoding="utf-8")
     return path
@@ -325,9 +326,10 @@ def test_a_xacro_file_takes_its_arguments_from_xacro_args(ros, clock, prefixed_x
     assert resp.success, resp.message
     T_pin = PinocchioOracle.from_urdf(UR5E, UR5E_JOINTS).pose(Q_UR5E, "tool0")
     np.testing.assert_allclose(ma.matrix_from_pose(resp.pose.pose), T_pin, atol=1e-9)
-    # new arguments at run time: the file is expanded again, and tip_link checked against it
-    svc.configure({"xacro_args": "prefix:=right_"})
-    assert svc.model.chain.tip_link == "right_tool0"
+    # new arguments at run time (one declared and unused is fine): the file is expanded again
+    svc.configure({"xacro_args": "prefix:=right_ with_gripper:=true"})
+    chain = svc.model.chain  # no link was set: the new robot's own default chain
+    assert (chain.base_link, chain.tip_link) == ("right_base_link", "right_tool0")
 
 
 @pytest.mark.parametrize(
