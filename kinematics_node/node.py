@@ -26,6 +26,11 @@ and sends it: on the next joint_states message's turn while they stream, else wo
 condition. Meanwhile joint_states keep flowing. Every IK request is answered by its timeout (plus a
 few ms) counted from when its client sent it; one sent more than 20 ms late is logged.
 
+Robot description: the robot_description parameter (URDF/xacro XML), else robot_description_file
+(a path; xacro_args for xacro), else the robot_description topic. A description whose tip is not
+chosen (several leaves: a gripper's fingers, cameras) is held, and the node says which tips there
+are until tip_link is set; a new description replaces the robot (`KinematicsService.configure`).
+
 TF: target frames that are not robot links are looked up with tf2_ros when it is installed (it is
 not on PyPI); without it such targets are refused with a message saying so. Uses only API
 available in both Humble and Jazzy.
@@ -248,7 +253,10 @@ class KinematicsNode(Node):
     def _on_description(self, msg: String) -> None:
         # used while robot_description and robot_description_file are empty, else kept for later
         model = self._logic.model
-        self._logic.on_description_message(msg.data)
+        try:
+            self._logic.on_description_message(msg.data)
+        except Exception as exc:  # noqa: BLE001 - a description must never take the node down
+            self.get_logger().error(f"robot_description topic: internal error: {exc!r}")
         self._log_description_events()
         if self._logic.model is not model and self._logic.model is not None:
             _freeze_heap()
@@ -356,6 +364,8 @@ class KinematicsNode(Node):
             self._logic.configure(changes)
         except KinematicsError as exc:
             return SetParametersResult(successful=False, reason=str(exc))
+        except Exception as exc:  # noqa: BLE001 - refused, never raised into rclpy
+            return SetParametersResult(successful=False, reason=f"internal error: {exc!r}")
         finally:
             self._log_description_events()
         if self._logic.model is not model and self._logic.model is not None:

@@ -529,7 +529,7 @@ class KinematicsService:
         reason = str(exc)
         self._refusal = (source, reason)
         kept = (
-            f"keeping {self._model.robot_name!r}"
+            f"keeping the model of {self._model.robot_name!r}"
             if self._model is not None
             else (
                 f"still waiting with {self._held.tree.robot_name!r}"
