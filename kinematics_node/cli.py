@@ -30,6 +30,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from .core import KinematicsError, SerialChain
+from .core.exceptions import RobotDescriptionError, UnknownNameError
 from .core.ik_options import IKOptions
 
 _MAX_SHOWN = 40  # characters of user input echoed in an error message
@@ -90,6 +91,31 @@ def _number_type(
 
 # ---------------------------------------------------------------------- robots
 def load_chain(args: argparse.Namespace) -> SerialChain:
+    """The chain the robot options name; the library's errors about the base and tip links in
+    this command line's words (`--base`, `--tip`), with the library's reason kept."""
+    try:
+        return _load_chain(args)
+    except UnknownNameError as exc:
+        given = [f for f, v in (("--base", args.base), ("--tip", args.tip)) if v == exc.name]
+        if exc.kind != "link" or not given:
+            raise
+        raise CliError(f"{given[0]}: {exc}") from None  # (the library checks the base first)
+    except RobotDescriptionError as exc:
+        # the library's parameters (from_urdf's base_link, tip_link) are this command's --base,
+        # --tip; a link *named* base_link is quoted in these messages, so it stays as it is
+        text = _NOT_BELOW.sub(r"--tip \1 is not below --base \2", cli_words(str(exc)))
+        raise CliError(_LIBRARY_LINK_ARGUMENT.sub(_link_flag, text)) from None
+
+
+_LIBRARY_LINK_ARGUMENT = re.compile(r"(?<![\w'\"])(base_link|tip_link)(?![\w'\"])")
+_NOT_BELOW = re.compile(r"\btip link ('[^']*') is not below base link ('[^']*')")
+
+
+def _link_flag(match: re.Match[str]) -> str:
+    return "--base" if match.group(1) == "base_link" else "--tip"
+
+
+def _load_chain(args: argparse.Namespace) -> SerialChain:
     if args.urdf:
         from .chain_cache import chain_from_urdf_file
 
@@ -335,6 +361,46 @@ _IK_OPTION_NAMES = {  # IKOptions field → the option that sets it (library nam
     "IKOptions.position_only": "--position-only",
     "IKOptions": "IK options",
 }
+# The library's words in its messages (and what in them names an API) → this command line's:
+# the reason stays, the names become the options that set them.
+_CLI_WORDS: tuple[tuple[re.Pattern[str], str], ...] = (
+    *((re.compile(re.escape(k)), v) for k, v in _IK_OPTION_NAMES.items()),
+    (re.compile(r"; use chain\.ik \(numeric\) instead"), "; without --all, ik searches numerically"),
+    (re.compile(r"\(?chain\.ik_all sweeps the held joint for sets\)?"), "(--all sweeps the held "
+     "joint and gives sets)"),
+    (re.compile(r"in mode '(speed|distance)'"), r"with --mode \1"),
+    (re.compile(r"\bposition_only\b"), "--position-only"),
+    (re.compile(r"a freed pose component"), "an axis freed by --axis-tolerances (inf)"),
+    (re.compile(r"the ([0-9.e+-]+ m?s) timeout ran out"), r"the --timeout of \1 ran out"),
+    (re.compile(r"max_restarts=(\d+) reached"), r"gave up after \1 restarts"),
+    (re.compile(r"(?<![\w'\"])q_seed(?![\w'\"])"), "--seed"),
+    (re.compile(r"(?<![\w'\"])T_target(?![\w'\"])"), "--target"),
+)  # fmt: skip
+
+
+def cli_words(text: str) -> str:
+    """A library message with its parameter and API names replaced by this command line's
+    options (`--tip`, `--method numeric`, `--timeout` ...): the reason is kept."""
+    for pattern, words in _CLI_WORDS:
+        text = pattern.sub(words, text)
+    return text
+
+
+def duration_text(seconds: float) -> str:
+    """A measured duration for people: "0.31 ms", "1.52 ms", "50.1 ms", "2.05 s"."""
+    if seconds < 0.01:
+        return f"{seconds * 1e3:.2f} ms"
+    if seconds < 1.0:
+        return f"{seconds * 1e3:.1f} ms"
+    return f"{seconds:.2f} s"
+
+
+def _failure_text(message: str) -> str:
+    """The library's IK failure message (why, how long, best residual) as this command's."""
+    text = cli_words(" ".join(message.split()))
+    # "closed form: <why>; numeric search: no solution: <why>": "no solution" said once, first
+    text = text.replace("; numeric search: no solution: ", "; numeric search: ")
+    return text if text.startswith("no solution") else f"no solution: {text}"
 
 
 def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
@@ -378,10 +444,7 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
             rng_seed=0,
         )
     except KinematicsError as exc:
-        text = str(exc)
-        for field, option in _IK_OPTION_NAMES.items():
-            text = text.replace(field, option)
-        raise CliError(text) from None
+        raise CliError(cli_words(str(exc))) from None
     # The solvers' imports (~0.2 s, SciPy's) and the detection of the arm's closed form (a UR5e
     # 4 ms, a Panda ~50 ms) happen now, before the clock starts: the time reported is the
     # solve's, as in a program that calls ik more than once.
@@ -414,12 +477,9 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
     else:
         wanted = f"{options.position_tolerance:g} m / {options.orientation_tolerance:g} rad"
     if res.success:
-        data["message"] = f"solved within {wanted} in {ms:.2f} ms"
-    else:
-        errors = f"best position error {res.position_error:.3g} m" + (
-            "" if free else f", orientation error {res.orientation_error:.3g} rad"
-        )
-        data["message"] = f"no solution within {wanted} in {options.timeout:g} s: {errors}"
+        data["message"] = f"solved within {wanted} in {duration_text(ms / 1e3)}"
+    else:  # the library's reason: out of reach (how far), out of time, no closed form ...
+        data["message"] = _failure_text(res.message)
     if not res.success:
         # Still report the best configuration found, but exit non-zero.
         print(dump_json(data) if args.json else _ik_text(data), file=sys.stdout)
@@ -441,8 +501,12 @@ def _ik_all(
         "message": res.message,
     }
     if not res.success:
-        print(dump_json(data) if args.json else f"not solved: {res.message}")
-        raise CliError(f"no solution: {res.message}")
+        from .core.ik import beyond_reach
+
+        far = beyond_reach(chain, T, IKOptions())  # how far, where the position alone says so
+        data["message"] = _failure_text(res.message + (f" ({far})" if far else ""))
+        print(dump_json(data) if args.json else str(data["message"]))
+        raise CliError(str(data["message"]))
     if args.json:
         return [data]
     rows = [res.message, f"columns [rad]: {', '.join(chain.joint_names)}"]
@@ -747,7 +811,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stdout.flush()
     except (CliError, KinematicsError) as exc:
         sys.stdout.flush()
-        print(f"kinematics: error: {' '.join(str(exc).split())}", file=sys.stderr)
+        text = str(exc) if isinstance(exc, CliError) else cli_words(str(exc))
+        print(f"kinematics: error: {' '.join(text.split())}", file=sys.stderr)
         return 1
     except BrokenPipeError:
         # The reader went away (`kinematics ... | head`): stop quietly, as command-line tools do.

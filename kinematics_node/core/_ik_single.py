@@ -72,7 +72,7 @@ class SingleOutcome:
     iterations: int
     restarts: int
     solutions: list[FloatArray] = field(default_factory=list)
-    stop_reason: str = ""
+    stop_reason: str = ""  # "done", "timeout" or "max_restarts=N reached"
 
 
 class SingleSolver:
@@ -414,7 +414,7 @@ class SingleSolver:
                     reason = "done"
                     break
             if time.perf_counter() > deadline:
-                reason = f"timeout after {opts.timeout * 1e3:.1f} ms"
+                reason = "timeout"
                 break
             if restarts >= opts.max_restarts:
                 reason = f"max_restarts={opts.max_restarts} reached"

@@ -150,7 +150,7 @@ def solve(
     if far:  # nothing to find: one descent from the seed for the best effort, not the timeout
         one, _, _ = _prepared(chain, replace(opts, max_restarts=0))
         out = SingleSolver(one, T, seed).run(start + opts.timeout)
-        return _numeric_result(out, opts, start, f"unreachable: {far}; best effort: ")
+        return _numeric_result(out, opts, start, f"unreachable: {far}; ", unreachable=True)
     deadline = start + opts.timeout
     known = _single_answer(chain, problem, closed, T, seed, start, deadline)
     return _solve_one(problem, closed, T, seed, start, deadline, known)
@@ -239,8 +239,8 @@ def beyond_reach(chain: KinematicChain, T: FloatArray, opts: IKOptions) -> str:
         return ""
     far = f"{distance:.3f}" if distance < 1e6 else f"{distance:.3g}"
     return (
-        f"the target is {far} m from the first joint of {chain.base_link} -> "
-        f"{chain.tip_link}, which reaches at most {radius:.3f} m"
+        f"the target is {far} m from the first joint of {chain.base_link!r} → "
+        f"{chain.tip_link!r}, which reaches at most {radius:.3f} m"
     )
 
 
@@ -303,20 +303,62 @@ def _solve_one(
     return _numeric_result(rest if rest.success else out, opts, start, prefix)
 
 
-def _numeric_result(out: SingleOutcome, opts: IKOptions, start: float, prefix: str) -> IKResult:
-    elapsed_ms = (time.perf_counter() - start) * 1e3
+def duration_text(seconds: float) -> str:
+    """A duration for people, in the unit that suits it: "0.31 ms", "1.52 ms", "50.1 ms", "2.05 s"."""
+    if seconds < 0.01:
+        return f"{seconds * 1e3:.2f} ms"
+    if seconds < 1.0:
+        return f"{seconds * 1e3:.1f} ms"
+    return f"{seconds:.2f} s"
+
+
+def _stop_text(reason: str, opts: IKOptions) -> str:
+    """Why a numeric search stopped, in words ("timeout": the timeout named with its value)."""
+    if reason == "timeout":
+        t = opts.timeout
+        return (
+            f"the {t * 1e3:.3g} ms timeout ran out" if t < 1.0 else f"the {t:.3g} s timeout ran out"
+        )
+    return reason
+
+
+def _residual_text(position_error: float, orientation_error: float, opts: IKOptions) -> str:
+    """The errors [m, rad] of a configuration against what the options ask for."""
+    if opts.position_only:
+        return f"{position_error:.3g} m (tolerance {opts.position_tolerance:g} m, orientation free)"
+    errors = f"{position_error:.3g} m / {orientation_error:.3g} rad"
+    if opts.axis_tolerances is not None:
+        return f"{errors} (per-axis bounds {', '.join(f'{b:g}' for b in opts.axis_tolerances)})"
+    return (
+        f"{errors} (tolerances {opts.position_tolerance:g} m / {opts.orientation_tolerance:g} rad)"
+    )
+
+
+def _numeric_result(
+    out: SingleOutcome, opts: IKOptions, start: float, prefix: str, unreachable: bool = False
+) -> IKResult:
+    """The `IKResult` of a numeric search's outcome, with its message: on failure why the search
+    stopped (said once, with the time it took) and the best residual against what was asked.
+    `unreachable`: the search was the one descent from the seed made for a target out of reach
+    (`prefix` says why), not a search that ran out of restarts."""
+    elapsed = duration_text(time.perf_counter() - start)
     solutions = tuple(readonly(s) for s in out.solutions)
     if out.success:
         n_found = len(solutions)
-        msg = f"found {n_found} solution{'s' if n_found > 1 else ''} in {elapsed_ms:.2f} ms"
+        msg = f"found {n_found} solution{'s' if n_found > 1 else ''} in {elapsed}"
         if n_found < opts.num_solutions:
-            msg += f" ({opts.num_solutions} requested; {out.stop_reason})"
+            msg += f" ({opts.num_solutions} requested; {_stop_text(out.stop_reason, opts)})"
         msg += f", {out.restarts} restarts, {out.iterations} iterations"
-    else:
+    elif unreachable:
         msg = (
-            f"no solution: {out.stop_reason} after {elapsed_ms:.1f} ms, {out.restarts} restarts; "
-            f"best residual {out.position_error:.3g} m / {out.orientation_error:.3g} rad "
-            f"(tolerances {opts.position_tolerance:g} m / {opts.orientation_tolerance:g} rad)"
+            f"best effort from the seed in {elapsed}: residual "
+            f"{_residual_text(out.position_error, out.orientation_error, opts)}"
+        )
+    else:
+        restarts = f"{out.restarts} restart{'' if out.restarts == 1 else 's'}"
+        msg = (
+            f"no solution: {_stop_text(out.stop_reason, opts)} after {elapsed}, {restarts}; "
+            f"best residual {_residual_text(out.position_error, out.orientation_error, opts)}"
         )
     return IKResult(
         q=readonly(out.q),
@@ -429,16 +471,17 @@ def _closed_form_result(
     found: Nearest, problem: IKProblem, T: FloatArray, seed: FloatArray, start: float
 ) -> IKResult:
     opts = problem.opts
-    elapsed_ms = (time.perf_counter() - start) * 1e3
+    elapsed = duration_text(time.perf_counter() - start)
     k = len(found.solutions)
     if not k:  # method "closed_form" only
         E, _, pos, ori, _, _ = problem.evaluate_batch(seed[None], T[None, :3, :3], T[None, :3, 3])
         return IKResult(
             q=readonly(seed), success=False, position_error=float(pos[0]),
             orientation_error=float(ori[0]), iterations=0, restarts=0,
-            message=f"no solution in closed form: {found.reason}",
+            message=f"no solution in closed form in {elapsed}: {found.reason}; residual of "
+            f"the seed {_residual_text(float(pos[0]), float(ori[0]), opts)}",
         )  # fmt: skip
-    msg = f"found {k} solution{'s' if k > 1 else ''} in closed form in {elapsed_ms:.3f} ms"
+    msg = f"found {k} solution{'s' if k > 1 else ''} in closed form in {elapsed}"
     if k < opts.num_solutions:
         msg += f" ({opts.num_solutions} requested; the arm has no more within the limits)"
     ep, er = found.errors[0]
@@ -680,6 +723,7 @@ __all__: Sequence[str] = [
     "nearest_first",
     "check_seed",
     "default_seed",
+    "duration_text",
     "solve",
     "solve_batch",
     "solve_closed_form",
