@@ -148,6 +148,16 @@ def test_tip_link_given_before_the_description_is_used_when_it_arrives(ros, cloc
     assert svc.status.state == "loaded" and svc.model.chain.tip_link == "panda_hand_tcp"
 
 
+def test_a_tip_link_the_description_lacks_at_start_up_holds_it_waiting(ros, clock, panda_text):
+    params = {"robot_description": panda_text, "tip_link": "tool0"}
+    svc = KinematicsService(ros.types, params, clock=clock)  # not refused, not raised
+    assert svc.status.state == "waiting"
+    assert "tip_link 'tool0' is not a link of 'panda'" in svc.status.message
+    assert list(svc.status.candidates) == leaves(panda_text)
+    svc.configure({"tip_link": "panda_hand_tcp"})
+    assert svc.status.state == "loaded"
+
+
 def test_clearing_tip_link_of_a_working_model_is_refused_when_the_tip_would_be_ambiguous(
     ros, clock, panda_text
 ):
@@ -272,6 +282,22 @@ def test_robot_description_file_loads_the_file_and_says_so(ros, clock):
     assert svc.status.state == "loaded" and svc.model.robot_name == "ur5e"
     assert str(UR5E) in values(svc)["description_source"]
     assert not svc.takes_topic
+
+
+def test_naming_the_file_again_reads_it_again(ros, clock, tmp_path):
+    path = tmp_path / "arm.urdf"
+    text = UR5E.read_text(encoding="utf-8")
+    path.write_text(text, encoding="utf-8")
+    svc = KinematicsService(ros.types, {"robot_description_file": str(path)}, clock=clock)
+    before = svc.model.chain.fk(Q_UR5E)
+    longer = text.replace(
+        '<origin xyz="0 0 0.0996" rpy="0 0 0"/>', '<origin xyz="0 0 0.3" rpy="0 0 0"/>'
+    )
+    assert longer != text
+    path.write_text(longer, encoding="utf-8")  # the user edits the file, then sets it again
+    svc.configure({"robot_description_file": str(path)})
+    after = svc.model.chain.fk(Q_UR5E)
+    assert np.linalg.norm(after[:3, 3] - before[:3, 3]) == pytest.approx(0.3 - 0.0996, abs=1e-9)
 
 
 @pytest.mark.parametrize(
