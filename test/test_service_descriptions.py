@@ -457,10 +457,11 @@ def test_fk_of_a_fixed_link_on_the_base_needs_no_joint(ros, clock, tmp_path):
         '<link name="camera"/><joint name="camera_mount" type="fixed"><parent link="base_link"/>'
         '<child link="camera"/><origin xyz="0.1 -0.2 0.8" rpy="0.3 -0.5 1.2"/></joint></robot>',
     )
-    svc = KinematicsService(
-        ros.types, {"robot_description": text, "tip_link": "tool0"}, clock=clock
-    )
-    assert svc.status.candidates == ()
+    svc = KinematicsService(ros.types, {"robot_description": text}, clock=clock)
+    # two leaves, so a tip to choose; but the camera cannot be one (no joint moves it)
+    assert set(leaves(text)) == {"tool0", "camera"}
+    assert svc.status.state == "waiting" and svc.status.candidates == ("tool0",)
+    svc.configure({"tip_link": "tool0"})
     req = ros.request("ComputeFK", link_names=["camera"], joint_state=js(ros, UR5E_JOINTS, Q_UR5E))
     resp = svc.compute_fk(req, ros.response("ComputeFK"))
     assert resp.success, resp.message
