@@ -39,6 +39,7 @@ _RANGES: dict[str, tuple[float, float, bool]] = {
     "max_linear_speed_m_s": (0.0, 100.0, False),
     "max_angular_speed_rad_s": (0.0, 100.0, False),
     "huge_command_factor": (1.0, 1e6, True),
+    "twist_acceleration_time_s": (0.0, 10.0, False),
     "tracking_gain_1_per_s": (0.0, 1e3, False),
     "max_kept_error_m": (0.0, 1.0, False),
     "max_kept_error_rad": (0.0, math.pi, False),
@@ -86,6 +87,10 @@ class ServoConfig:
         huge_command_factor: twist commands faster than this × the maximum speeds, and joint jog
             commands faster than this × the joint's velocity limit, are refused as a likely unit
             error (e.g. mm/s sent as m/s).
+        twist_acceleration_time_s: the commanded twist is ramped, before it is integrated, with a
+            Cartesian acceleration limit of the maximum speeds divided by this [s] (and a jerk
+            limit of that divided by `jerk_time_s`): a step in the command becomes a motion the
+            joints can follow without bending the tool's path.
 
     Twist tracking (drift-free: the commanded pose is integrated and the loop closed on it):
         tracking_gain_1_per_s: proportional gain K [1/s] on the kept pose error e:
@@ -134,6 +139,7 @@ class ServoConfig:
     max_linear_speed_m_s: float = 0.5
     max_angular_speed_rad_s: float = 1.5
     huge_command_factor: float = 10.0
+    twist_acceleration_time_s: float = 0.4
     tracking_gain_1_per_s: float = 10.0
     max_kept_error_m: float = 0.01
     max_kept_error_rad: float = 0.05

@@ -12,6 +12,7 @@ before the limit instead of at it.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -116,3 +117,50 @@ def braking_speed(distance: FloatArray, acceleration: FloatArray, jerk: FloatArr
         v_long = 0.5 * (-b + np.sqrt(b * b + 8.0 * A * d))
         out = np.where(v_short <= b, v_short, v_long)
     return np.where(np.isinf(d), np.inf, out)
+
+
+def _phase(x: float, v: float, a: float, j: float, t: float) -> tuple[float, float, float]:
+    """State (x, v, a) after `t` [s] of constant jerk `j`."""
+    return x + t * (v + t * (a / 2 + t * j / 6)), v + t * (a + t * j / 2), a + t * j
+
+
+def _forward_reach(v0: float, a0: float, A: float, J: float) -> tuple[float, float]:
+    """(lowest, highest) position, relative to the start, of the time-optimal stop (v = a = 0)
+    from (v0, a0) when it ends moving forward (v0 + a0|a0|/(2J) ≥ 0): jerk −J down to the peak
+    deceleration a_p = −√(J v0 + a0²/2) (or −A, held as long as needed), then +J to a = 0."""
+    a0 = min(max(a0, -A), A)
+    peak2 = J * v0 + a0 * a0 / 2
+    a_p = -math.sqrt(max(peak2, 0.0))
+    if a_p >= -A:
+        x, v, a = _phase(0.0, v0, a0, -J, max((a0 - a_p) / J, 0.0))
+    else:
+        x, v, a = _phase(0.0, v0, a0, -J, (a0 + A) / J)
+        x, v, a = _phase(x, v, a, 0.0, max((v - A * A / (2 * J)) / A, 0.0))
+    x_end, _, _ = _phase(x, v, a, J, max(-a / J, 0.0))
+    lowest = 0.0
+    disc = a0 * a0 + 2 * J * v0
+    if v0 < 0.0 and disc >= 0.0:  # moving back at first: it turns where v = 0 during phase 1
+        t = (a0 - math.sqrt(disc)) / J
+        lowest = min(0.0, _phase(0.0, v0, a0, -J, max(t, 0.0))[0])
+    return lowest, max(0.0, x_end)
+
+
+def braking_reach(
+    q: FloatArray, v: FloatArray, a: FloatArray, acceleration: FloatArray, jerk: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """(lowest, highest) position each joint passes while it stops as fast as its acceleration
+    and jerk limits allow, from position q, velocity v and acceleration a (the motion Ruckig's
+    velocity interface plans for a target velocity of 0; bang-bang jerk, see `_forward_reach`)."""
+    lo = np.empty_like(q)
+    hi = np.empty_like(q)
+    for k, (qk, vk, ak, A, J) in enumerate(
+        zip(q.tolist(), v.tolist(), a.tolist(), acceleration.tolist(), jerk.tolist(), strict=True)
+    ):
+        if vk + ak * abs(ak) / (2 * J) >= 0.0:
+            low, high = _forward_reach(vk, ak, A, J)
+        else:
+            neg_high, neg_low = _forward_reach(-vk, -ak, A, J)
+            low, high = -neg_low, -neg_high
+        lo[k] = qk + low
+        hi[k] = qk + high
+    return lo, hi

@@ -46,12 +46,15 @@ from .axes import select_axes, task_jacobian_rows
 from .commands import JointJogCommand, PoseCommand, TwistCommand
 from .config import TWIST_AXES, ServoConfig
 from .limits import ServoLimits, braking_distance, braking_speed
-from .smoothing import JerkLimitedIntegrator
+from .smoothing import JerkLimitedIntegrator, VelocityRamp
 from .status import ServoStatus, StatusCode
 
 FloatArray = NDArray[np.float64]
 
 _NULLSPACE_SPEED_FRACTION = 0.2  # null-space motion uses at most this share of a joint's speed
+_RESYNC_TOLERANCE = 1e-3  # [rad or m] a command starting from rest starts from the measured
+# positions when they are farther than this from the last command (the arm was moved meanwhile);
+# nearer, from the last command, so that the commanded positions stay continuous
 
 
 @dataclass(frozen=True)
@@ -169,6 +172,11 @@ class Servo:
         self._goal_p = (0.0, 0.0, 0.0)
         self._goal_q: _quat.Quat = (0.0, 0.0, 0.0, 1.0)
         self._ref_valid = False
+        lin_a = cfg.max_linear_speed_m_s / cfg.twist_acceleration_time_s
+        ang_a = cfg.max_angular_speed_rad_s / cfg.twist_acceleration_time_s
+        acc = np.array((ang_a, ang_a, ang_a, lin_a, lin_a, lin_a))
+        self._ramp = VelocityRamp(acc, acc / cfg.jerk_time_s, cfg.period_s)
+        self._ramp_valid = False
         self._ref_p = (0.0, 0.0, 0.0)
         self._ref_q: _quat.Quat = (0.0, 0.0, 0.0, 1.0)
         self._stop: tuple[StatusCode, str] = (StatusCode.IDLE, "waiting for a command")
@@ -223,6 +231,7 @@ class Servo:
         """Drop the active command: the arm stops smoothly, and the status says why."""
         self._mode = None
         self._ref_valid = False
+        self._ramp_valid = False
         self._stop = (code, message)
 
     # ------------------------------------------------------------------ commands
@@ -303,11 +312,19 @@ class Servo:
         return StatusCode.COMMAND_REFUSED, f"{kind} refused: {err}"
 
     def _begin(self, mode: str, stamp: float) -> None:
-        """Make `mode` the active command; starts from the measured state if at rest."""
-        if self._mode is None and self._integrator.at_rest and self._measured is not None:
-            self._integrator.reset(self._measured)
+        """Make `mode` the active command; from rest, start where the arm was measured if it was
+        moved meanwhile (see _RESYNC_TOLERANCE)."""
+        integ = self._integrator
+        if (
+            self._mode is None
+            and integ.at_rest
+            and self._measured is not None
+            and np.abs(self._measured - integ.q).max() > _RESYNC_TOLERANCE
+        ):
+            integ.reset(self._measured)
         if self._mode != mode:
             self._ref_valid = False
+            self._ramp_valid = False
         self._mode = mode
         self._stamp = stamp
 
@@ -496,9 +513,14 @@ class Servo:
         d_lo = q - lim.lower
         if (d_up > self._slow_zone).all() and (d_lo > self._slow_zone).all():
             return -vmax, vmax, np.zeros(self._n, dtype=bool)
-        lead = np.abs(integ.v) * (2.0 * self.config.period_s)  # decided now, felt a period later
-        hi = np.minimum(vmax, braking_speed(d_up - lead, lim.acceleration, lim.jerk))
-        lo = -np.minimum(vmax, braking_speed(d_lo - lead, lim.acceleration, lim.jerk))
+        # The speed asked now is held for a period before a stop could begin: keep the distance
+        # covered meanwhile (at the current speed or the one asked, whichever is higher) in hand.
+        A, J, dt2 = 0.5 * lim.acceleration, 0.5 * lim.jerk, 2.0 * self.config.period_s
+        speed = np.abs(integ.v)
+        s_up = braking_speed(d_up, A, J)
+        s_lo = braking_speed(d_lo, A, J)
+        hi = np.minimum(vmax, braking_speed(d_up - dt2 * np.maximum(speed, s_up), A, J))
+        lo = -np.minimum(vmax, braking_speed(d_lo - dt2 * np.maximum(speed, s_lo), A, J))
         limited = (hi < vmax) | (lo > -vmax)
         return lo, hi, limited
 
@@ -600,6 +622,12 @@ class Servo:
             )
             w_b = R_bf @ tw[:3]
             v_b = R_bf @ tw[3:]
+        # Ramp the twist within Cartesian acceleration and jerk limits (base axes).
+        if not self._ramp_valid:
+            self._ramp.reset(self._tool_twist())
+            self._ramp_valid = True
+        ramped = self._ramp.step(np.concatenate((w_b, v_b)))
+        w_b, v_b = ramped[:3], ramped[3:]
         if tip_axes:
             V_task = np.concatenate((R.T @ w_b, R.T @ v_b))
         else:
@@ -650,12 +678,17 @@ class Servo:
         )
         return V
 
+    def _tool_twist(self) -> FloatArray:
+        """The tip's twist (ω, v) [base axes] at the commanded joint velocities."""
+        integ = self._integrator
+        return self.chain.jacobian(integ.q, "world") @ integ.v
+
     def _null_motion(self, active: NDArray[np.bool_], rows: FloatArray) -> FloatArray:
         """Joint velocities in the null space of the task (active joints) toward mid-range:
         (I − V Vᵀ) g, V = the task's right singular vectors `rows` (k, n_active)."""
         out = np.zeros(self._n)
         if rows.shape[0] >= rows.shape[1] or self.config.nullspace_gain_1_per_s == 0.0:
-            return out
+            return out  # no null space (or switched off)
         q = self._integrator.q
         grad = self.config.nullspace_gain_1_per_s * self._null_weight * (self._mid - q)
         grad = np.minimum(np.maximum(grad, -self._null_cap), self._null_cap)[active]
@@ -664,45 +697,27 @@ class Servo:
 
     def _solve(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> FloatArray:
         cfg = self.config
+        eps, lam = cfg.singular_value_threshold, cfg.max_damping
         n = self._n
         lo, hi, limited = self._velocity_box()
-        active = np.ones(n, dtype=bool)
-        fixed = np.zeros(n)
-        at_limit = np.zeros(n, dtype=bool)
-        sol = dls.solve(Jt, x, cfg.singular_value_threshold, cfg.max_damping)
+        sol = dls.solve(Jt, x, eps, lam)
         s = sol.singular_values
         details["condition"] = (float(s[0] / s[-1]) if s[-1] > 0 else math.inf, float(s[-1]))
-        undamped = sol.undamped
-        damped = sol.damped
-        basis = sol.row_basis
+        fixed = np.zeros(n)
+        undamped, damped, rows = sol.undamped, sol.damped, sol.row_basis
+        active = np.ones(n, dtype=bool)
+        at_limit = np.zeros(n, dtype=bool)
         if limited.any():
-            # Saturate joints that would run into a position bound; re-solve with the others.
-            for _ in range(n):
-                qd = fixed + undamped + damped
-                bad = active & limited & ((qd > hi + 1e-12) | (qd < lo - 1e-12))
-                if not bad.any():
-                    break
-                at_limit |= bad
-                fixed[bad] = np.clip(qd[bad], lo[bad], hi[bad])
-                active &= ~bad
-                if not active.any():
-                    undamped = np.zeros(n)
-                    damped = np.zeros(n)
-                    basis = np.zeros((0, 0))  # no joint left to move
-                    break
-                part = dls.solve(
-                    Jt[:, active],
-                    x - Jt[:, ~active] @ fixed[~active],
-                    cfg.singular_value_threshold,
-                    cfg.max_damping,
-                )
-                undamped = np.zeros(n)
-                damped = np.zeros(n)
-                undamped[active] = part.undamped
-                damped[active] = part.damped
-                basis = part.row_basis
-        null = self._null_motion(active, basis) if active.any() else np.zeros(n)
+            qd = undamped + damped
+            at_limit = limited & ((qd > hi + 1e-12) | (qd < lo - 1e-12))
+            if at_limit.any():
+                saturated = self._saturate(Jt, x, lo, hi, limited, sol)
+                if saturated is not None:
+                    fixed, undamped, damped, rows, active = saturated
+                # else: the other joints cannot take over the task exactly; the uniform scaling
+                # below slows the whole arm along its path instead, to a stop at the limit.
         details["at_limit"] = at_limit
+        null = self._null_motion(active, rows)
         total = fixed + undamped + damped + null
         if ((total <= hi) & (total >= lo)).all():
             return total
@@ -716,6 +731,51 @@ class Servo:
         base = base + self._max_scale(base, null, lo, hi) * null
         details["scaled"] = details.get("scaled", False) or s_base < 1.0 or s_damped < 1.0
         return np.minimum(np.maximum(base, lo), hi)
+
+    def _saturate(
+        self,
+        Jt: FloatArray,
+        x: FloatArray,
+        lo: FloatArray,
+        hi: FloatArray,
+        limited: NDArray[np.bool_],
+        sol: dls.DLSSolution,
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_]] | None:
+        """Hold the joints that would pass a position bound at that bound's speed and solve the
+        task with the others (saturation in the null space, after Flacco, De Luca & Khatib 2012).
+
+        Returns (fixed, undamped, damped, row basis of the active columns, active mask), or None
+        when the remaining joints cannot do the task exactly (too few, or ill-conditioned): then
+        any solution would move the tool in directions nobody commanded.
+        """
+        cfg = self.config
+        n = self._n
+        m = Jt.shape[0]
+        active = np.ones(n, dtype=bool)
+        fixed = np.zeros(n)
+        undamped, damped, rows = sol.undamped, sol.damped, sol.row_basis
+        for _ in range(n):
+            qd = fixed + undamped + damped
+            bad = active & limited & ((qd > hi + 1e-12) | (qd < lo - 1e-12))
+            if not bad.any():
+                return fixed, undamped, damped, rows, active
+            fixed[bad] = np.minimum(np.maximum(qd[bad], lo[bad]), hi[bad])
+            active &= ~bad
+            if int(active.sum()) < m:
+                return None
+            part = dls.solve(
+                Jt[:, active],
+                x - Jt[:, ~active] @ fixed[~active],
+                cfg.singular_value_threshold,
+                cfg.max_damping,
+            )
+            if part.singular_values[-1] < cfg.singular_value_threshold:
+                return None
+            undamped = np.zeros(n)
+            damped = np.zeros(n)
+            undamped[active] = part.undamped
+            rows = part.row_basis
+        return None
 
     # ------------------------------------------------------------------ status
     def _status(

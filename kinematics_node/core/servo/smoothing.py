@@ -9,8 +9,9 @@ within the limits too. Phase synchronisation moves all joints' velocities along 
 in joint space, so a change of speed does not bend the tool's path.
 
 Ruckig's velocity interface does not know position limits, so each period is checked here: from
-the new state, each joint's time-optimal braking motion must stay inside [lower, upper] (or not
-reach further out than the braking motion from the previous state, for a joint that starts outside).
+the new state, each joint's time-optimal braking motion (`limits.braking_reach`, in closed form)
+must stay inside [lower, upper] (or not reach further out than the braking motion from the previous
+state, for a joint that starts outside).
 A joint that would break this brakes instead, from the previous state, along that braking motion;
 it then stops inside the bound. The servo's velocity planning (`limits.braking_speed`) slows the
 joints before this guard has to act, so it only catches what the planning could not foresee.
@@ -18,13 +19,14 @@ joints before this guard has to act, so it only catches what the planning could 
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..exceptions import KinematicsError
-from .limits import ServoLimits
+from .limits import ServoLimits, braking_reach
 
 FloatArray = NDArray[np.float64]
 
@@ -62,11 +64,7 @@ class JerkLimitedIntegrator:
         self.period_s = period_s
         self._n = n
         self._otg: Any = _ruckig.Ruckig(n, period_s)
-        self._planner: Any = _ruckig.Ruckig(n)
-        self._traj: Any = _ruckig.Trajectory(n)
         self._inp: Any = self._make_input()
-        self._brake: Any = self._make_input()
-        self._brake.synchronization = _ruckig.Synchronization.No
         self._out: Any = _ruckig.OutputParameter(n)
         self._bounded = np.isfinite(limits.lower) | np.isfinite(limits.upper)
         # An upper bound on the braking distance from any state within the limits: the speed
@@ -165,13 +163,54 @@ class JerkLimitedIntegrator:
 
     def _reach(self, q: FloatArray, v: FloatArray, a: FloatArray) -> tuple[FloatArray, FloatArray]:
         """(min, max) position of each joint's time-optimal braking motion from (q, v, a)."""
+        return braking_reach(q, v, a, self.limits.acceleration, self.limits.jerk)
+
+
+class VelocityRamp:
+    """A velocity (any number of components) moved toward a target within acceleration and jerk
+    limits, one period per `step` (Ruckig's velocity interface, phase-synchronised so that the
+    vector keeps its direction while its length changes). The servo ramps the commanded twist with
+    it, so that the integrated commanded pose moves in a way the joints can follow."""
+
+    def __init__(self, acceleration: FloatArray, jerk: FloatArray, period_s: float) -> None:
+        if _ruckig is None:
+            raise MissingDependencyError(
+                "the servo's jerk-limited smoothing needs Ruckig: pip install ruckig "
+                "(or pip install 'kinematics_service[servo]')"
+            )
+        n = len(acceleration)
+        self._n = n
+        self._otg: Any = _ruckig.Ruckig(n, period_s)
+        self._out: Any = _ruckig.OutputParameter(n)
+        inp = _ruckig.InputParameter(n)
+        inp.control_interface = _ruckig.ControlInterface.Velocity
+        inp.synchronization = _ruckig.Synchronization.Phase
+        inp.max_velocity = [math.inf] * n
+        inp.max_acceleration = [float(x) for x in acceleration]
+        inp.max_jerk = [float(x) for x in jerk]
+        inp.current_position = [0.0] * n
+        inp.target_acceleration = [0.0] * n
+        self._inp: Any = inp
+        self.v = np.zeros(n)
+        self.a = np.zeros(n)
+
+    def reset(self, velocity: FloatArray) -> None:
+        """Start from `velocity` with no acceleration."""
+        self.v = np.array(velocity, dtype=np.float64)
+        self.a = np.zeros(self._n)
+
+    def step(self, target: FloatArray) -> FloatArray:
+        """The velocity one period later, on the way to `target`."""
         assert _ruckig is not None
-        brake = self._brake
-        brake.current_position = q.tolist()
-        brake.current_velocity = v.tolist()
-        brake.current_acceleration = a.tolist()
-        result = self._planner.calculate(brake, self._traj)
+        inp = self._inp
+        inp.current_velocity = self.v.tolist()
+        inp.current_acceleration = self.a.tolist()
+        inp.target_velocity = target.tolist()
+        result = self._otg.update(inp, self._out)
         if result not in (_ruckig.Result.Working, _ruckig.Result.Finished):
-            return q.copy(), q.copy()
-        ext = self._traj.position_extrema
-        return np.array([e.min for e in ext]), np.array([e.max for e in ext])
+            inp.synchronization = _ruckig.Synchronization.No
+            self._otg.update(inp, self._out)
+            inp.synchronization = _ruckig.Synchronization.Phase
+        self.v = np.array(self._out.new_velocity)
+        self.a = np.array(self._out.new_acceleration)
+        return self.v
