@@ -32,6 +32,7 @@ import numpy as np
 from .core import KinematicsError, SerialChain
 from .core.exceptions import RobotDescriptionError, UnknownNameError
 from .core.ik_options import IKOptions
+from .core.model import mimic_rule
 
 _MAX_SHOWN = 40  # characters of user input echoed in an error message
 _MAX_STEPS = 1_000_000  # demo: joint states simulated at most
@@ -250,42 +251,107 @@ def _configurations(args: argparse.Namespace, chain: SerialChain) -> tuple[np.nd
 Output = Iterable[dict[str, Any] | str]
 
 
+def _description_notes(args: argparse.Namespace) -> list[str]:
+    """What the whole description (not only the chain) has that was adjusted or ignored
+    (`RobotDescription.notes`: normalised axes, mimic joints, a <mimic> on a fixed joint); [] for
+    a DH table. Reads the XML only (no yourdfpy): a few ms."""
+    if args.dh:
+        return []
+    from .core.urdf import RobotDescription
+
+    if args.urdf:
+        return list(RobotDescription(args.urdf).notes)
+    from .robots import robot_path
+
+    return list(RobotDescription(robot_path(args.robot)).notes)
+
+
+_NOTE_JOINT = re.compile(r"^joint '([^']*)'")
+
+
 def cmd_info(args: argparse.Namespace, chain: SerialChain) -> Output:
+    moving = list(chain.moving_joint_names)
+    description_notes = _description_notes(args)
     data = {
         "base_link": chain.base_link,
         "tip_link": chain.tip_link,
         "dof": chain.dof,
+        # the actuated joints: lower/upper are the limits IK keeps, own_lower/own_upper the
+        # joint's own (they differ where a mimic follower's own limits narrow its leader's)
         "joints": [
-            {"name": n, "type": t, "lower": lo, "upper": up, "velocity": v}
-            for n, t, lo, up, v in zip(
-                chain.joint_names,
-                chain.joint_types,
-                chain.lower.tolist(),
-                chain.upper.tolist(),
-                chain.velocity_limit.tolist(),
-                strict=True,
+            {
+                "name": n, "type": t, "lower": lo, "upper": up, "velocity": v,
+                "own_lower": own_lo, "own_upper": own_up,
+            }
+            for n, t, lo, up, v, own_lo, own_up in zip(
+                chain.joint_names, chain.joint_types, chain.lower.tolist(),
+                chain.upper.tolist(), chain.velocity_limit.tolist(), chain.own_lower.tolist(),
+                chain.own_upper.tolist(), strict=True,
             )
         ],
+        # followers: value = multiplier · leader + offset; lower/upper are their own limits
+        "mimic_joints": [
+            {
+                "name": m.name, "leader": m.leader, "multiplier": m.multiplier,
+                "offset": m.offset, "lower": float(chain.moving_lower[moving.index(m.name)]),
+                "upper": float(chain.moving_upper[moving.index(m.name)]),
+            }
+            for m in chain.mimic_joints
+        ],
+        "moving_joint_names": moving,  # the columns of S and B
         "links": list(chain.link_names),
         "S": chain.S.tolist(),
         "B": chain.B.tolist(),
         "M": chain.M.tolist(),
-    }
+        "G": chain.G.tolist(),  # θ = G q + offset: the moving joints' values from q
+        "offset": chain.offset.tolist(),
+        "notes": list(chain.notes),  # what building this chain adjusted, accepted or ignored
+        "description_notes": description_notes,  # the same for the whole description
+    }  # fmt: skip
     if args.json:
         return [data]
     rows = [f"chain {chain.base_link} → {chain.tip_link}, {chain.dof} joints"]
     rows.append(f"  {'#':>2} {'joint':<28}{'type':<12}{'lower':>10}{'upper':>10}{'velocity':>10}")
+    narrowed = False
     for i, j in enumerate(data["joints"], 1):
+        mark = ""
+        if (j["lower"], j["upper"]) != (j["own_lower"], j["own_upper"]):
+            mark, narrowed = "*", True
         rows.append(
             f"  {i:>2} {j['name']:<28}{j['type']:<12}{j['lower']:>10.4g}{j['upper']:>10.4g}"
-            f"{j['velocity']:>10.4g}"
+            f"{j['velocity']:>10.4g}{mark}"
         )
-    rows.append("screw axes in the space frame, S (columns S1..Sn, rows ω then v):")
+    if narrowed:
+        rows.append("  * limits narrowed so that the joint's mimic followers stay within theirs")
+    if chain.mimic_joints:
+        rows.append("mimic joints on the chain (no variable of their own; value from the leader):")
+        rows.append(f"     {'joint':<28}{'value':<40}{'lower':>10}{'upper':>10}")
+        for m in data["mimic_joints"]:
+            rule = mimic_rule(m["leader"], m["multiplier"], m["offset"])
+            rows.append(f"     {m['name']:<28}{rule:<40}{m['lower']:>10.4g}{m['upper']:>10.4g}")
+    if moving == list(chain.joint_names):
+        columns = "columns S1..Sn"
+    else:  # mimic followers have their own columns
+        columns = f"columns: {', '.join(moving)}"
+    rows.append(f"screw axes in the space frame, S ({columns}; rows ω then v):")
     rows.append(_fmt_matrix(chain.S))
     rows.append("screw axes in the body frame, B:")
     rows.append(_fmt_matrix(chain.B))
     rows.append("home pose of the tip, M:")
     rows.append(_fmt_matrix(chain.M))
+    # the chain's notes, then the description's about joints off the chain (the chain's notes
+    # already speak of its own joints)
+    elsewhere = [
+        note
+        for note in description_notes
+        if (found := _NOTE_JOINT.match(note)) is None or found.group(1) not in moving
+    ]
+    if chain.notes:
+        rows.append("notes on this chain:")
+        rows += [f"  - {note}" for note in chain.notes]
+    if elsewhere:
+        rows.append("notes on the rest of the description:")
+        rows += [f"  - {note}" for note in elsewhere]
     return ["\n".join(rows)]
 
 
