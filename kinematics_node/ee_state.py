@@ -32,11 +32,13 @@ FloatArray = NDArray[np.float64]
 #: would otherwise stop every later one [s].
 JUMP_BACK = 1.0
 
-#: Shortest interval a velocity is estimated over from arrival times [s]. Arrival times carry the
-#: transport's and the scheduler's jitter (0.1–2 ms on a busy machine), and a burst of samples
-#: that waited in a queue arrives within microseconds: over this long, 1 ms of jitter is 2 % of
-#: the velocity, and a burst cannot produce a huge one. The estimate spans 1–2 of these at rates
-#: above 1 / ARRIVAL_SPAN (so it lags by 25–50 ms), one sample interval below.
+#: Shortest interval a velocity is estimated over from arrival times [s]. Arrival times carry
+#: jitter: a publisher's delay between sampling and sending, and when they are taken at the
+#: callback, the transport's and the executor's too (0.1–5 ms on a busy machine); and a burst
+#: of samples that waited in a queue arrives within microseconds. Over this long, 0.5 ms of
+#: jitter is 2 % of the velocity at most, and a burst cannot produce a huge one. The estimate
+#: spans 1–2 of these at rates above 1 / ARRIVAL_SPAN (so it lags by 25–50 ms), one sample
+#: interval below.
 ARRIVAL_SPAN = 0.05
 
 #: After the last estimate from arrival times, the velocity source stays reported as arrival
@@ -65,9 +67,10 @@ class JointStateTracker:
     * over the *stamps* when a joint's stamp advances: from the first sample with the joint's
       previous stamp, so a stamp that advances only every k-th sample still spans the motion of
       those k samples;
-    * over the *arrival times* (`received`, a monotonic clock) when the stamp is unset (0) or
-      repeats while a position changed: from the sample received at least `ARRIVAL_SPAN` before,
-      so bursts and jitter do not produce huge or noisy velocities;
+    * over the *arrival times* (`received`) when the stamp is unset (0) or repeats while a
+      position changed: from the sample received at least `ARRIVAL_SPAN` before, so bursts and
+      jitter do not produce huge or noisy velocities (arrival times off by up to e make the
+      velocity off by at most 2e / ARRIVAL_SPAN of it; the first ARRIVAL_SPAN has no estimate);
     * not at all for a duplicate (a set stamp repeated with every position unchanged, received
       within `ARRIVAL_SPAN` of the original): the previous velocity stays. A repeat that comes
       later is a robot at rest reported again, and its velocity is estimated (it decays to 0).
@@ -154,8 +157,10 @@ class JointStateTracker:
             names, positions, velocities: as in sensor_msgs/JointState (velocities may be empty
                 or None).
             stamp: the sample's stamp [s]; 0 means unset.
-            received: when it arrived [s], on a monotonic clock (default: `time.monotonic()`);
-                used only to estimate velocities the stamps cannot give.
+            received: its arrival time [s], on one clock for every sample (the node passes
+                when its publisher sent it, the DDS source timestamp, which no transport or
+                executor delay blurs; default: `time.monotonic()`); used only to estimate
+                velocities the stamps cannot give.
 
         Untracked joints are ignored. A sample whose stamp is older than the last accepted sample
         of a joint it names is ignored for that joint (counted in `stale_samples`), unless it is
@@ -214,6 +219,7 @@ class JointStateTracker:
         arrival: str | None = None
         qdot, stamps, q_at, required = self._qdot, self._stamp, self._q_at_stamp, self._required
         t_a, q_a, t_b, q_b = self._t_a, self._q_a, self._t_b, self._q_b
+        continuous, span = self._continuous, ARRIVAL_SPAN
         for i, p, v in updates:
             last = stamps[i]
             if stamp < last:
@@ -234,7 +240,7 @@ class JointStateTracker:
                 # the stamp advances (from 0 only at the start of simulated time): over the
                 # stamps, from the first sample with the previous one
                 dq = p - q_at[i]
-                if self._continuous[i]:
+                if continuous[i]:
                     dq = math.remainder(dq, 2 * math.pi)
                 v = dq / (stamp - last)
                 q_at[i] = p
@@ -246,11 +252,11 @@ class JointStateTracker:
                 if stamp != last:
                     q_at[i] = p
                 ta = t_a[i]
-                if r - ta >= ARRIVAL_SPAN:
+                if r - ta >= span:
                     dq, dt = p - q_a[i], r - ta
                 else:
                     dq, dt = p - q_b[i], r - t_b[i]
-                if self._continuous[i]:
+                if continuous[i]:
                     dq = math.remainder(dq, 2 * math.pi)
                 v = dq / dt
                 if required[i] and q[i] == q[i]:
@@ -259,7 +265,7 @@ class JointStateTracker:
                         if stamp == 0.0 or last == 0.0
                         else FROM_ARRIVAL_REPEATED
                     )
-            if r - t_a[i] >= ARRIVAL_SPAN:  # the anchors follow every sample taken
+            if r - t_a[i] >= span:  # the anchors follow every sample taken
                 t_b[i], q_b[i], t_a[i], q_a[i] = t_a[i], q_a[i], r, p
             q[i], qdot[i], stamps[i] = p, v, stamp
         if arrival is not None:

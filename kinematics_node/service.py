@@ -583,8 +583,9 @@ class KinematicsService:
 
         Args:
             msg: the JointState.
-            received: when it arrived [s] on a monotonic clock (default: `time.monotonic()` now);
-                the time base of velocity estimates where the stamps cannot be one.
+            received: its arrival time [s], on one clock for every call (the node passes when
+                its publisher sent it: the DDS source timestamp); the time base of velocity
+                estimates where the stamps cannot be one. Default: `time.monotonic()` now.
 
         Both are stamped with this message's stamp as given (zero included, as
         robot_state_publisher stamps /tf) and expressed in base_link (the twist in tip_link
