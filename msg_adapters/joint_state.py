@@ -28,7 +28,8 @@ class JointStateSample(NamedTuple):
     Attributes:
         names, positions, velocities: as in the message (velocities may be empty); sequences of
             str and float, not copied (rclpy gives lists and array('d')).
-        stamp: header stamp [s].
+        stamp: header stamp [s]; exactly 0.0 when the stamp is unset (sec = nanosec = 0, as
+            `ros2 topic pub` and simple drivers send it), which the tracker tells apart.
     """
 
     names: Sequence[str]

@@ -92,3 +92,17 @@ def test_joint_states_from_qs_one_message_per_row_each_with_its_own_header(ros):
         ma.joint_states_from_qs(ros.types, JOINTS, [[0.0, 1.0]], stamp)
     with pytest.raises(InvalidInputError, match=r"\(K, n\)"):
         ma.joint_states_from_qs(ros.types, JOINTS, [0.0, 1.0, 2.0], stamp)
+
+
+def test_sample_from_joint_state_reads_the_fields_once_and_the_stamp_in_seconds(ros):
+    msg = _js(ros, ["j2", "j1"], [0.2, 0.1], [1.5, -0.5])
+    msg.header.stamp = ros.new("builtin_interfaces/msg/Time", sec=1700000000, nanosec=999999999)
+    names, positions, velocities, stamp = ma.sample_from_joint_state(msg)
+    assert list(names) == ["j2", "j1"] and list(positions) == [0.2, 0.1]
+    assert list(velocities) == [1.5, -0.5]
+    assert stamp == pytest.approx(1700000000.999999999, abs=3e-7)  # float64 resolves ~0.24 µs
+    # an unset stamp is exactly 0.0: the tracker estimates over arrival times then
+    msg.header.stamp = ros.new("builtin_interfaces/msg/Time", sec=0, nanosec=0)
+    assert ma.sample_from_joint_state(msg).stamp == 0.0
+    msg.header.stamp = ros.new("builtin_interfaces/msg/Time", sec=0, nanosec=1)
+    assert ma.sample_from_joint_state(msg).stamp == 1e-9  # set, however small
