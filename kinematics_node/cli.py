@@ -452,15 +452,6 @@ def cli_words(text: str) -> str:
     return text
 
 
-def duration_text(seconds: float) -> str:
-    """A measured duration for people: "0.31 ms", "1.52 ms", "50.1 ms", "2.05 s"."""
-    if seconds < 0.01:
-        return f"{seconds * 1e3:.2f} ms"
-    if seconds < 1.0:
-        return f"{seconds * 1e3:.1f} ms"
-    return f"{seconds:.2f} s"
-
-
 def _failure_text(message: str) -> str:
     """The library's IK failure message (why, how long, best residual) as this command's."""
     text = cli_words(" ".join(message.split()))
@@ -514,7 +505,7 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
     # The solvers' imports (~0.2 s, SciPy's) and the detection of the arm's closed form (a UR5e
     # 4 ms, a Panda ~50 ms) happen now, before the clock starts: the time reported is the
     # solve's, as in a program that calls ik more than once.
-    import kinematics_node.core.ik  # noqa: F401
+    from .core.ik import duration_text
 
     _ = chain.ik_family
     t0 = time.perf_counter()
@@ -543,7 +534,7 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
     else:
         wanted = f"{options.position_tolerance:g} m / {options.orientation_tolerance:g} rad"
     if res.success:
-        data["message"] = f"solved within {wanted} in {duration_text(ms / 1e3)}"
+        data["message"] = f"solved within {wanted} in {duration_text(ms / 1e3)}"  # "0.31 ms"
     else:  # the library's reason: out of reach (how far), out of time, no closed form ...
         data["message"] = _failure_text(res.message)
     if not res.success:
@@ -577,7 +568,8 @@ def _ik_all(
         return [data]
     rows = [res.message, f"columns [rad]: {', '.join(chain.joint_names)}"]
     rows += [
-        f"{i:>4}  " + " ".join(f"{x:10.6f}" for x in sol) for i, sol in enumerate(res.solutions, 1)
+        f"{i:>4}  " + " ".join(f"{x:10.6f}" for x in _for_people(np.asarray(sol)))
+        for i, sol in enumerate(res.solutions, 1)
     ]
     return ["\n".join(rows)]
 

@@ -434,13 +434,13 @@ class _ClosedForm:
         assert one is not None
         if not one.solutions:
             return found
-        order, _ = nearest_first(one.solutions[0], found.solutions, seed, w, separation)
+        order, new = nearest_first(one.solutions[0], found.solutions, seed, w, separation)
         every = [one.solutions[0], *found.solutions]
         errors = [one.errors[0], *found.errors]
         return Nearest(
             [every[i] for i in order][:count],
             [errors[i] for i in order][:count],
-            found.complete,
+            found.complete and not new,  # (a new one: the whole set had missed it)
             found.reason,
         )
 
