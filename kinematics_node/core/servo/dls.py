@@ -41,12 +41,23 @@ class DLSSolution(NamedTuple):
         row_basis: (k, n) the right singular vectors vᵢᵀ, an orthonormal basis of J's row space
             when J has full rank: I − row_basisᵀ row_basis projects onto the null space.
         singular_values: σ₁ ≥ … ≥ σ_k, k = min(m, n).
+        left: (m, k) the left singular vectors uᵢ.
+        gains: (k,) σᵢ / (σᵢ² + λᵢ²): with `left` and `row_basis`, the whole linear map x ↦ q̇
+            (see `apply`).
     """
 
     undamped: FloatArray
     damped: FloatArray
     row_basis: FloatArray
     singular_values: FloatArray
+    left: FloatArray
+    gains: FloatArray
+
+
+def apply(solution: DLSSolution, y: FloatArray) -> FloatArray:
+    """The same damped inverse applied to another task vector y (m,): Σ gᵢ vᵢ uᵢᵀ y, e.g. the
+    task acceleration, whose image is the joint acceleration to feed forward."""
+    return solution.row_basis.T @ (solution.gains * (solution.left.T @ y))
 
 
 def variable_damping(sigma: FloatArray, threshold: float, max_damping: float) -> FloatArray:
@@ -77,10 +88,12 @@ def solve(J: FloatArray, x: FloatArray, threshold: float, max_damping: float) ->
     U, s, Vk = svd(J)
     ux = U.T @ x  # uᵢᵀ x
     if s[-1] >= threshold:  # the common case: nothing to damp
-        return DLSSolution(Vk.T @ (ux / s), np.zeros(J.shape[1]), Vk, s)
+        gains = 1.0 / s
+        return DLSSolution(Vk.T @ (ux * gains), np.zeros(J.shape[1]), Vk, s, U, gains)
     lam2 = variable_damping(s, threshold, max_damping)
     small = lam2 > 0.0
-    coeff = ux * s / (s * s + lam2)  # σ > 0 where λ = 0, and λ > 0 where σ = 0
+    gains = s / (s * s + lam2)  # σ > 0 where λ = 0, and λ > 0 where σ = 0
+    coeff = ux * gains
     damped = Vk[small].T @ coeff[small]
     undamped = Vk[~small].T @ coeff[~small]
-    return DLSSolution(undamped, damped, Vk, s)
+    return DLSSolution(undamped, damped, Vk, s, U, gains)

@@ -468,7 +468,7 @@ class Servo:
             target = self._jog_target(details)
         else:
             target = self._task_target(details)
-        braking = integ.step(target)
+        braking = integ.step(target, details.get("target_acceleration"))
         if braking.any():
             at_limit = details.get("at_limit", np.zeros(self._n, dtype=bool)) | braking
             details["at_limit"] = at_limit
@@ -566,6 +566,8 @@ class Servo:
         if not self._all_rows:
             Jt = Jt[self._rows]
             x = x[self._rows]
+            if "task_acceleration" in details:
+                details["task_acceleration"] = details["task_acceleration"][self._rows]
         return self._solve(Jt, x, details)
 
     def _kept_error(
@@ -628,6 +630,10 @@ class Servo:
             self._ramp_valid = True
         ramped = self._ramp.step(np.concatenate((w_b, v_b)))
         w_b, v_b = ramped[:3], ramped[3:]
+        ramp_acc = self._ramp.a
+        if tip_axes:
+            ramp_acc = np.concatenate((R.T @ ramp_acc[:3], R.T @ ramp_acc[3:]))
+        details["task_acceleration"] = ramp_acc
         if tip_axes:
             V_task = np.concatenate((R.T @ w_b, R.T @ v_b))
         else:
@@ -678,6 +684,11 @@ class Servo:
         )
         return V
 
+    def _jacobian_at(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """(J_world (6, n), R (3, 3)) at q."""
+        T, J = self.chain.fk_jacobian(q, "world")
+        return J, T[:3, :3]
+
     def _tool_twist(self) -> FloatArray:
         """The tip's twist (ω, v) [base axes] at the commanded joint velocities."""
         integ = self._integrator
@@ -720,6 +731,17 @@ class Servo:
         null = self._null_motion(active, rows)
         total = fixed + undamped + damped + null
         if ((total <= hi) & (total >= lo)).all():
+            task_acc = details.get("task_acceleration")
+            if task_acc is not None and not at_limit.any():
+                # q̈ = J⁺ (ẍ − J̇ q̇): the joint acceleration that keeps up with the ramping twist
+                # as the arm moves, fed forward to the smoothing; J̇ q̇ by a difference along q̇.
+                h = cfg.period_s
+                q = self._integrator.q
+                J_ahead = task_jacobian_rows(*self._jacobian_at(q + h * total), cfg.task_axes_frame)
+                if not self._all_rows:
+                    J_ahead = J_ahead[self._rows]
+                jdot_qd = (J_ahead - Jt) @ total / h
+                details["target_acceleration"] = dls.apply(sol, task_acc - jdot_qd)
             return total
         # Fit into the box: the whole undamped part first (uniform scaling keeps its direction),
         # then as much of the damped part, then of the null-space motion.
