@@ -317,8 +317,12 @@ def _single_answer(chain: SerialChain, job: IKJob) -> _Single | None:
     `ik` holds it at the seed's value first (on a Panda 10 of 60 random targets had the set's
     first up to 0.08 rad farther); at a singular target of a 6R arm the two differ by ~1e-8."""
     opts = replace(job.options, mode="speed", num_solutions=1)
-    left = job.deadline - time.monotonic()
-    result = chain.ik(job.T_base_target, job.q_seed, replace(opts, timeout=max(left, 1e-4)))
+    # `solve_closed_form` first (`solve_at_once`'s way: the job's own options, whose prepared
+    # problem the core keeps): where its first try finds one, `ik` returns exactly that
+    result = solve_closed_form(chain, job.T_base_target, job.q_seed, opts)
+    if result is None:
+        left = job.deadline - time.monotonic()
+        result = chain.ik(job.T_base_target, job.q_seed, replace(opts, timeout=max(left, 1e-4)))
     if not result.success:
         return None
     seed = check_seed(chain, job.q_seed, "q_seed", None)  # as `ik` took it: clamped, or default
