@@ -29,6 +29,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from . import ros_cli
 from .core import KinematicsError, SerialChain
 from .core.exceptions import RobotDescriptionError, UnknownNameError
 from .core.ik_options import IKOptions
@@ -792,6 +793,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument(
         "--no-ros", action="store_true", help="run in this process even where ROS 2 is available"
     )
+    ros_cli.add_parser(sub)  # `kinematics ros pose|ik`: ROS is imported only when it runs
     return parser
 
 
@@ -860,6 +862,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if args.command == "demo":
             return _demo(args)
+        if args.command == "ros":
+            return ros_cli.run(args)
         # overflow in extreme but finite inputs shows in the results (checked finite), not as
         # numpy's warnings on stderr
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):

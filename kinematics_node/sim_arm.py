@@ -3,8 +3,10 @@
 The simulation is `kinematics_node.simulator.ArmSimulator`; message conversion is
 `msg_adapters.joint_commands`. This module only connects them to rclpy (Humble and Jazzy API).
 
-Parameters:
-    robot_description (str, ""): URDF/xacro XML; when empty, the bundled robot `robot` is used.
+Parameters (`executables.SIM_ARM_PARAMETERS`, which `sim_arm --help` lists):
+    robot_description_file (str, ""): a URDF or xacro file, expanded with `xacro_args` (str,
+        "name:=value ..."), as the kinematics node reads its parameter of that name.
+    robot_description (str, ""): URDF/xacro XML; with neither, the bundled robot `robot` is used.
     robot (str, "ur5e"): bundled robot name (see `kinematics_node.robots.available_robots`).
     base_link, tip_link (str, ""): when tip_link is set, simulate only the chain base → tip;
         otherwise every moving non-mimic joint (what robot_state_publisher needs).
@@ -30,6 +32,8 @@ from trajectory_msgs.msg import JointTrajectory
 
 from kinematics_node.core import SerialChain
 from kinematics_node.core.exceptions import KinematicsError
+from kinematics_node.description_file import read_description_file
+from kinematics_node.executables import SIM_ARM_PARAMETERS
 from kinematics_node.robots import default_chain_links, robot_path
 from kinematics_node.ros_main import spin_until_shutdown
 from kinematics_node.simulator import ArmSimulator
@@ -42,7 +46,12 @@ class SimArmNode(Node):
     def __init__(self) -> None:
         super().__init__("sim_arm")
         p = self._declare_parameters()
-        description = p["robot_description"] or robot_path(p["robot"]).read_text(encoding="utf-8")
+        description = p["robot_description"]
+        if not description and p["robot_description_file"]:
+            description = read_description_file(p["robot_description_file"], p["xacro_args"]).xml
+        bundled = not description
+        if bundled:
+            description = robot_path(p["robot"]).read_text(encoding="utf-8")
         rate = p["rate"]
         if not rate > 0:
             raise KinematicsError(f"parameter rate must be > 0 Hz, got {rate}")
@@ -53,7 +62,7 @@ class SimArmNode(Node):
         }
         if p["tip_link"]:
             base = p["base_link"] or None
-            if not p["robot_description"] and base is None:
+            if bundled and base is None:
                 base = default_chain_links(p["robot"])[0]
             chain = SerialChain.from_urdf(description, base_link=base, tip_link=p["tip_link"])
             self.sim = ArmSimulator.from_chain(chain, 1.0 / rate, **options)
@@ -71,20 +80,11 @@ class SimArmNode(Node):
         )
 
     def _declare_parameters(self) -> dict:
-        specs = {
-            "robot_description": ("", "URDF/xacro XML; empty: use the bundled robot `robot`"),
-            "robot": ("ur5e", "bundled robot name, used when robot_description is empty"),
-            "base_link": ("", "base of the simulated chain (with tip_link)"),
-            "tip_link": ("", "tip of the simulated chain; empty: all moving non-mimic joints"),
-            "rate": (100.0, "publishing and integration rate [Hz]"),
-            "command_timeout": (0.5, "how long a velocity command is held [s]"),
-            "demo": (True, "run the demo motion until the first command"),
-            "demo_resume_after": (0.0, "restart the demo after this idle time [s]; <= 0: never"),
-        }
         values = {}
-        for name, (default, text) in specs.items():
-            self.declare_parameter(name, default, ParameterDescriptor(description=text))
-            values[name] = self.get_parameter(name).value
+        for spec in SIM_ARM_PARAMETERS:
+            descriptor = ParameterDescriptor(description=spec.description)
+            self.declare_parameter(spec.name, spec.default, descriptor)
+            values[spec.name] = self.get_parameter(spec.name).value
         return values
 
     def _on_timer(self) -> None:

@@ -176,6 +176,14 @@ WITHOUT_ROS = {
         "kinematics_node.simulator",
         "kinematics_node.robots",
     ),
+    # the `kinematics` command line (its `ros` command imports rclpy only when it runs) and what
+    # the installed executables do before ROS starts (--help)
+    "command_lines": (
+        "kinematics_node.cli",
+        "kinematics_node.ros_cli",
+        "kinematics_node.ros_client",
+        "kinematics_node.executables",
+    ),
 }
 ROS_PACKAGES = ("rclpy", "rosidl_runtime_py", "geometry_msgs", "sensor_msgs")
 

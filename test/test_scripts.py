@@ -221,3 +221,17 @@ def test_env_sh_puts_the_executables_on_path_and_keeps_discovery_on_this_machine
 def test_env_sh_keeps_the_users_discovery_settings():
     got = _env_sh({"ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET", "ROS_DOMAIN_ID": "42"})
     assert got["settings"] == "range=SUBNET domain=42"
+
+
+def test_the_installed_sim_arm_refuses_a_missing_description_file_in_one_line(tmp_path):
+    path = _installed_paths()["sim_arm"]
+    missing = tmp_path / "my_robot.urdf"
+    out = subprocess.run(
+        [str(path), "--ros-args", "-p", f"robot_description_file:={missing}"],
+        env=local_ros_env(),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert out.returncode == 2, out.stderr
+    assert out.stderr == f"sim_arm: robot_description_file {str(missing)!r}: no such file\n"
