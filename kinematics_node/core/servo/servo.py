@@ -51,7 +51,8 @@ from .status import ServoStatus, StatusCode
 
 FloatArray = NDArray[np.float64]
 
-_NULLSPACE_SPEED_FRACTION = 0.2  # null-space motion uses at most this share of a joint's speed
+_NULLSPACE_SPEED_FRACTION = 0.05  # null-space motion uses at most this share of a joint's speed
+# (a step of 0.2 moved the Panda's tool 0.8 mm as it began; 0.05: 0.04 mm)
 _RESYNC_TOLERANCE = 1e-3  # [rad or m] a command starting from rest starts from the measured
 # positions when they are farther than this from the last command (the arm was moved meanwhile);
 # nearer, from the last command, so that the commanded positions stay continuous
@@ -154,13 +155,17 @@ class Servo:
         )
         bounded = np.isfinite(lim.lower) & np.isfinite(lim.upper)
         self._mid = np.where(bounded, 0.5 * (lim.lower + lim.upper), 0.0)
-        self._null_weight = np.where(bounded, 1.0, 0.0)
+        self._half = np.where(bounded, 0.5 * (lim.upper - lim.lower), 0.0)
+        self._inv_half = np.where(
+            self._half > 0, 1.0 / np.where(self._half > 0, self._half, 1.0), 0.0
+        )
         self._null_cap = _NULLSPACE_SPEED_FRACTION * lim.velocity
         self._base = chain.link_names[0]
         self._tip = chain.link_names[-1]
         self._n = n
         # Active command, in the form the steps use.
         self._mode: str | None = None
+        self._winding_down = False  # a twist command timed out: its twist is ramping to zero
         self._stamp = 0.0
         self._twist_frame = self._base
         self._twist: tuple[float, ...] = (
@@ -177,6 +182,7 @@ class Servo:
         acc = np.array((ang_a, ang_a, ang_a, lin_a, lin_a, lin_a))
         self._ramp = VelocityRamp(acc, acc / cfg.jerk_time_s, cfg.period_s)
         self._ramp_valid = False
+        self._ramp_target = np.zeros(6)
         self._ref_p = (0.0, 0.0, 0.0)
         self._ref_q: _quat.Quat = (0.0, 0.0, 0.0, 1.0)
         self._stop: tuple[StatusCode, str] = (StatusCode.IDLE, "waiting for a command")
@@ -230,6 +236,7 @@ class Servo:
     def _end(self, code: StatusCode, message: str) -> None:
         """Drop the active command: the arm stops smoothly, and the status says why."""
         self._mode = None
+        self._winding_down = False
         self._ref_valid = False
         self._ramp_valid = False
         self._stop = (code, message)
@@ -327,6 +334,7 @@ class Servo:
             self._ramp_valid = False
         self._mode = mode
         self._stamp = stamp
+        self._winding_down = False
 
     def _accept_twist(self, cmd: TwistCommand) -> tuple[StatusCode, str] | None:
         cfg = self.config
@@ -455,12 +463,23 @@ class Servo:
             trouble = self._take_measurement(measured_positions)
         if trouble is not None and self._mode is not None:
             self._end(*trouble)
-        if self._mode is not None and now - self._stamp > cfg.command_timeout_s:
-            self._end(
-                StatusCode.TIMEOUT_STOP,
+        if (
+            self._mode is not None
+            and not self._winding_down
+            and now - self._stamp > cfg.command_timeout_s
+        ):
+            message = (
                 f"no command for {now - self._stamp:.3f} s (timeout {cfg.command_timeout_s:g} s): "
-                "stopping",
+                "stopping"
             )
+            if self._mode == "twist":
+                # Ramp the twist down to zero with the loop still closed: the tool stops on its
+                # path (a joint-space stop would bend it), then the joints come to rest.
+                self._winding_down = True
+                self._twist = (0.0,) * 6
+                self._stop = (StatusCode.TIMEOUT_STOP, message + " along the path")
+            else:
+                self._end(StatusCode.TIMEOUT_STOP, message)
         details: dict[str, Any] = {}
         if self._mode is None:
             target = np.zeros(self._n)
@@ -469,6 +488,8 @@ class Servo:
         else:
             target = self._task_target(details)
         braking = integ.step(target, details.get("target_acceleration"))
+        if self._winding_down and not (self._ramp.v.any() or self._ramp.a.any()):
+            self._end(*self._stop)  # the twist is down to zero: let the joints settle
         if braking.any():
             at_limit = details.get("at_limit", np.zeros(self._n, dtype=bool)) | braking
             details["at_limit"] = at_limit
@@ -628,7 +649,8 @@ class Servo:
         if not self._ramp_valid:
             self._ramp.reset(self._tool_twist())
             self._ramp_valid = True
-        ramped = self._ramp.step(np.concatenate((w_b, v_b)))
+        self._ramp_target = np.concatenate((w_b, v_b))
+        ramped = self._ramp.step(self._ramp_target)
         w_b, v_b = ramped[:3], ramped[3:]
         ramp_acc = self._ramp.a
         if tip_axes:
@@ -684,6 +706,14 @@ class Servo:
         )
         return V
 
+    def _hold_ramp(self) -> None:
+        """The arm is held back (a joint limit, a velocity limit) while the ramped twist has
+        reached the command: restart the ramp from what the arm does, so that it does not run
+        ahead of the arm (wind up). A ramp still on its way (the command changed, e.g. reversed
+        to leave the limit) goes on."""
+        if self._mode == "twist" and np.array_equal(self._ramp.v, self._ramp_target):
+            self._ramp_valid = False
+
     def _jacobian_at(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """(J_world (6, n), R (3, 3)) at q."""
         T, J = self.chain.fk_jacobian(q, "world")
@@ -695,16 +725,20 @@ class Servo:
         return self.chain.jacobian(integ.q, "world") @ integ.v
 
     def _null_motion(self, active: NDArray[np.bool_], rows: FloatArray) -> FloatArray:
-        """Joint velocities in the null space of the task (active joints) toward mid-range:
-        (I − V Vᵀ) g, V = the task's right singular vectors `rows` (k, n_active)."""
+        """Joint velocities in the null space of the task (active joints) away from the limits:
+        (I − V Vᵀ) g, V = the task's right singular vectors `rows` (k, n_active) (Liégeois 1977:
+        the projected gradient of a joint-limit cost)."""
         out = np.zeros(self._n)
         if rows.shape[0] >= rows.shape[1] or self.config.nullspace_gain_1_per_s == 0.0:
             return out  # no null space (or switched off)
         q = self._integrator.q
-        grad = self.config.nullspace_gain_1_per_s * self._null_weight * (self._mid - q)
-        grad = np.minimum(np.maximum(grad, -self._null_cap), self._null_cap)[active]
+        # −k h x³ with x = (q − mid)/h, h the half range: the gradient of Σ h² x⁴/4, flat in
+        # the middle and steep near the limits, so the joints nearest a limit dominate.
+        x = (q - self._mid) * self._inv_half
+        grad = (-self.config.nullspace_gain_1_per_s * self._half * x * x * x)[active]
         out[active] = grad - rows.T @ (rows @ grad)
-        return out
+        peak = float(np.max(np.abs(out) / self._null_cap))
+        return out / peak if peak > 1.0 else out
 
     def _solve(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> FloatArray:
         cfg = self.config
@@ -716,6 +750,8 @@ class Servo:
         details["condition"] = (float(s[0] / s[-1]) if s[-1] > 0 else math.inf, float(s[-1]))
         fixed = np.zeros(n)
         undamped, damped, rows = sol.undamped, sol.damped, sol.row_basis
+        if s[-1] < lam and s.shape[0] == Jt.shape[0]:
+            damped = damped + self._escape(x, sol, details)
         active = np.ones(n, dtype=bool)
         at_limit = np.zeros(n, dtype=bool)
         if limited.any():
@@ -728,6 +764,8 @@ class Servo:
                 # else: the other joints cannot take over the task exactly; the uniform scaling
                 # below slows the whole arm along its path instead, to a stop at the limit.
         details["at_limit"] = at_limit
+        if at_limit.any():
+            self._hold_ramp()
         null = self._null_motion(active, rows)
         total = fixed + undamped + damped + null
         if ((total <= hi) & (total >= lo)).all():
@@ -752,7 +790,49 @@ class Servo:
         base = base + s_damped * damped
         base = base + self._max_scale(base, null, lo, hi) * null
         details["scaled"] = details.get("scaled", False) or s_base < 1.0 or s_damped < 1.0
+        if s_base < 1.0:
+            self._hold_ramp()
         return np.minimum(np.maximum(base, lo), hi)
+
+    def _escape(self, x: FloatArray, sol: dls.DLSSolution, details: dict[str, Any]) -> FloatArray:
+        """Motion along the singular joint direction v_min that leaves a singularity the way the
+        command asks, where the first-order response is nil.
+
+        At σ_min = 0 the lost task direction u_min cannot be produced at first order, so the damped
+        solution gives no motion along it, and it takes long to drift off the singularity. Moving
+        the joints by θ along v_min moves the tool by ½ θ² H at second order (H = d²x/dθ², the
+        same for ±θ). Where H has a component along the command's u_min-part, the joints move
+        along v_min at |u_minᵀ x| / (2λ) (what the damped solution gives at σ = λ), weighted down to
+        nothing as σ_min grows to λ_max, so the damped solution takes over continuously. Where it
+        has none (e.g. pulling a straight elbow further out), nothing is added: that command
+        cannot be followed from here.
+        """
+        cfg = self.config
+        lam = cfg.max_damping
+        u, v, sigma = sol.left[:, -1], sol.row_basis[-1], float(sol.singular_values[-1])
+        r = float(u @ x)
+        if r == 0.0:
+            return np.zeros(self._n)
+        h = 1e-3
+        q = self._integrator.q
+        T0 = self.chain.fk(q)
+        second = np.zeros(6)
+        for sign in (1.0, -1.0):
+            T = self.chain.fk(q + sign * h * v)
+            second[:3] += so3.vee(T[:3, :3] @ T0[:3, :3].T - T0[:3, :3] @ T[:3, :3].T) / 2.0
+            second[3:] += T[:3, 3] - T0[:3, 3]
+        if cfg.task_axes_frame == "tip":
+            R = T0[:3, :3]
+            second = np.concatenate((R.T @ second[:3], R.T @ second[3:]))
+        if not self._all_rows:
+            second = second[self._rows]
+        if r * float(u @ second) <= 0.0:
+            return np.zeros(self._n)
+        along = float(v @ (sol.undamped + sol.damped))
+        direction = 1.0 if along >= 0.0 else -1.0
+        weight = 1.0 - sigma / lam
+        details["escaping"] = True
+        return (direction * weight * abs(r) / (2.0 * lam)) * v
 
     def _saturate(
         self,
@@ -816,7 +896,7 @@ class Servo:
         sigma_min = condition[1] if condition else math.inf
         pos_err, ang_err = details.get("errors", (0.0, 0.0))
         dropped = self.dropped_axes
-        if self._mode is None:
+        if self._mode is None or self._winding_down:
             code, message = self._stop if trouble is None else trouble
             if self._integrator.at_rest and code == StatusCode.TIMEOUT_STOP:
                 message = "stopped: no fresh command"

@@ -76,7 +76,6 @@ class JerkLimitedIntegrator:
         self.v = np.zeros(n)
         self.a = np.zeros(n)
         self._zeros = np.zeros(n)
-        self._target_acc = self._zeros
         self._reach_lo = self.q.copy()  # extent of the braking motion from the current state
         self._reach_hi = self.q.copy()
 
@@ -110,40 +109,63 @@ class JerkLimitedIntegrator:
         """Advance one period toward `target_velocity` (n,) [rad/s or m/s], arriving there with
         `target_acceleration` (n,) [rad/s² or m/s²] (default 0): a target that moves at a steady
         rate is then followed without lag. Returns the mask of joints that the position guard made
-        brake (their targets become 0)."""
-        braking = np.zeros(self._n, dtype=bool)
+        brake (their targets become 0).
+
+        Two guards check the planned period, joint by joint, and re-plan a joint on its own
+        (unsynchronised, time-optimal, as Ruckig guarantees its limits for one joint alone):
+        * velocity: Ruckig's velocity interface bounds acceleration and jerk, not velocity, so the
+          speed the joint would reach by bringing its acceleration to zero at full jerk,
+          |v + a|a|/(2J)|, must stay within the velocity limit; a joint that would pass it heads
+          for its (clipped) target with no target acceleration instead;
+        * position: see the module docstring; a joint that would pass it brakes to a stop.
+        """
         lim = self.limits
+        n = self._n
+        braking = np.zeros(n, dtype=bool)
+        alone = np.zeros(n, dtype=bool)
         target = np.minimum(np.maximum(target_velocity, -lim.velocity), lim.velocity)
         if target_acceleration is None:
-            self._target_acc = self._zeros
+            acc = self._zeros
         else:
             # Within the limit, and none where the velocity limit would be passed before the
             # acceleration could return to zero (Ruckig could not reach such a target state).
             cap = 0.9 * lim.acceleration
             acc = np.minimum(np.maximum(target_acceleration, -cap), cap)
             peak = np.abs(target + acc * np.abs(acc) / (2.0 * lim.jerk))
-            self._target_acc = np.where(peak >= lim.velocity, 0.0, acc)
-        q, v, a = self._advance(target, braking)
-        if self._near_bounds(q):
-            for _ in range(self._n):
+            acc = np.where(peak >= lim.velocity, 0.0, acc)
+        q, v, a = self._advance(target, acc, alone)
+        near = self._near_bounds(q)
+        for _ in range(n + 1):
+            fast = np.abs(v + a * np.abs(a) / (2.0 * lim.jerk)) > lim.velocity * (1 + 1e-12)
+            bad_v = fast & ~alone
+            bad_p = np.zeros(n, dtype=bool)
+            if near:
                 lo, hi = self._reach(q, v, a)
-                bad = self._bounded & ~braking
-                bad &= (hi > np.maximum(self.limits.upper, self._reach_hi) + _TOL) | (
-                    lo < np.minimum(self.limits.lower, self._reach_lo) - _TOL
+                bad_p = self._bounded & ~braking
+                bad_p &= (hi > np.maximum(lim.upper, self._reach_hi) + _TOL) | (
+                    lo < np.minimum(lim.lower, self._reach_lo) - _TOL
                 )
-                if not bad.any():
-                    break
-                braking |= bad
-                target = np.where(braking, 0.0, target)
-                q, v, a = self._advance(target, braking)
+            if not (bad_v.any() or bad_p.any()):
+                break
+            braking |= bad_p
+            alone |= bad_v | bad_p
+            target = np.where(braking, 0.0, target)
+            acc = np.where(alone, 0.0, acc)
+            q, v, a = self._advance(target, acc, alone)
+        if near:
             self._reach_lo, self._reach_hi = self._reach(q, v, a)
         else:
             self._reach_lo, self._reach_hi = q, q
+        # Ruckig ends a stop within rounding of zero: call it zero, so that "at rest" is exact.
+        settled = (target == 0.0) & (np.abs(v) < 1e-12) & (np.abs(a) < 1e-9)
+        if settled.any():
+            v = np.where(settled, 0.0, v)
+            a = np.where(settled, 0.0, a)
         self.q, self.v, self.a = q, v, a
         return braking
 
     def _advance(
-        self, target: FloatArray, braking: NDArray[np.bool_]
+        self, target: FloatArray, acc: FloatArray, alone: NDArray[np.bool_]
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
         assert _ruckig is not None
         inp = self._inp
@@ -151,18 +173,19 @@ class JerkLimitedIntegrator:
         inp.current_velocity = self.v.tolist()
         inp.current_acceleration = self.a.tolist()
         inp.target_velocity = target.tolist()
-        inp.target_acceleration = np.where(braking, 0.0, self._target_acc).tolist()
-        # A braking joint must follow its own time-optimal stop, not a synchronised one. (Measured:
-        # phase synchronisation also tracks a moving target better than none, UR5e/Panda/iiwa.)
+        inp.target_acceleration = acc.tolist()
+        # A joint re-planned by a guard must follow its own time-optimal motion, not a
+        # synchronised one. (Measured: phase synchronisation otherwise tracks a moving target
+        # better than none, on the UR5e, Panda and iiwa.)
         inp.synchronization = (
-            _ruckig.Synchronization.No if braking.any() else _ruckig.Synchronization.Phase
+            _ruckig.Synchronization.No if alone.any() else _ruckig.Synchronization.Phase
         )
         result = self._otg.update(inp, self._out)
         if result not in (_ruckig.Result.Working, _ruckig.Result.Finished):
             # Ruckig refuses only inputs outside its limits; they come from our own state, so this
-            # is rounding: fall back to braking every joint independently.
+            # is rounding: plan every joint on its own, with no target acceleration.
             inp.synchronization = _ruckig.Synchronization.No
-            inp.target_velocity = [0.0] * self._n
+            inp.target_acceleration = [0.0] * self._n
             self._otg.update(inp, self._out)
         out = self._out
         return (
@@ -229,6 +252,11 @@ class VelocityRamp:
             inp.synchronization = _ruckig.Synchronization.No
             self._otg.update(inp, self._out)
             inp.synchronization = _ruckig.Synchronization.Phase
-        self.v = np.array(self._out.new_velocity)
-        self.a = np.array(self._out.new_acceleration)
-        return self.v
+        v = np.array(self._out.new_velocity)
+        a = np.array(self._out.new_acceleration)
+        settled = (target == 0.0) & (np.abs(v) < 1e-12) & (np.abs(a) < 1e-9)
+        if settled.any():  # a stop ends within rounding of zero: call it zero
+            v = np.where(settled, 0.0, v)
+            a = np.where(settled, 0.0, a)
+        self.v, self.a = v, a
+        return v
