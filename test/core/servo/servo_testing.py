@@ -51,10 +51,12 @@ def run(
     t0: float = 100.0,
     lag_s: float | None = None,
     blocked: bool = False,
+    corrupt: Callable[[int, np.ndarray], object] | None = None,
 ) -> Trace:
     """Step `servo` for `seconds`; before each step, submit the commands `script(k, t)` returns.
 
     The arm: perfect integrator (lag_s None), first-order lag, or blocked (never moves).
+    `corrupt(k, measured)` may replace what the step is told was measured.
     """
     dt = servo.config.period_s
     n = servo.chain.dof
@@ -70,7 +72,7 @@ def run(
         for cmd in script(k, t):
             servo.submit(cmd, t)
         meas[k] = measured
-        out = servo.step(t, measured)
+        out = servo.step(t, measured if corrupt is None else corrupt(k, measured))
         out_q[k], out_v[k], out_a[k] = out.positions, out.velocities, out.accelerations
         statuses.append(out.status)
         if blocked:
