@@ -1,5 +1,5 @@
 """`kinematics ros` without a node (and without ROS): its arguments and what it says when ROS 2
-is missing. Against the running node: test/live/test_ros_cli.py and test_quickstart.py."""
+is missing. Against the running node: test/live/test_node_from_shell.py and test_quickstart.py."""
 
 from __future__ import annotations
 
