@@ -16,8 +16,9 @@ CMAKE = (ROOT / "CMakeLists.txt").read_text(encoding="utf-8")
 
 # Imports that are not ROS packages: the standard library, our own packages, pip-only packages.
 OWN = {"kinematics_node", "msg_adapters", "kinematics_service"}
-PIP_ONLY = {"yourdfpy"}  # no rosdep key: users `pip install yourdfpy` (comment in package.xml)
+PIP_ONLY: set[str] = set()  # imports without any rosdep key (none today)
 ROSDEP_KEY = {
+    "yourdfpy": "python3-yourdfpy-pip",  # rosdep's pip key (ros/rosdistro rosdep/python.yaml)
     "numpy": "python3-numpy",
     "scipy": "python3-scipy",
     "pytest": "python3-pytest",
