@@ -16,7 +16,8 @@ CMAKE = (ROOT / "CMakeLists.txt").read_text(encoding="utf-8")
 
 # Imports that are not ROS packages: the standard library, our own packages, pip-only packages.
 OWN = {"kinematics_node", "msg_adapters", "kinematics_service"}
-PIP_ONLY: set[str] = set()  # imports without any rosdep key (none today)
+# imports without a rosdep key: ruckig, the servo's smoothing (pip install ruckig)
+PIP_ONLY: set[str] = {"ruckig"}
 ROSDEP_KEY = {
     "yourdfpy": "python3-yourdfpy-pip",  # rosdep's pip key (ros/rosdistro rosdep/python.yaml)
     "numpy": "python3-numpy",

@@ -143,6 +143,10 @@ class Servo:
         self._all_rows = len(rows) == 6
         self.task_axes: tuple[str, ...] = tuple(TWIST_AXES[i] for i in rows)
         self.dropped_axes: tuple[str, ...] = dropped
+        self._dropped_note = (
+            f"; follows {', '.join(self.task_axes)} in {cfg.task_axes_frame} axes, "
+            f"drops {', '.join(dropped)}"
+        )
         keep = np.zeros(6, dtype=bool)
         keep[self._rows] = True
         self._dropped_mask = ~keep
@@ -183,6 +187,8 @@ class Servo:
         self._ramp = VelocityRamp(acc, acc / cfg.jerk_time_s, cfg.period_s)
         self._ramp_valid = False
         self._ramp_target = np.zeros(6)
+        self._last_jacobian: FloatArray | None = None  # the task Jacobian of the last period
+        self._null_ease = 0.0  # share of the null-space speed allowed (eased in per command)
         self._ref_p = (0.0, 0.0, 0.0)
         self._ref_q: _quat.Quat = (0.0, 0.0, 0.0, 1.0)
         self._stop: tuple[StatusCode, str] = (StatusCode.IDLE, "waiting for a command")
@@ -237,6 +243,7 @@ class Servo:
         """Drop the active command: the arm stops smoothly, and the status says why."""
         self._mode = None
         self._winding_down = False
+        self._last_jacobian = None
         self._ref_valid = False
         self._ramp_valid = False
         self._stop = (code, message)
@@ -330,6 +337,8 @@ class Servo:
         ):
             integ.reset(self._measured)
         if self._mode != mode:
+            self._last_jacobian = None
+            self._null_ease = 0.0
             self._ref_valid = False
             self._ramp_valid = False
         self._mode = mode
@@ -500,7 +509,7 @@ class Servo:
 
     def _take_measurement(self, measured: ArrayLike) -> tuple[StatusCode, str] | None:
         try:
-            q = np.asarray(measured, dtype=np.float64)
+            q = np.array(measured, dtype=np.float64)  # a copy: the caller may reuse its buffer
         except (TypeError, ValueError):
             return StatusCode.STATE_REFUSED, "measured_positions must be numbers"
         if q.shape != (self._n,):
@@ -509,14 +518,14 @@ class Servo:
                 f"measured_positions must have {self._n} values (joints "
                 f"{list(self.chain.joint_names)}), got shape {q.shape}",
             )
-        if not np.all(np.isfinite(q)):
+        if not np.isfinite(q).all():
             return StatusCode.STATE_REFUSED, "measured_positions contains a non-finite value"
         self._measured = q
         integ = self._integrator
         if self._mode is not None and not integ.at_rest:
             dev = np.abs(q - integ.q)
-            k = int(np.argmax(dev))
-            if dev[k] > self.config.max_following_error:
+            if dev.max() > self.config.max_following_error:
+                k = int(np.argmax(dev))
                 return (
                     StatusCode.NOT_FOLLOWING,
                     f"joint {self.chain.joint_names[k]!r} is {dev[k]:.3g} from its command (more "
@@ -620,15 +629,26 @@ class Servo:
         # e = (log(R_ref Rᵀ), p_ref − p), base axes
         ew = _quat.to_rotvec(_quat.mul(self._ref_q, _quat.conj(q_now)))
         rp = self._ref_p
-        e = np.array((ew[0], ew[1], ew[2], rp[0] - p[0], rp[1] - p[1], rp[2] - p[2]))
-        e_task, e_base = self._kept_error(R, e, tip_axes)
-        # Bound the kept error (anti wind-up): scale each part down to its bound.
-        nw, nv = _norm3(*e_base[:3]), _norm3(*e_base[3:])
-        sw = min(1.0, cfg.max_kept_error_rad / nw) if nw > 0 else 1.0
-        sv = min(1.0, cfg.max_kept_error_m / nv) if nv > 0 else 1.0
-        if sw < 1.0 or sv < 1.0 or not self._all_rows:
+        ev = (rp[0] - p[0], rp[1] - p[1], rp[2] - p[2])
+        if self._all_rows and not tip_axes:  # the common case, on floats
+            nw, nv = _norm3(*ew), _norm3(*ev)
+            sw = min(1.0, cfg.max_kept_error_rad / nw) if nw > 0 else 1.0
+            sv = min(1.0, cfg.max_kept_error_m / nv) if nv > 0 else 1.0
+            if sw < 1.0 or sv < 1.0:  # bound the kept error (anti wind-up)
+                ew = (ew[0] * sw, ew[1] * sw, ew[2] * sw)
+                ev = (ev[0] * sv, ev[1] * sv, ev[2] * sv)
+                self._ref_q = _quat.mul(_quat.from_rotvec(*ew), q_now)
+                self._ref_p = (p[0] + ev[0], p[1] + ev[1], p[2] + ev[2])
+            e_task = np.array(ew + ev)
+        else:
+            e = np.array(ew + ev)
+            e_task, e_base = self._kept_error(R, e, tip_axes)
+            # Bound the kept error (anti wind-up): scale each part down to its bound.
+            nw, nv = _norm3(*e_base[:3].tolist()), _norm3(*e_base[3:].tolist())
+            sw = min(1.0, cfg.max_kept_error_rad / nw) if nw > 0 else 1.0
+            sv = min(1.0, cfg.max_kept_error_m / nv) if nv > 0 else 1.0
             scale = np.array((sw, sw, sw, sv, sv, sv))
-            e_base = e_base * scale
+            e_base = (e_base * scale).tolist()
             e_task = e_task * scale
             self._ref_q = _quat.mul(_quat.from_rotvec(*e_base[:3]), q_now)
             self._ref_p = (p[0] + e_base[3], p[1] + e_base[4], p[2] + e_base[5])
@@ -637,36 +657,34 @@ class Servo:
         frame = self._twist_frame
         tw = self._twist
         if frame == self._base:
-            w_b = np.array(tw[:3])
-            v_b = np.array(tw[3:])
+            target = np.array(tw)
         else:
             R_bf = (
                 R if frame == self._tip else self.chain.link_pose(self._integrator.q, frame)[:3, :3]
             )
-            w_b = R_bf @ tw[:3]
-            v_b = R_bf @ tw[3:]
+            target = np.concatenate((R_bf @ tw[:3], R_bf @ tw[3:]))
         # Ramp the twist within Cartesian acceleration and jerk limits (base axes).
         if not self._ramp_valid:
             self._ramp.reset(self._tool_twist())
             self._ramp_valid = True
-        self._ramp_target = np.concatenate((w_b, v_b))
-        ramped = self._ramp.step(self._ramp_target)
-        w_b, v_b = ramped[:3], ramped[3:]
+        self._ramp_target = target
+        ramped = self._ramp.step(target)
         ramp_acc = self._ramp.a
         if tip_axes:
-            ramp_acc = np.concatenate((R.T @ ramp_acc[:3], R.T @ ramp_acc[3:]))
-        details["task_acceleration"] = ramp_acc
-        if tip_axes:
-            V_task = np.concatenate((R.T @ w_b, R.T @ v_b))
+            Rt = R.T
+            ramp_acc = np.concatenate((Rt @ ramp_acc[:3], Rt @ ramp_acc[3:]))
+            V_task = np.concatenate((Rt @ ramped[:3], Rt @ ramped[3:]))
         else:
-            V_task = np.concatenate((w_b, v_b))
+            V_task = ramped
+        details["task_acceleration"] = ramp_acc
         # Integrate the commanded pose over the period: R_ref ← exp([ω] dt) R_ref, p_ref += v dt.
         dt = cfg.period_s
+        wx, wy, wz, vx, vy, vz = ramped.tolist()
         self._ref_q = _quat.normalized(
-            _quat.mul(_quat.from_rotvec(w_b[0] * dt, w_b[1] * dt, w_b[2] * dt), self._ref_q)
+            _quat.mul(_quat.from_rotvec(wx * dt, wy * dt, wz * dt), self._ref_q)
         )
         rp = self._ref_p
-        self._ref_p = (rp[0] + v_b[0] * dt, rp[1] + v_b[1] * dt, rp[2] + v_b[2] * dt)
+        self._ref_p = (rp[0] + vx * dt, rp[1] + vy * dt, rp[2] + vz * dt)
         details["scaled"] = self._twist_scaled
         return V_task + cfg.tracking_gain_1_per_s * e_task
 
@@ -714,11 +732,6 @@ class Servo:
         if self._mode == "twist" and np.array_equal(self._ramp.v, self._ramp_target):
             self._ramp_valid = False
 
-    def _jacobian_at(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """(J_world (6, n), R (3, 3)) at q."""
-        T, J = self.chain.fk_jacobian(q, "world")
-        return J, T[:3, :3]
-
     def _tool_twist(self) -> FloatArray:
         """The tip's twist (ω, v) [base axes] at the commanded joint velocities."""
         integ = self._integrator
@@ -737,10 +750,19 @@ class Servo:
         x = (q - self._mid) * self._inv_half
         grad = (-self.config.nullspace_gain_1_per_s * self._half * x * x * x)[active]
         out[active] = grad - rows.T @ (rows @ grad)
-        peak = float(np.max(np.abs(out) / self._null_cap))
+        # Eased in over 0.5 s after a command starts: a step in the null-space speed bends the
+        # tool's path while the joints take it up.
+        self._null_ease = min(1.0, self._null_ease + self.config.period_s / 0.5)
+        cap = self._null_ease * self._null_cap
+        peak = float(np.max(np.abs(out) / cap))
         return out / peak if peak > 1.0 else out
 
     def _solve(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> FloatArray:
+        qd = self._solve_at(Jt, x, details)
+        self._last_jacobian = Jt
+        return qd
+
+    def _solve_at(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> FloatArray:
         cfg = self.config
         eps, lam = cfg.singular_value_threshold, cfg.max_damping
         n = self._n
@@ -772,13 +794,9 @@ class Servo:
             task_acc = details.get("task_acceleration")
             if task_acc is not None and not at_limit.any():
                 # q̈ = J⁺ (ẍ − J̇ q̇): the joint acceleration that keeps up with the ramping twist
-                # as the arm moves, fed forward to the smoothing; J̇ q̇ by a difference along q̇.
-                h = cfg.period_s
-                q = self._integrator.q
-                J_ahead = task_jacobian_rows(*self._jacobian_at(q + h * total), cfg.task_axes_frame)
-                if not self._all_rows:
-                    J_ahead = J_ahead[self._rows]
-                jdot_qd = (J_ahead - Jt) @ total / h
+                # as the arm moves, fed forward to the smoothing; J̇ from the last period's J.
+                prev = self._last_jacobian
+                jdot_qd = (Jt - prev) @ total / cfg.period_s if prev is not None else 0.0
                 details["target_acceleration"] = dls.apply(sol, task_acc - jdot_qd)
             return total
         # Fit into the box: the whole undamped part first (uniform scaling keeps its direction),
@@ -888,7 +906,7 @@ class Servo:
         at_limit_mask = details.get("at_limit")
         at_limit = (
             tuple(names[k] for k in np.flatnonzero(at_limit_mask))
-            if at_limit_mask is not None
+            if at_limit_mask is not None and at_limit_mask.any()
             else ()
         )
         condition = details.get("condition")
@@ -913,10 +931,7 @@ class Servo:
             code = StatusCode.OK
             message = f"following the {self._mode} command"
         if dropped and self._mode in ("twist", "pose"):
-            message += (
-                f"; follows {', '.join(self.task_axes)} in {cfg.task_axes_frame} axes, "
-                f"drops {', '.join(dropped)}"
-            )
+            message += self._dropped_note
         return ServoStatus(
             code=code,
             message=message,

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..exceptions import KinematicsError
-from .limits import ServoLimits, braking_reach
+from .limits import ServoLimits, braking_distance, braking_reach
 
 FloatArray = NDArray[np.float64]
 
@@ -66,16 +66,21 @@ class JerkLimitedIntegrator:
         self._otg: Any = _ruckig.Ruckig(n, period_s)
         self._inp: Any = self._make_input()
         self._out: Any = _ruckig.OutputParameter(n)
-        self._bounded = np.isfinite(limits.lower) | np.isfinite(limits.upper)
         # An upper bound on the braking distance from any state within the limits: the speed
         # never exceeds v_max + A²/(2J) while braking, which lasts at most 3A/J + that speed / A.
         A, J = limits.acceleration, limits.jerk
         top = limits.velocity + A * A / (2 * J)
         self._zone = top * (3 * A / J + top / A) + 1e-6
+        self._v_low = -limits.velocity
+        self._v_tolerated = limits.velocity * (1 + 1e-12)
+        self._acc_high = 0.9 * A
+        self._acc_low = -0.9 * A
+        self._half_inv_jerk = 0.5 / J
         self.q = np.array(positions, dtype=np.float64)
         self.v = np.zeros(n)
         self.a = np.zeros(n)
         self._zeros = np.zeros(n)
+        self._zeros.setflags(write=False)
         self._reach_lo = self.q.copy()  # extent of the braking motion from the current state
         self._reach_hi = self.q.copy()
 
@@ -123,44 +128,46 @@ class JerkLimitedIntegrator:
         n = self._n
         braking = np.zeros(n, dtype=bool)
         alone = np.zeros(n, dtype=bool)
-        target = np.minimum(np.maximum(target_velocity, -lim.velocity), lim.velocity)
+        target = np.minimum(np.maximum(target_velocity, self._v_low), lim.velocity)
         if target_acceleration is None:
             acc = self._zeros
         else:
             # Within the limit, and none where the velocity limit would be passed before the
             # acceleration could return to zero (Ruckig could not reach such a target state).
-            cap = 0.9 * lim.acceleration
-            acc = np.minimum(np.maximum(target_acceleration, -cap), cap)
-            peak = np.abs(target + acc * np.abs(acc) / (2.0 * lim.jerk))
-            acc = np.where(peak >= lim.velocity, 0.0, acc)
+            acc = np.minimum(np.maximum(target_acceleration, self._acc_low), self._acc_high)
+            over = np.abs(target + acc * np.abs(acc) * self._half_inv_jerk) >= lim.velocity
+            if over.any():
+                acc = np.where(over, 0.0, acc)
         q, v, a = self._advance(target, acc, alone)
-        near = self._near_bounds(q)
+        reach: tuple[FloatArray, FloatArray] | None = None
         for _ in range(n + 1):
-            fast = np.abs(v + a * np.abs(a) / (2.0 * lim.jerk)) > lim.velocity * (1 + 1e-12)
-            bad_v = fast & ~alone
-            bad_p = np.zeros(n, dtype=bool)
-            if near:
-                lo, hi = self._reach(q, v, a)
-                bad_p = self._bounded & ~braking
+            bad = np.abs(v + a * np.abs(a) * self._half_inv_jerk) > self._v_tolerated
+            bad &= ~alone
+            near = ((q - lim.lower) <= self._zone) | ((lim.upper - q) <= self._zone)
+            if near.any():
+                lo, hi = reach = self._reach(q, v, a, near)
+                bad_p = near & ~braking
                 bad_p &= (hi > np.maximum(lim.upper, self._reach_hi) + _TOL) | (
                     lo < np.minimum(lim.lower, self._reach_lo) - _TOL
                 )
-            if not (bad_v.any() or bad_p.any()):
+                braking |= bad_p
+                bad |= bad_p
+            else:
+                reach = (q, q)
+            if not bad.any():
                 break
-            braking |= bad_p
-            alone |= bad_v | bad_p
+            alone |= bad
             target = np.where(braking, 0.0, target)
             acc = np.where(alone, 0.0, acc)
             q, v, a = self._advance(target, acc, alone)
-        if near:
-            self._reach_lo, self._reach_hi = self._reach(q, v, a)
-        else:
-            self._reach_lo, self._reach_hi = q, q
+            reach = None
+        if reach is None:  # the last re-plan was not checked (n + 1 rounds): check it now
+            near = ((q - lim.lower) <= self._zone) | ((lim.upper - q) <= self._zone)
+            reach = self._reach(q, v, a, near)
+        self._reach_lo, self._reach_hi = reach
         # Ruckig ends a stop within rounding of zero: call it zero, so that "at rest" is exact.
-        settled = (target == 0.0) & (np.abs(v) < 1e-12) & (np.abs(a) < 1e-9)
-        if settled.any():
-            v = np.where(settled, 0.0, v)
-            a = np.where(settled, 0.0, a)
+        if not target.any() and np.abs(v).max() < 1e-12 and np.abs(a).max() < 1e-9:
+            v, a = self._zeros, self._zeros
         self.q, self.v, self.a = q, v, a
         return braking
 
@@ -194,17 +201,27 @@ class JerkLimitedIntegrator:
             np.array(out.new_acceleration),
         )
 
-    def _near_bounds(self, q: FloatArray) -> bool:
-        """False when no joint can reach a bound while braking from a state within the limits
-        (|v| ≤ v_max, |a| ≤ A): then the exact check is not needed."""
-        zone = self._zone
-        return not (
-            ((q - self.limits.lower) > zone).all() and ((self.limits.upper - q) > zone).all()
-        )
-
-    def _reach(self, q: FloatArray, v: FloatArray, a: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """(min, max) position of each joint's time-optimal braking motion from (q, v, a)."""
-        return braking_reach(q, v, a, self.limits.acceleration, self.limits.jerk)
+    def _reach(
+        self, q: FloatArray, v: FloatArray, a: FloatArray, which: NDArray[np.bool_]
+    ) -> tuple[FloatArray, FloatArray]:
+        """(min, max) position of each joint's time-optimal braking motion from (q, v, a), for
+        the joints in `which` (the others: q). A cheap bound first spares the exact reach of a
+        joint that cannot get near a bound: cutting the acceleration at full jerk, then braking
+        from rest acceleration, goes no further than speed·|a|/J + braking_distance(speed), with
+        speed = |v| + a²/(2J) (a feasible stop, so the time-optimal one stops sooner)."""
+        lim = self.limits
+        lo, hi = q.copy(), q.copy()
+        idx = np.flatnonzero(which)
+        speed = np.abs(v[idx]) + a[idx] * a[idx] * self._half_inv_jerk[idx]
+        A, J = lim.acceleration[idx], lim.jerk[idx]
+        bound = speed * np.abs(a[idx]) / J + braking_distance(speed, A, J) + 1e-9
+        room = np.minimum(q[idx] - lim.lower[idx], lim.upper[idx] - q[idx])
+        idx = idx[room <= bound]
+        if idx.size:
+            lo[idx], hi[idx] = braking_reach(
+                q[idx], v[idx], a[idx], A[room <= bound], J[room <= bound]
+            )
+        return lo, hi
 
 
 class VelocityRamp:
@@ -254,9 +271,7 @@ class VelocityRamp:
             inp.synchronization = _ruckig.Synchronization.Phase
         v = np.array(self._out.new_velocity)
         a = np.array(self._out.new_acceleration)
-        settled = (target == 0.0) & (np.abs(v) < 1e-12) & (np.abs(a) < 1e-9)
-        if settled.any():  # a stop ends within rounding of zero: call it zero
-            v = np.where(settled, 0.0, v)
-            a = np.where(settled, 0.0, a)
+        if not target.any() and np.abs(v).max() < 1e-12 and np.abs(a).max() < 1e-9:
+            v, a = np.zeros(self._n), np.zeros(self._n)  # a stop ends within rounding of zero
         self.v, self.a = v, a
         return v

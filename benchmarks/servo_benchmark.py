@@ -1,0 +1,390 @@
+"""The servo against moveit_servo's documented scheme, on the same scripted commands, in one run.
+
+    python benchmarks/servo_benchmark.py [--arms ur5e,panda,iiwa14,scara] [--json out.json]
+
+Scripts (issue 23, part 4), each on UR5e, Panda, iiwa14 and SCARA, the arm simulated as a perfect
+integrator of the commanded positions (period 10 ms):
+
+* singular_line: 0.1 m/s along a straight line, orientation held, through the configuration where
+  the wrist axes align (UR5e: q5 = 0, a singularity; Panda/iiwa: q6 = 0, where a 7R arm keeps its
+  rank; the SCARA has no wrist: skipped);
+* pure_rotation: 10 s at 0.5 rad/s about a tilted axis through the tool point, reversing every
+  2 s (the first time after 1 s), then 1 s without commands (SCARA: about z);
+* edge_and_back: 0.2 m/s radially outward for 3 s, past the edge of the workspace, then back
+  inward for 3 s;
+* joint_limit: joint 2 (the SCARA's prismatic joint 3) jogged at half its speed limit toward its
+  upper limit for 3 s, then back for 2 s;
+* steps: a new random twist every 0.5 s for 4 s (|ω| ≈ 1 rad/s, |v| ≈ 0.25 m/s), each a step.
+
+Schemes:
+
+* ours: `kinematics_node.core.servo.Servo` with its defaults;
+* moveit_servo: its documented scheme, re-implemented here (no code copied): from the current
+  state, Δq = J⁺ (V dt) with the undamped pseudo-inverse, scaled by 1 − (κ − 17)/(κ_u − 17) for a
+  condition number κ between 17 and κ_u (κ_u = 30 when moving toward the singularity, 43 away from
+  it: leaving_singularity_threshold_multiplier 2; the direction from a small step along the last
+  left singular vector) and halted at κ ≥ 30; its default smoothing, the first-order Butterworth
+  low-pass (filter coefficient 1.5), applied here to the joint velocities so that its steady
+  gain is 1 (filtering the positions, as the plugin does, inside this closed loop would also
+  slow every motion to 57 %); velocities scaled uniformly into their
+  limits; every joint halted (halt_all_joints_*_mode: true) when one would pass its limit less
+  the 0.1 rad margin; halted on a command timeout. It has no acceleration or jerk limit: its peaks
+  are reported against the same limits as ours (URDF velocity; acceleration = velocity / 0.25 s;
+  jerk = acceleration / 0.1 s).
+
+Reported per script and scheme: time stopped [s] (a command asks for motion, the joints move
+slower than 1e-3 rad/s), path error [mm] (largest distance of the tool point from the path the
+commands describe), end error [mm] (tool point after the script vs where the commands put it:
+for pure_rotation this is the drift), peak joint velocity, acceleration and jerk as fractions of
+the limits (finite differences of the commanded positions), cycles with a limit violation, and
+the median cost of one step [µs] (the whole script's steps; the machine is shared, so also a
+best-of-5 median on a steady twist).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from kinematics_node.core import SerialChain, so3  # noqa: E402
+from kinematics_node.core.servo import (  # noqa: E402
+    JointJogCommand,
+    Servo,
+    ServoConfig,
+    ServoLimits,
+    TwistCommand,
+)
+from kinematics_node.robots import load_robot  # noqa: E402
+
+DT = 0.01
+HOMES = {
+    "ur5e": np.array([0.3, -1.3, 1.6, -1.9, 1.2, 0.4]),
+    "panda": np.array([0.0, -0.4, 0.0, -2.2, 0.0, 1.9, 0.8]),
+    "iiwa14": np.array([0.0, 0.5, 0.0, -1.2, 0.0, 0.8, 0.0]),
+    "scara": np.array([0.3, 1.2, -0.1, 0.2]),
+}
+
+# A command for one cycle: ("twist", (ω, v) in base axes) | ("jog", q̇) | None (no command).
+Command = tuple[str, np.ndarray] | None
+Script = Callable[[int, np.ndarray], Command]  # (cycle, current tool pose) -> command
+
+
+# ---------------------------------------------------------------------- moveit_servo's scheme
+class MoveItServoScheme:
+    """moveit_servo's documented per-cycle scheme (see the module docstring)."""
+
+    LOWER, HARD, LEAVING = 17.0, 30.0, 2.0
+    MARGIN = 0.1
+    FILTER = 1.5
+
+    def __init__(self, chain: SerialChain, q0: np.ndarray, limits: ServoLimits) -> None:
+        self.chain = chain
+        self.q = q0.copy()
+        self.vmax = limits.velocity
+        self.lower = np.asarray(chain.lower) + self.MARGIN
+        self.upper = np.asarray(chain.upper) - self.MARGIN
+        self._x_prev = np.zeros_like(q0)
+        self._y_prev = np.zeros_like(q0)
+
+    def _reset_filter(self) -> None:
+        self._x_prev = np.zeros_like(self.q)
+        self._y_prev = np.zeros_like(self.q)
+
+    def _condition(self, q: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        J = self.chain.jacobian(q, "world")
+        U, s, Vt = np.linalg.svd(J, full_matrices=False)
+        kappa = s[0] / s[-1] if s[-1] > 0 else math.inf
+        with np.errstate(divide="ignore"):
+            pinv = Vt.T @ np.diag(1.0 / s) @ U.T
+        return kappa, pinv, U[:, -1]
+
+    def step(self, command: Command) -> np.ndarray:
+        if command is None:  # timeout: halt
+            self._reset_filter()
+            return self.q
+        kind, value = command
+        if kind == "jog":
+            delta = value * DT
+        else:
+            kappa, pinv, u = self._condition(self.q)
+            dx = value * DT
+            if not math.isfinite(kappa) or kappa >= self.HARD:
+                scale = 0.0
+            else:
+                k_next = self._condition(self.q + pinv @ (u / 100.0))[0]
+                toward_vec = u if k_next > kappa else -u
+                toward = float(toward_vec @ dx) > 0
+                upper = (
+                    self.HARD if toward else self.LOWER + (self.HARD - self.LOWER) * self.LEAVING
+                )
+                scale = (
+                    1.0 - (kappa - self.LOWER) / (upper - self.LOWER) if kappa > self.LOWER else 1.0
+                )
+            delta = pinv @ dx * scale if scale > 0 else np.zeros_like(self.q)
+        # first-order Butterworth low-pass, y = (x + x₋₁ − (1 − c) y₋₁) / (1 + c), on q̇
+        c = self.FILTER
+        x = delta / DT
+        vel = (x + self._x_prev - (1.0 - c) * self._y_prev) / (1.0 + c)
+        self._x_prev, self._y_prev = x, vel
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(np.abs(vel) > self.vmax, self.vmax / np.abs(vel), 1.0)
+        vel = vel * float(ratio.min())
+        target = self.q + vel * DT
+        halt = ((vel > 0) & (target > self.upper)) | ((vel < 0) & (target < self.lower))
+        if halt.any():
+            self._reset_filter()
+            return self.q
+        self.q = target
+        return self.q
+
+
+class OurScheme:
+    def __init__(self, chain: SerialChain, q0: np.ndarray) -> None:
+        self.servo = Servo(chain, q0, ServoConfig(period_s=DT))
+        self.chain = chain
+        self.t = 100.0
+
+    def step(self, command: Command) -> np.ndarray:
+        t = self.t
+        if command is not None:
+            kind, value = command
+            if kind == "jog":
+                self.servo.submit(JointJogCommand(self.chain.joint_names, value.tolist(), t), t)
+            else:
+                w, v = value[:3].tolist(), value[3:].tolist()
+                self.servo.submit(TwistCommand(w, v, self.chain.base_link, t), t)
+        out = self.servo.step(t, self.servo.positions)
+        self.t += DT
+        return out.positions
+
+
+# ---------------------------------------------------------------------- scripts
+def _line_through_wrist(chain: SerialChain, name: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """(q_start, direction) of a 0.2 m constant-orientation line whose exact solution passes the
+    wrist alignment halfway (found with the chain's IK along each axis direction)."""
+    if name == "scara":
+        return None
+    joint = 4 if chain.dof == 6 else 5
+    q_mid = HOMES[name].copy()
+    q_mid[joint] = 0.0
+    T_mid = chain.fk(q_mid)
+    candidates = [T_mid[:3, 2]] + [np.eye(3)[i] for i in range(3)]
+    for d in candidates:
+        seed = q_mid + 0.05 * np.eye(chain.dof)[joint]
+        values, qs = [], []
+        for s in np.linspace(-0.1, 0.1, 11):
+            T = T_mid.copy()
+            T[:3, 3] += s * d
+            result = chain.ik(T, seed)
+            if not result.success:
+                break
+            seed = result.q
+            values.append(result.q[joint])
+            qs.append(result.q)
+        if (
+            len(values) == 11
+            and np.all(np.diff(np.sign(values)) <= 0)
+            and values[0] > 0 > values[-1]
+        ):
+            return qs[0], d
+    return None
+
+
+def scripts(chain: SerialChain, name: str, limits: ServoLimits) -> dict[str, tuple]:
+    """name -> (q_start, number of cycles, script, ideal path as a function of the cycle)."""
+    home = HOMES[name]
+    out: dict[str, tuple] = {}
+    line = _line_through_wrist(chain, name)
+    if line is not None:
+        q0, d = line
+        V = np.r_[0.0, 0.0, 0.0, 0.1 * d]
+        out["singular_line"] = (q0, 250, lambda k, T: ("twist", V), d)
+    axis = np.array([0.0, 0.0, 1.0]) if name == "scara" else np.ones(3) / math.sqrt(3)
+
+    def rotation(k: int, T: np.ndarray) -> Command:
+        if k >= 1000:
+            return None
+        sign = 1.0 if ((k * DT + 1.0) // 2.0) % 2 == 0 else -1.0
+        return ("twist", np.r_[T[:3, :3] @ (0.5 * sign * axis), 0.0, 0.0, 0.0])
+
+    out["pure_rotation"] = (home, 1100, rotation, None)
+    p0 = chain.fk(home)[:3, 3]
+    radial = np.r_[p0[:2], 0.0] / np.linalg.norm(p0[:2])
+
+    def edge(k: int, T: np.ndarray) -> Command:
+        return ("twist", np.r_[0.0, 0.0, 0.0, (0.2 if k < 300 else -0.2) * radial])
+
+    out["edge_and_back"] = (home, 600, edge, radial)
+    joint = 2 if name == "scara" else 1
+    speed = 0.5 * limits.velocity[joint]
+
+    def jog(k: int, T: np.ndarray) -> Command:
+        qd = np.zeros(chain.dof)
+        qd[joint] = speed if k < 300 else -speed
+        return ("jog", qd)
+
+    out["joint_limit"] = (home, 500, jog, None)
+    rng = np.random.default_rng(23)
+    steps = [np.r_[rng.normal(size=3) * 0.6, rng.normal(size=3) * 0.15] for _ in range(8)]
+    out["steps"] = (home, 400, lambda k, T: ("twist", steps[(k // 50) % 8]), None)
+    return out
+
+
+# ---------------------------------------------------------------------- running and measuring
+def run(scheme, chain: SerialChain, q0: np.ndarray, cycles: int, script: Script):
+    qs, costs, commands = [q0.copy()], [], []
+    ideal_T = [chain.fk(q0)]
+    for k in range(cycles):
+        T = chain.fk(qs[-1])
+        command = script(k, ideal_T[-1])
+        commands.append(command)
+        t0 = time.perf_counter()
+        q = scheme.step(command)
+        costs.append(time.perf_counter() - t0)
+        qs.append(np.array(q, dtype=float))
+        # the commanded pose, integrated exactly from the commands (twists only)
+        Ti = ideal_T[-1].copy()
+        if command is not None and command[0] == "twist":
+            w, v = command[1][:3], command[1][3:]
+            Ti[:3, :3] = so3.exp(w * DT) @ Ti[:3, :3]
+            Ti[:3, 3] += v * DT
+        ideal_T.append(Ti)
+        del T
+    return np.array(qs), np.array(costs), commands, np.array(ideal_T)
+
+
+def measure(
+    chain, limits: ServoLimits, qs, costs, commands, ideal_T, kind: str, line: np.ndarray | None
+) -> dict:
+    T = chain.fk(qs)
+    p, p_ideal = T[:, :3, 3], ideal_T[:, :3, 3]
+    v = np.diff(qs, axis=0) / DT
+    a = np.diff(v, axis=0) / DT
+    j = np.diff(a, axis=0) / DT
+    moving = np.array([c is not None and bool(np.any(c[1])) for c in commands])
+    stopped = moving & (np.abs(v).max(axis=1) < 1e-3)
+    # path error: distance of each tool point from the line (line scripts), else from the nearest
+    # point of the commanded path
+    if line is not None:
+        rel = p - p[0]
+        dists = np.linalg.norm(rel - np.outer(rel @ line, line), axis=1)
+    else:
+        dists = np.linalg.norm(p[:, None, :] - p_ideal[None, ::2, :], axis=2).min(axis=1)
+    lo, hi = limits.lower, limits.upper
+    bad = (
+        (qs[1:] > hi + 1e-9).any(axis=1)
+        | (qs[1:] < lo - 1e-9).any(axis=1)
+        | (np.abs(v) > limits.velocity * (1 + 1e-9) + 1e-9).any(axis=1)
+    )
+    bad[1:] |= (np.abs(a) > limits.acceleration * (1 + 1e-9) + 1e-6).any(axis=1)
+    bad[2:] |= (np.abs(j) > limits.jerk * (1 + 1e-9) + 1e-3).any(axis=1)
+    return {
+        "time_stopped_s": float(stopped.sum() * DT),
+        "path_error_mm": None if kind == "joint_limit" else float(dists.max() * 1e3),
+        # where the commands end the tool (not for the edge: its way out is cut short)
+        "end_error_mm": None
+        if kind in ("joint_limit", "edge_and_back")
+        else float(np.linalg.norm(p[-1] - p_ideal[-1]) * 1e3),
+        "peak_velocity": float((np.abs(v) / limits.velocity).max()),
+        "peak_acceleration": float((np.abs(a) / limits.acceleration).max()),
+        "peak_jerk": float((np.abs(j) / limits.jerk).max()),
+        "violation_cycles": int(bad.sum()),
+        "median_step_us": float(np.median(costs) * 1e6),
+    }
+
+
+def steady_step_cost(chain: SerialChain, name: str) -> dict[str, float]:
+    """Best-of-5 median cost [µs] of one step while streaming a constant twist."""
+    result = {}
+    for label in ("ours", "moveit_servo"):
+        medians = []
+        for _ in range(5):
+            if label == "ours":
+                scheme = OurScheme(chain, HOMES[name])
+            else:
+                scheme = MoveItServoScheme(
+                    chain, HOMES[name], ServoLimits.from_chain(chain, ServoConfig())
+                )
+            V = np.r_[0.0, 0.0, 0.2, 0.02, 0.0, 0.0]
+            costs = []
+            for _ in range(300):
+                t0 = time.perf_counter()
+                scheme.step(("twist", V))
+                costs.append(time.perf_counter() - t0)
+            medians.append(float(np.median(costs[50:])))
+        result[label] = min(medians) * 1e6
+    return result
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--arms", default="ur5e,panda,iiwa14,scara")
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args(argv)
+    report: dict = {}
+    for name in args.arms.split(","):
+        chain = load_robot(name)
+        limits = ServoLimits.from_chain(chain, ServoConfig())
+        report[name] = {"scripts": {}, "steady_step_us": steady_step_cost(chain, name)}
+        for script_name, (q0, cycles, script, line) in scripts(chain, name, limits).items():
+            rows = {}
+            for label in ("ours", "moveit_servo"):
+                scheme = (
+                    OurScheme(chain, q0)
+                    if label == "ours"
+                    else MoveItServoScheme(chain, q0, limits)
+                )
+                qs, costs, commands, ideal = run(scheme, chain, q0, cycles, script)
+                rows[label] = measure(chain, limits, qs, costs, commands, ideal, script_name, line)
+            report[name]["scripts"][script_name] = rows
+    _print(report)
+    if args.json:
+        args.json.write_text(json.dumps(report, indent=2))
+    return 0
+
+
+def _fmt(x) -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, int):
+        return str(x)
+    return f"{x:.3g}"
+
+
+def _print(report: dict) -> None:
+    cols = [
+        ("time_stopped_s", "stopped s"),
+        ("path_error_mm", "path mm"),
+        ("end_error_mm", "end mm"),
+        ("peak_velocity", "v/vmax"),
+        ("peak_acceleration", "a/amax"),
+        ("peak_jerk", "j/jmax"),
+        ("violation_cycles", "viol."),
+        ("median_step_us", "step µs"),
+    ]
+    header = f"{'arm':7} {'script':14} {'scheme':13} " + " ".join(f"{h:>9}" for _, h in cols)
+    print(header)
+    print("-" * len(header))
+    for name, data in report.items():
+        for script_name, rows in data["scripts"].items():
+            for label, m in rows.items():
+                cells = " ".join(f"{_fmt(m[k]):>9}" for k, _ in cols)
+                print(f"{name:7} {script_name:14} {label:13} {cells}")
+        steady = data["steady_step_us"]
+        print(
+            f"{name:7} {'steady twist':14} {'step cost':13} ours {steady['ours']:.0f} µs, "
+            f"moveit_servo scheme {steady['moveit_servo']:.0f} µs (best-of-5 median)"
+        )
+        print()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
