@@ -123,6 +123,11 @@ class IKOutcome:
     """A worker's answer. `q` is None when no solve ran (timed out in the queue, worker failure);
     then `message` says why. Errors are [m] and [rad].
 
+    `timed_out`: the job's deadline came before a solve could start or before its worker
+    answered; `message` then says when, as a phrase that follows "the timeout ran out" ("while
+    the job waited for a free IK worker"), so that the caller can say it with the request's own
+    timeout and the time it really took.
+
     `solutions` holds, on success, up to `options.num_solutions` distinct solutions nearest the
     seed first, `q` first (empty on failure). `complete` says they are provably every solution
     within the limits (closed form of a 6R arm, a target that is not singular, none left out).
@@ -136,11 +141,12 @@ class IKOutcome:
     message: str
     solutions: tuple[FloatArray, ...] = ()
     complete: bool = False
+    timed_out: bool = False
 
     @classmethod
-    def failed(cls, reason: str) -> IKOutcome:
+    def failed(cls, reason: str, timed_out: bool = False) -> IKOutcome:
         """An outcome of no solve (`q` None, errors NaN) and the reason."""
-        return cls(None, False, math.nan, math.nan, 0, reason)
+        return cls(None, False, math.nan, math.nan, 0, reason, timed_out=timed_out)
 
 
 # ---------------------------------------------------------------------- worker process side
@@ -175,12 +181,12 @@ def solve_job(job: IKJob) -> IKOutcome:
     """Solve `job` in this process with the time left before its deadline (what a worker runs)."""
     left = job.deadline - time.monotonic()
     if left < MIN_SOLVE_TIME:
-        if job.options.timeout < MIN_SOLVE_TIME:
-            return _timed_out(
-                f"{job.options.timeout * 1e3:.2g} ms is shorter than the "
+        if job.options.timeout < MIN_SOLVE_TIME:  # (the request's own: only the deadline moves)
+            return _failed(
+                f"the timeout of {job.options.timeout * 1e3:.2g} ms is shorter than the "
                 f"{MIN_SOLVE_TIME * 1e3:g} ms a solve needs at least"
             )
-        return _timed_out(f"waited {job.options.timeout * 1e3:.1f} ms for a free IK worker")
+        return _timed_out("before an IK worker could start on the job")
     chain = _chains.get(job.chain_key)
     if chain is None:
         chain, family = pickle.loads(job.chain_blob)
@@ -336,8 +342,9 @@ def _joint_weights(chain: SerialChain, opts: IKOptions) -> FloatArray:
     return np.array(opts.joint_weights, dtype=np.float64)
 
 
-def _timed_out(reason: str) -> IKOutcome:
-    return IKOutcome.failed(f"timeout: {reason}")
+def _timed_out(when: str) -> IKOutcome:
+    """No solve, because the deadline came `when` (follows "the timeout ran out")."""
+    return IKOutcome.failed(when, timed_out=True)
 
 
 _failed = IKOutcome.failed
@@ -543,7 +550,7 @@ class IKPool:
                 os.close(self._wake_w)
                 self._wake_w = -1
         _deliver(outbox)
-        _deliver([(o, _timed_out("the node is shutting down")) for o in open_jobs])
+        _deliver([(o, _failed("the node is shutting down")) for o in open_jobs])
 
     # ------------------------------------------------------------------ under the lock
     def _dispatch_locked(self, now: float) -> None:
@@ -554,7 +561,7 @@ class IKPool:
             deadline, _, o = item
             if deadline - MIN_SOLVE_TIME <= now:
                 self._stats.expired_in_queue += 1
-                self._settle_locked(o, _timed_out("no IK worker was free before the deadline"))
+                self._settle_locked(o, _timed_out("while the job waited for a free IK worker"))
                 continue
             worker = self._idle.pop()
             if not self._send_locked(worker, o):
@@ -654,7 +661,7 @@ class IKPool:
                 continue
             if not o.answered and o.due <= now:
                 self._stats.overdue += 1
-                self._settle_locked(o, _timed_out("no IK worker answered before the deadline"))
+                self._settle_locked(o, _timed_out("before its IK worker answered"))
             if o.job.deadline + HUNG_AFTER <= now:
                 w.killed = True
                 hung.append(w)

@@ -22,6 +22,7 @@ from __future__ import annotations
 import hashlib
 import logging
 import math
+import re
 import time
 from collections import deque
 from collections.abc import Callable, Mapping, Sequence
@@ -50,7 +51,7 @@ from .core import IKOptions, SerialChain, se3
 from .core._checks import check_transform
 from .core.analysis import conditioning
 from .core.exceptions import InvalidInputError, KinematicsError, RobotDescriptionError
-from .core.ik import beyond_reach
+from .core.ik import beyond_reach, duration_text
 from .core.model import Frame
 from .description_file import read_description_file
 from .ee_state import (
@@ -60,7 +61,7 @@ from .ee_state import (
     JointStateTracker,
     compute_ee_state,
 )
-from .ik_pool import IKJob, IKOutcome, chain_blob, solve_job
+from .ik_pool import MIN_SOLVE_TIME, IKJob, IKOutcome, chain_blob, solve_job
 from .parameters import defaults, validate_parameters
 from .robot_model import HeldDescription, RobotModel
 
@@ -128,7 +129,9 @@ class DescriptionStatus:
 
 
 class _Rates:
-    """joint_states arrival rate [Hz] and latency (receive time − stamp) [s] over recent samples."""
+    """joint_states arrival rate [Hz], from their receive times, and latency (receive time −
+    stamp) [s] of the stamped ones, over recent samples. An unstamped sample (stamp exactly 0,
+    `msg_adapters.sample_from_joint_state`) has no latency: NaN in the window, not now − 0."""
 
     def __init__(self, window: int = 50) -> None:
         self._arrivals: deque[float] = deque(maxlen=window)
@@ -136,7 +139,7 @@ class _Rates:
 
     def record(self, received: float, stamp: float) -> None:
         self._arrivals.append(received)
-        self._latencies.append(received - stamp)
+        self._latencies.append(received - stamp if stamp != 0.0 else math.nan)
 
     @property
     def last_arrival(self) -> float | None:
@@ -148,8 +151,13 @@ class _Rates:
         span = self._arrivals[-1] - self._arrivals[0]
         return (len(self._arrivals) - 1) / span if span > 0 else 0.0
 
-    def latency(self) -> float:
-        return float(np.mean(self._latencies)) if self._latencies else 0.0
+    def latency(self) -> float | None:
+        """Mean latency of the window's stamped samples [s]; None when the last sample was
+        unstamped, or none was received."""
+        if not self._latencies or math.isnan(self._latencies[-1]):
+            return None
+        stamped = [x for x in self._latencies if not math.isnan(x)]
+        return sum(stamped) / len(stamped)
 
 
 @dataclass
@@ -704,7 +712,7 @@ class KinematicsService:
         try:
             outcome = solve_job(pending.job)
         except Exception as exc:  # noqa: BLE001 - as a worker does: every request is answered
-            outcome = IKOutcome.failed(f"IK failed: {exc!r}")
+            outcome = IKOutcome.failed(f"the IK solver failed: {exc}")
         return self.finish_ik(pending, outcome, response)
 
     def prepare_ik(
@@ -733,12 +741,15 @@ class KinematicsService:
         self, pending: PendingIK, outcome: IKOutcome, response: Any, now: float | None = None
     ) -> Any:
         """Fill `response` from a worker's `outcome` of `pending` (success, solution, errors and a
-        message that says why when it failed). `now` (`time.monotonic()` [s], default: now) is
+        message that says why when it failed, with the request's timeout and the time the answer
+        took since the request was sent). `now` (`time.monotonic()` [s], default: now) is
         compared with the job's deadline for the counts in `diagnostics`."""
-        self._ik.record((time.monotonic() if now is None else now) - pending.job.deadline)
+        now = time.monotonic() if now is None else now
+        self._ik.record(now - pending.job.deadline)
+        sent = pending.job.deadline - pending.options.timeout  # `_prepare_ik`'s arrival − waited
 
         def finish(request: Any, response: Any) -> str | None:
-            return self._finish_ik(pending, outcome, response)
+            return self._finish_ik(pending, outcome, response, max(now - sent, 0.0))
 
         return self._answer("compute_ik", finish, None, response)
 
@@ -781,7 +792,7 @@ class KinematicsService:
     def _fk(self, request: Any, response: Any) -> None:
         model, current, _ = self._snapshot()
         js, stamp = request.joint_state, request.joint_state.header.stamp
-        chain = model.chain_to(str(request.tip_link))
+        chain = _chain_to(model, str(request.tip_link))
         q = self._q(model, chain, js, current, "joint_state")
         T = chain.fk(q)
         _require_finite(T, "pose")
@@ -820,7 +831,7 @@ class KinematicsService:
                 f"frame must be one of {list(JACOBIAN_FRAMES)} (or empty), got "
                 f"{str(request.frame)!r}"
             )
-        chain = model.chain_to(str(request.tip_link))
+        chain = _chain_to(model, str(request.tip_link))
         q = self._q(model, chain, request.joint_state, current, "joint_state")
         _, J_world = chain.fk_jacobian(q, "world")
         J = J_world if frame == "world" else chain.jacobian(q, frame)
@@ -842,7 +853,7 @@ class KinematicsService:
 
     def _prepare_ik(self, request: Any, arrival: float, waited: float) -> PendingIK:
         model, current, params = self._snapshot()
-        chain = model.chain_to(str(request.tip_link))
+        chain = _chain_to(model, str(request.tip_link))
         T_frame_target = matrix_from_pose(request.target.pose, "target.pose")
         frame = str(request.target.header.frame_id)
         T_base_frame = self._frame_pose(model, frame, current)
@@ -878,7 +889,9 @@ class KinematicsService:
             self._chain_blobs[(chain.base_link, chain.tip_link)] = cached
         return cached
 
-    def _finish_ik(self, pending: PendingIK, outcome: IKOutcome, response: Any) -> str | None:
+    def _finish_ik(
+        self, pending: PendingIK, outcome: IKOutcome, response: Any, elapsed: float
+    ) -> str | None:
         options = pending.options
         q = outcome.q
         if q is None:  # no solve ran: answer with the seed (or nothing) and say why
@@ -906,26 +919,7 @@ class KinematicsService:
             )
             response.complete = bool(outcome.complete) and len(rest) + 1 <= options.num_solutions
             return None
-        tolerances = (
-            f"per-axis bounds {list(options.axis_tolerances)}"
-            if options.axis_tolerances is not None
-            else f"tolerances ({options.position_tolerance:g} m, "
-            f"{options.orientation_tolerance:g} rad)"
-        )
-        if pending.note:
-            if response.position_error < 0:  # too far to represent the error
-                return f"no solution: {pending.note}"
-            return (
-                f"no solution: {pending.note} (best position error {response.position_error:.3g} m)"
-            )
-        if outcome.q is None:
-            return f"no solution within {options.timeout:g} s ({outcome.message})"
-        return (
-            f"no solution within {tolerances} in {options.timeout:g} s: best position error "
-            f"{response.position_error:.3g} m, orientation error "
-            f"{response.orientation_error:.3g} rad"
-            + (f" ({outcome.message})" if outcome.message else "")
-        )
+        return _ik_failure(pending, outcome, response, elapsed)
 
     def _frame_pose(self, model: RobotModel, frame: str, current: dict[str, float]) -> FloatArray:
         """T_base_frame for an IK target frame: the base, a robot link (FK of the current state),
@@ -991,7 +985,8 @@ class KinematicsService:
 
     def diagnostics(self, pool: Mapping[str, int] | None = None) -> Any:
         """diagnostic_msgs/DiagnosticArray: one status with manipulability, condition number,
-        near-singularity (WARN), joint_states rate [Hz] and latency [s] (stale → WARN), the last
+        near-singularity (WARN), joint_states rate [Hz] and latency [s] ("unknown (...)" while
+        the last sample is unstamped or none came; stale → WARN), the last
         problem (rejected samples → ERROR), the robot model's state (`_description_values`; no
         description or a refused one → ERROR, waiting for a tip → WARN, a refused one while
         another is held → WARN), and the IK answers so far (`IKAnswerCounts`) with the worker
@@ -1017,9 +1012,15 @@ class KinematicsService:
             if last is None or now - last > params["joint_states_timeout"]:
                 severity = max(severity, 1)
                 notes.append("no recent joint_states naming the chain's joints")
+            if latency is not None:
+                latency_text = f"{latency:.6f}"
+            elif last is None:
+                latency_text = "unknown (no joint_states received)"
+            else:  # now − 0 would be the time since 1970
+                latency_text = "unknown (unstamped joint_states)"
             values += [
                 ("joint_states_rate_hz", f"{rate:.3f}"),
-                ("joint_states_latency_s", f"{latency:.6f}"),
+                ("joint_states_latency_s", latency_text),
             ]
             if self._tracker is not None:  # where ee_twist's joint velocities come from
                 values.append(("velocity_source", self._tracker.velocity_source))
@@ -1060,6 +1061,14 @@ class KinematicsService:
         )
 
 
+def _chain_to(model: RobotModel, tip_link: str) -> SerialChain:
+    """The chain of a request's `tip_link` (empty: the node's); a refusal names the field."""
+    try:
+        return model.chain_to(tip_link)
+    except KinematicsError as exc:
+        raise InvalidInputError(f"tip_link: {exc}") from None
+
+
 def _names(names: Sequence[str], limit: int = 40) -> str:
     """'a', 'b', ... for a message: at most `limit` names, then how many more."""
     shown = ", ".join(repr(n) for n in names[:limit])
@@ -1083,13 +1092,14 @@ def _finite_or(value: Any, fallback: float) -> float:
     return v if math.isfinite(v) else fallback
 
 
-def _request_value(request: Any, field: str, default: float, unit: str) -> float:
+def _request_value(request: Any, field: str, params: Mapping[str, Any], unit: str) -> float:
+    """ComputeIK.`field`, or for 0 the node's parameter ik.`field`."""
     value = float(getattr(request, field))
     if not math.isfinite(value) or value < 0:
         raise InvalidInputError(
-            f"{field} must be >= 0 {unit} (0 = the node's default), got {value}"
+            f"{field} must be >= 0 {unit} (0 = the node's parameter ik.{field}), got {value}"
         )
-    return value if value > 0 else float(default)
+    return value if value > 0 else float(params[f"ik.{field}"])
 
 
 #: Largest ComputeIK.max_solutions accepted: more than any closed form gives (a UR with ±2π
@@ -1112,24 +1122,130 @@ def _max_solutions(request: Any) -> int:
     return max(count, 1)
 
 
+def _axis_tolerances(request: Any) -> tuple[float, ...] | None:
+    """ComputeIK.axis_tolerances (None when empty), checked as the srv says, in its words."""
+    bounds = [float(x) for x in request.axis_tolerances]
+    if not bounds:
+        return None
+    if len(bounds) != 6:
+        raise InvalidInputError(
+            "axis_tolerances must be empty or 6 values (wx, wy, wz, x, y, z) [rad, m], got "
+            f"{len(bounds)} values"
+        )
+    if any(math.isnan(b) or b <= 0 for b in bounds):
+        raise InvalidInputError(f"axis_tolerances must be > 0 (inf frees an axis), got {bounds}")
+    if all(math.isinf(b) for b in bounds):
+        raise InvalidInputError("axis_tolerances must bound at least one axis (all 6 are inf)")
+    if request.position_only:
+        raise InvalidInputError(
+            "axis_tolerances and position_only cannot be combined: give inf for the three "
+            "rotation bounds (wx, wy, wz) instead"
+        )
+    return tuple(bounds)
+
+
 def _ik_options(request: Any, params: Mapping[str, Any]) -> IKOptions:
     """IKOptions from the request, falling back to the node's parameters for zero fields."""
     wanted: dict[str, Any] = {
-        "position_tolerance": _request_value(
-            request, "position_tolerance", params["ik.position_tolerance"], "[m]"
-        ),
-        "orientation_tolerance": _request_value(
-            request, "orientation_tolerance", params["ik.orientation_tolerance"], "[rad]"
-        ),
-        "timeout": _request_value(request, "timeout", params["ik.timeout"], "[s]"),
+        "position_tolerance": _request_value(request, "position_tolerance", params, "[m]"),
+        "orientation_tolerance": _request_value(request, "orientation_tolerance", params, "[rad]"),
+        "timeout": _request_value(request, "timeout", params, "[s]"),
         "max_restarts": int(params["ik.max_restarts"]),
         "position_only": bool(request.position_only),
+        "axis_tolerances": _axis_tolerances(request),
     }
     wanted_solutions = _max_solutions(request)
     if wanted_solutions > 1:  # the solutions nearest the seed that the timeout lets it find
         wanted["mode"] = "distance"
         wanted["num_solutions"] = wanted_solutions
-    bounds = [float(x) for x in request.axis_tolerances]
-    if bounds:
-        wanted["axis_tolerances"] = tuple(bounds)  # IKOptions validates and names the problem
-    return IKOptions(**wanted)
+    try:
+        return IKOptions(**wanted)
+    except InvalidInputError as exc:  # (checked above; should the library find more: its reason)
+        raise InvalidInputError(_request_words(str(exc))) from None
+
+
+def _timeout_text(seconds: float) -> str:
+    """A request's timeout as its user would write it: "50 ms", "0.01 ms", "1.5 s"."""
+    return f"{seconds * 1e3:.4g} ms" if seconds < 1.0 else f"{seconds:.4g} s"
+
+
+#: The IK library's words (`core.ik`'s messages, which a worker passes on) → a ComputeIK
+#: request's: the reason stays, the library's option names become the request's fields. The
+#: times in them are the worker's (its share of the time left); `_ik_failure` puts the request's.
+_REQUEST_WORDS: tuple[tuple[re.Pattern[str], str], ...] = (
+    (re.compile(r"; numeric search: no solution: "), "; numeric search: "),
+    (re.compile(r"^no solution: "), ""),
+    (re.compile(r"\(tolerances (\S+) m / (\S+) rad\)"),
+     r"(position_tolerance \1 m, orientation_tolerance \2 rad)"),
+    (re.compile(r"\(tolerance (\S+) m, orientation free\)"),
+     r"(position_tolerance \1 m, position_only)"),
+    (re.compile(r"\(per-axis bounds ([^)]*)\)"), r"(axis_tolerances [\1])"),
+    (re.compile(r"a freed pose component"), "an axis freed by axis_tolerances (inf)"),
+    (re.compile(r"\bIKOptions\."), ""),
+    (re.compile(r"\((ωx, ωy, ωz, vx, vy, vz)\)"), "(wx, wy, wz, x, y, z)"),
+    (re.compile(r"\bnum_solutions\b"), "max_solutions"),
+    (re.compile(r"(?<![\w'\"])q_seed(?![\w'\"])"), "seed"),
+    (re.compile(r"(?<![\w'\"])T_target(?![\w'\"])"), "target"),
+)  # fmt: skip
+_DURATION = r"[\d.e+-]+ m?s"
+#: How the library says a search stopped: its timeout (the worker's time left) ran out, after
+#: the worker's time; or max_restarts, the node's parameter ik.max_restarts, was used up.
+_STOPPED = re.compile(
+    rf"the {_DURATION} timeout ran out(?P<after> after {_DURATION})?"
+    rf"|max_restarts=(?P<restarts>\d+) reached after {_DURATION}(?:, \d+ restarts?)?"
+    rf"|(?P<effort>best effort from the seed) in {_DURATION}"
+)
+
+
+def _request_words(text: str) -> str:
+    """A library message in a ComputeIK request's words (`_REQUEST_WORDS`)."""
+    for pattern, words in _REQUEST_WORDS:
+        text = pattern.sub(words, text)
+    return text
+
+
+def _ik_failure(pending: PendingIK, outcome: IKOutcome, response: Any, elapsed: float) -> str:
+    """Why a ComputeIK request found no solution, once, in the request's words: its reason (out
+    of reach: how far and the reach; the closed form's reason; how the search stopped), the
+    request's timeout where it ran out, the time the answer took since the request was sent
+    (`elapsed` [s]), and the best configuration's errors against the request's tolerances."""
+    options, took = pending.options, duration_text(elapsed)
+    if pending.note:  # beyond reach, known before the solve
+        if response.position_error < 0:  # too far to represent the error
+            return f"no solution: unreachable: {pending.note}"
+        errors = f"position error {response.position_error:.3g} m" + (
+            ""
+            if options.position_only
+            else f", orientation error {response.orientation_error:.3g} rad"
+        )
+        return (
+            f"no solution: unreachable: {pending.note}; best effort from the seed in {took}: "
+            f"{errors}"
+        )
+    timeout = _timeout_text(options.timeout)
+    if outcome.q is None:  # no solve ran
+        if outcome.timed_out:
+            return f"no solution: the timeout of {timeout} ran out after {took} {outcome.message}"
+        if options.timeout < MIN_SOLVE_TIME:
+            return f"no solution: {_request_words(outcome.message)}"
+        return f"no solution: {_request_words(outcome.message)} (after {took})"
+
+    def stopped(m: re.Match[str]) -> str:
+        if m["restarts"] is not None:
+            return (
+                f"all {m['restarts']} restarts that the node's parameter ik.max_restarts allows "
+                f"were made in {took}"
+            )
+        if m["effort"] is not None:
+            return f"{m['effort']} in {took}"
+        return f"the timeout of {timeout} ran out" + (f" after {took}" if m["after"] else "")
+
+    text = _STOPPED.sub(stopped, _request_words(outcome.message))
+    if not text:
+        text = (
+            f"best position error {response.position_error:.3g} m, orientation error "
+            f"{response.orientation_error:.3g} rad"
+        )
+    if took not in text:  # a message that does not say how long: the time, once
+        text += f" (after {took}; timeout {timeout})"
+    return f"no solution: {text}"

@@ -10,6 +10,7 @@ sent), so what its estimate has to absorb is only the time between reading the c
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -127,5 +128,10 @@ def test_twist_at_steady_speed_matches_the_core(start_node, client, every, sourc
     )
     status = diagnostics[-1].status[0]
     assert status.level == status.WARN and "arrival times" in status.message
+    latency = {kv.key: kv.value for kv in status.values}["joint_states_latency_s"]
+    if every:  # stamped (on a clock of their own, from 1000 s): a latency, though a large one
+        assert math.isfinite(float(latency)), latency
+    else:  # now − 0 would be ~1.7e9 s
+        assert latency == "unknown (unstamped joint_states)", latency
     log = node.log()
     assert log.count("estimated from the arrival times") == 1, log

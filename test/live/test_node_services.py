@@ -5,6 +5,7 @@ publishing during a long IK call."""
 from __future__ import annotations
 
 import math
+import re
 import time
 
 import numpy as np
@@ -243,6 +244,11 @@ def test_pose_stream_keeps_flowing_during_a_2_s_ik_call(node, client):
     assert future.done()
     resp = future.result()
     assert not resp.success and 1.9 <= elapsed <= 2.2, (elapsed, resp.message)
+    # the message says the request's timeout, and the time since the request was sent (not the
+    # worker's share of it): once, between the timeout and what this client waited
+    took = re.search(r"the timeout of 2 s ran out after ([\d.]+) s, \d+ restarts", resp.message)
+    assert took is not None and resp.message.count("timeout") == 1, resp.message
+    assert 1.95 <= float(took[1]) <= elapsed + 0.01, (elapsed, resp.message)
     time.sleep(0.1)
     got = len(stream.poses)
     assert got > 10, "poses stalled during a 2 s IK call"
