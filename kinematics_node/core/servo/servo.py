@@ -160,10 +160,14 @@ class Servo:
         bounded = np.isfinite(lim.lower) & np.isfinite(lim.upper)
         self._mid = np.where(bounded, 0.5 * (lim.lower + lim.upper), 0.0)
         self._half = np.where(bounded, 0.5 * (lim.upper - lim.lower), 0.0)
+        self._v_low = readonly(-lim.velocity)
+        self._zeros = readonly(np.zeros(n))
+        self._no_joint = readonly(np.zeros(n, dtype=bool), np.bool_)
         self._inv_half = np.where(
             self._half > 0, 1.0 / np.where(self._half > 0, self._half, 1.0), 0.0
         )
-        self._null_cap = _NULLSPACE_SPEED_FRACTION * lim.velocity
+        self._inv_null_cap = 1.0 / (_NULLSPACE_SPEED_FRACTION * lim.velocity)
+        self._null_coef = -cfg.nullspace_gain_1_per_s * self._half
         self._base = chain.link_names[0]
         self._tip = chain.link_names[-1]
         self._n = n
@@ -198,18 +202,18 @@ class Servo:
     # ------------------------------------------------------------------ state
     @property
     def positions(self) -> FloatArray:
-        """The last commanded joint positions (n,) [rad or m] (read-only copy)."""
-        return readonly(self._integrator.q)
+        """The last commanded joint positions (n,) [rad or m] (read-only)."""
+        return self._integrator.q
 
     @property
     def velocities(self) -> FloatArray:
-        """The last commanded joint velocities (n,) [rad/s or m/s] (read-only copy)."""
-        return readonly(self._integrator.v)
+        """The last commanded joint velocities (n,) [rad/s or m/s] (read-only)."""
+        return self._integrator.v
 
     @property
     def accelerations(self) -> FloatArray:
-        """The last commanded joint accelerations (n,) [rad/s² or m/s²] (read-only copy)."""
-        return readonly(self._integrator.a)
+        """The last commanded joint accelerations (n,) [rad/s² or m/s²] (read-only)."""
+        return self._integrator.a
 
     @property
     def paused(self) -> bool:
@@ -503,9 +507,7 @@ class Servo:
             at_limit = details.get("at_limit", np.zeros(self._n, dtype=bool)) | braking
             details["at_limit"] = at_limit
         status = self._status(trouble, details)
-        return ServoOutput(
-            readonly(integ.q), readonly(integ.v), readonly(integ.a), now + cfg.period_s, status
-        )
+        return ServoOutput(integ.q, integ.v, integ.a, now + cfg.period_s, status)
 
     def _take_measurement(self, measured: ArrayLike) -> tuple[StatusCode, str] | None:
         try:
@@ -542,7 +544,7 @@ class Servo:
         d_up = lim.upper - q
         d_lo = q - lim.lower
         if (d_up > self._slow_zone).all() and (d_lo > self._slow_zone).all():
-            return -vmax, vmax, np.zeros(self._n, dtype=bool)
+            return self._v_low, vmax, self._no_joint
         # The speed asked now is held for a period before a stop could begin: keep the distance
         # covered meanwhile (at the current speed or the one asked, whichever is higher) in hand.
         A, J, dt2 = 0.5 * lim.acceleration, 0.5 * lim.jerk, 2.0 * self.config.period_s
@@ -737,25 +739,28 @@ class Servo:
         integ = self._integrator
         return self.chain.jacobian(integ.q, "world") @ integ.v
 
-    def _null_motion(self, active: NDArray[np.bool_], rows: FloatArray) -> FloatArray:
-        """Joint velocities in the null space of the task (active joints) away from the limits:
-        (I − V Vᵀ) g, V = the task's right singular vectors `rows` (k, n_active) (Liégeois 1977:
-        the projected gradient of a joint-limit cost)."""
-        out = np.zeros(self._n)
+    def _null_motion(self, active: NDArray[np.bool_] | None, rows: FloatArray) -> FloatArray:
+        """Joint velocities in the null space of the task (the `active` joints, None: all) away
+        from the limits: (I − V Vᵀ) g, V = the task's right singular vectors `rows`
+        (k, n_active) (Liégeois 1977: the projected gradient of a joint-limit cost)."""
         if rows.shape[0] >= rows.shape[1] or self.config.nullspace_gain_1_per_s == 0.0:
-            return out  # no null space (or switched off)
-        q = self._integrator.q
+            return self._zeros  # no null space (or switched off)
         # −k h x³ with x = (q − mid)/h, h the half range: the gradient of Σ h² x⁴/4, flat in
         # the middle and steep near the limits, so the joints nearest a limit dominate.
-        x = (q - self._mid) * self._inv_half
-        grad = (-self.config.nullspace_gain_1_per_s * self._half * x * x * x)[active]
-        out[active] = grad - rows.T @ (rows @ grad)
+        x = (self._integrator.q - self._mid) * self._inv_half
+        grad = self._null_coef * (x * x * x)
+        if active is not None:
+            grad = grad[active]
+        motion = grad - rows.T @ (rows @ grad)
+        if active is not None:
+            out = np.zeros(self._n)
+            out[active] = motion
+            motion = out
         # Eased in over 0.5 s after a command starts: a step in the null-space speed bends the
         # tool's path while the joints take it up.
         self._null_ease = min(1.0, self._null_ease + self.config.period_s / 0.5)
-        cap = self._null_ease * self._null_cap
-        peak = float(np.max(np.abs(out) / cap))
-        return out / peak if peak > 1.0 else out
+        peak = float((np.abs(motion) * self._inv_null_cap).max()) / self._null_ease
+        return motion / peak if peak > 1.0 else motion
 
     def _solve(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> FloatArray:
         qd = self._solve_at(Jt, x, details)
@@ -765,44 +770,43 @@ class Servo:
     def _solve_at(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> FloatArray:
         cfg = self.config
         eps, lam = cfg.singular_value_threshold, cfg.max_damping
-        n = self._n
         lo, hi, limited = self._velocity_box()
         sol = dls.solve(Jt, x, eps, lam)
         s = sol.singular_values
         details["condition"] = (float(s[0] / s[-1]) if s[-1] > 0 else math.inf, float(s[-1]))
-        fixed = np.zeros(n)
         undamped, damped, rows = sol.undamped, sol.damped, sol.row_basis
         if s[-1] < lam and s.shape[0] == Jt.shape[0]:
             damped = damped + self._escape(x, sol, details)
-        active = np.ones(n, dtype=bool)
-        at_limit = np.zeros(n, dtype=bool)
+        fixed: FloatArray | float = 0.0
+        active = None  # all joints
+        at_limit = self._no_joint
         if limited.any():
             qd = undamped + damped
             at_limit = limited & ((qd > hi + 1e-12) | (qd < lo - 1e-12))
             if at_limit.any():
+                self._hold_ramp()
                 saturated = self._saturate(Jt, x, lo, hi, limited, sol)
                 if saturated is not None:
                     fixed, undamped, damped, rows, active = saturated
                 # else: the other joints cannot take over the task exactly; the uniform scaling
                 # below slows the whole arm along its path instead, to a stop at the limit.
         details["at_limit"] = at_limit
-        if at_limit.any():
-            self._hold_ramp()
         null = self._null_motion(active, rows)
-        total = fixed + undamped + damped + null
+        total = undamped + damped + null + fixed
         if ((total <= hi) & (total >= lo)).all():
             task_acc = details.get("task_acceleration")
-            if task_acc is not None and not at_limit.any():
+            if task_acc is not None and at_limit is self._no_joint:
                 # q̈ = J⁺ (ẍ − J̇ q̇): the joint acceleration that keeps up with the ramping twist
                 # as the arm moves, fed forward to the smoothing; J̇ from the last period's J.
                 prev = self._last_jacobian
-                jdot_qd = (Jt - prev) @ total / cfg.period_s if prev is not None else 0.0
-                details["target_acceleration"] = dls.apply(sol, task_acc - jdot_qd)
+                if prev is not None:
+                    task_acc = task_acc - (Jt - prev) @ total / cfg.period_s
+                details["target_acceleration"] = dls.apply(sol, task_acc)
             return total
         # Fit into the box: the whole undamped part first (uniform scaling keeps its direction),
         # then as much of the damped part, then of the null-space motion.
-        base = fixed + undamped
-        s_base = self._max_scale(np.zeros(n), base, lo, hi)
+        base = undamped + fixed
+        s_base = self._max_scale(self._zeros, base, lo, hi)
         base = base * s_base
         s_damped = self._max_scale(base, damped, lo, hi)
         base = base + s_damped * damped

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..exceptions import KinematicsError
-from .limits import ServoLimits, braking_distance, braking_reach
+from .limits import ServoLimits, braking_reach
 
 FloatArray = NDArray[np.float64]
 
@@ -36,6 +36,14 @@ except ImportError:  # pragma: no cover - exercised where ruckig is missing
     _ruckig = None
 
 _TOL = 1e-9  # [rad or m] slack on the position checks (rounding of Ruckig's profiles)
+
+
+def _frozen(values: Any) -> FloatArray:
+    """A read-only float64 array of `values` (the integrator's states are never written to, so
+    they can be handed out without copies)."""
+    arr = np.array(values, dtype=np.float64)
+    arr.setflags(write=False)
+    return arr
 
 
 class MissingDependencyError(KinematicsError, ImportError):
@@ -76,13 +84,15 @@ class JerkLimitedIntegrator:
         self._acc_high = 0.9 * A
         self._acc_low = -0.9 * A
         self._half_inv_jerk = 0.5 / J
-        self.q = np.array(positions, dtype=np.float64)
-        self.v = np.zeros(n)
-        self.a = np.zeros(n)
-        self._zeros = np.zeros(n)
-        self._zeros.setflags(write=False)
-        self._reach_lo = self.q.copy()  # extent of the braking motion from the current state
-        self._reach_hi = self.q.copy()
+        self._half_inv_acc = 0.5 / A
+        self._half_acc_over_jerk = 0.5 * A / J
+        self._zeros = _frozen(np.zeros(n))
+        # The commanded state (read-only arrays, replaced each period, never written to).
+        self.q = _frozen(positions)
+        self.v = self._zeros
+        self.a = self._zeros
+        self._reach_lo = self.q  # extent of the braking motion from the current state
+        self._reach_hi = self.q
 
     def _make_input(self) -> Any:
         assert _ruckig is not None
@@ -98,11 +108,11 @@ class JerkLimitedIntegrator:
 
     def reset(self, positions: FloatArray) -> None:
         """At rest at `positions` (no velocity, no acceleration)."""
-        self.q = np.array(positions, dtype=np.float64)
-        self.v = np.zeros(self._n)
-        self.a = np.zeros(self._n)
-        self._reach_lo = self.q.copy()
-        self._reach_hi = self.q.copy()
+        self.q = _frozen(positions)
+        self.v = self._zeros
+        self.a = self._zeros
+        self._reach_lo = self.q
+        self._reach_hi = self.q
 
     @property
     def at_rest(self) -> bool:
@@ -167,7 +177,7 @@ class JerkLimitedIntegrator:
         self._reach_lo, self._reach_hi = reach
         # Ruckig ends a stop within rounding of zero: call it zero, so that "at rest" is exact.
         if not target.any() and np.abs(v).max() < 1e-12 and np.abs(a).max() < 1e-9:
-            v, a = self._zeros, self._zeros
+            v, a = self._zeros, self._zeros  # a stop ends within rounding of zero
         self.q, self.v, self.a = q, v, a
         return braking
 
@@ -195,11 +205,7 @@ class JerkLimitedIntegrator:
             inp.target_acceleration = [0.0] * self._n
             self._otg.update(inp, self._out)
         out = self._out
-        return (
-            np.array(out.new_position),
-            np.array(out.new_velocity),
-            np.array(out.new_acceleration),
-        )
+        return _frozen(out.new_position), _frozen(out.new_velocity), _frozen(out.new_acceleration)
 
     def _reach(
         self, q: FloatArray, v: FloatArray, a: FloatArray, which: NDArray[np.bool_]
@@ -207,20 +213,22 @@ class JerkLimitedIntegrator:
         """(min, max) position of each joint's time-optimal braking motion from (q, v, a), for
         the joints in `which` (the others: q). A cheap bound first spares the exact reach of a
         joint that cannot get near a bound: cutting the acceleration at full jerk, then braking
-        from rest acceleration, goes no further than speed·|a|/J + braking_distance(speed), with
-        speed = |v| + a²/(2J) (a feasible stop, so the time-optimal one stops sooner)."""
+        from rest acceleration, goes no further than s|a|/J + s²/(2A) + sA/(2J) with
+        s = |v| + a²/(2J) (a feasible stop, so the time-optimal one stops sooner; the last two
+        terms bound `braking_distance(s)` by the AM-GM inequality)."""
         lim = self.limits
+        speed = np.abs(v) + a * a * self._half_inv_jerk
+        bound = speed * (
+            speed * self._half_inv_acc + self._half_acc_over_jerk + np.abs(a) / lim.jerk
+        )
+        room = np.minimum(q - lim.lower, lim.upper - q)
+        exact = which & (room <= bound + 1e-9)
+        if not exact.any():
+            return q, q
         lo, hi = q.copy(), q.copy()
-        idx = np.flatnonzero(which)
-        speed = np.abs(v[idx]) + a[idx] * a[idx] * self._half_inv_jerk[idx]
-        A, J = lim.acceleration[idx], lim.jerk[idx]
-        bound = speed * np.abs(a[idx]) / J + braking_distance(speed, A, J) + 1e-9
-        room = np.minimum(q[idx] - lim.lower[idx], lim.upper[idx] - q[idx])
-        idx = idx[room <= bound]
-        if idx.size:
-            lo[idx], hi[idx] = braking_reach(
-                q[idx], v[idx], a[idx], A[room <= bound], J[room <= bound]
-            )
+        lo[exact], hi[exact] = braking_reach(
+            q[exact], v[exact], a[exact], lim.acceleration[exact], lim.jerk[exact]
+        )
         return lo, hi
 
 
