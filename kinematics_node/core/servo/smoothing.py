@@ -78,7 +78,9 @@ class JerkLimitedIntegrator:
         # never exceeds v_max + A²/(2J) while braking, which lasts at most 3A/J + that speed / A.
         A, J = limits.acceleration, limits.jerk
         top = limits.velocity + A * A / (2 * J)
-        self._zone = top * (3 * A / J + top / A) + 1e-6
+        zone = top * (3 * A / J + top / A) + 1e-6
+        self._near_low = limits.lower + zone  # at or beyond these a joint may reach a bound
+        self._near_high = limits.upper - zone
         self._v_low = -limits.velocity
         self._v_tolerated = limits.velocity * (1 + 1e-12)
         self._acc_high = 0.9 * A
@@ -153,7 +155,7 @@ class JerkLimitedIntegrator:
         for _ in range(n + 1):
             bad = np.abs(v + a * np.abs(a) * self._half_inv_jerk) > self._v_tolerated
             bad &= ~alone
-            near = ((q - lim.lower) <= self._zone) | ((lim.upper - q) <= self._zone)
+            near = (q <= self._near_low) | (q >= self._near_high)
             if near.any():
                 lo, hi = reach = self._reach(q, v, a, near)
                 bad_p = near & ~braking
@@ -172,7 +174,7 @@ class JerkLimitedIntegrator:
             q, v, a = self._advance(target, acc, alone)
             reach = None
         if reach is None:  # the last re-plan was not checked (n + 1 rounds): check it now
-            near = ((q - lim.lower) <= self._zone) | ((lim.upper - q) <= self._zone)
+            near = (q <= self._near_low) | (q >= self._near_high)
             reach = self._reach(q, v, a, near)
         self._reach_lo, self._reach_hi = reach
         # Ruckig ends a stop within rounding of zero: call it zero, so that "at rest" is exact.
