@@ -427,7 +427,7 @@ class _ClosedForm:
         assert found is not None  # the family was found in `of`
         if count == 1:
             return found
-        # A set is ranked from the whole solution set (`closed_form._nearest_of_all`), one
+        # A set is ranked from the whole solution set (`closed_form.api`'s `_nearest_of_all`), one
         # solution from the nearest branches, refined where it is a near miss: at a singular
         # target the two can differ by ~1e-8 rad, so the set takes the single one in (issue 22).
         one = nearest(p.chain, T, seed, 1, *self.tolerances, w, separation, deadline, tries, first)

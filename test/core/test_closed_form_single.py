@@ -1,6 +1,6 @@
 """The single-target paths of the closed form (`ik_all` on one target) against the general ones.
 
-The prepared three-parallel solver (`_closed_form_scalar.ThreeParallel`) must give the candidates
+The prepared three-parallel solver (`closed_form.three_parallel.ThreeParallel`) must give the candidates
 of the reference scalar solver (`three_parallel`, itself the twin of the vectorised one), and one
 `ik_all` call the solutions of `ik_all_batch`, also with whole-turn equivalents (limits ±2π).
 """
@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import closed_form_reference
 import numpy as np
 import pytest
 from kin_testing import (
@@ -21,8 +22,8 @@ from kin_testing import (
 )
 
 from kinematics_node.core import SerialChain, se3
-from kinematics_node.core import _closed_form_scalar as scalar
-from kinematics_node.core import closed_form as cf
+from kinematics_node.core.closed_form import api, chain_solver, detection, solution_set
+from kinematics_node.core.closed_form import geometry as scalar
 from kinematics_node.robots import load_robot
 
 FK_TOL = 1e-9
@@ -63,7 +64,7 @@ ARMS = {
 @pytest.mark.parametrize("arm", list(ARMS))
 def test_prepared_three_parallel_solver_equals_the_reference(arm):
     chain = ARMS[arm]()
-    solver = cf._solver(chain)
+    solver = detection.solver_of(chain)
     assert solver is not None and solver.structure.kind == "three_parallel"
     assert solver.three_parallel is not None
     g = solver.scalar_geometry
@@ -74,7 +75,7 @@ def test_prepared_three_parallel_solver_equals_the_reference(arm):
     q[40:80, 2] = 0.0
     q[80:100, [2, 4]] = 0.0
     T = chain.fk(q)
-    stage_names = cf._STAGE_ORDER["three_parallel"]
+    stage_names = chain_solver._STAGE_ORDER["three_parallel"]
     regular_gap = singular_gap = 0.0
     for i in range(len(q)):
         G = T[i] @ solver.M_inv
@@ -84,7 +85,7 @@ def test_prepared_three_parallel_solver_equals_the_reference(arm):
         p = tuple(G[:3, 3].tolist())
         d = rng.uniform(-4.0, 4.0, 6).tolist()  # defaults of free angles, beyond ±π too
         ref_stages, fast_stages = scalar.Stages(stage_names), scalar.Stages(stage_names)
-        ref = scalar.three_parallel(g, R, p, d, ref_stages)
+        ref = closed_form_reference.three_parallel(g, R, p, d, ref_stages)
         fast = solver.three_parallel.solve(R, p, d, fast_stages)
         assert fast_stages.passed == ref_stages.passed
         assert len(fast) == len(ref)
@@ -131,10 +132,11 @@ def test_single_call_equals_batch_with_whole_turn_equivalents(arm):
 def test_prepared_vectorised_three_parallel_solver_equals_the_reference(arm):
     """`solve_three_parallel_prepared` (ik_all_batch) against `solve_three_parallel`: same
     branches, same flags and reasons, angles equal to round-off (√ε at exact tangents)."""
-    from kinematics_node.core import _closed_form_vector as vector
+    from kinematics_node.core.closed_form import geometry as vector
+    from kinematics_node.core.closed_form import three_parallel as vector_tp
 
     chain = ARMS[arm]()
-    solver = cf._solver(chain)
+    solver = detection.solver_of(chain)
     rng = np.random.default_rng(12)
     q = random_q(chain, rng, 600)
     q[:60, 4] = 0.0
@@ -147,10 +149,10 @@ def test_prepared_vectorised_three_parallel_solver_equals_the_reference(arm):
         G = np.stack([se3.inverse(x) for x in G])
     dflt = rng.uniform(-4.0, 4.0, (len(q), 6))
     ref_trace, fast_trace = vector.Trace(), vector.Trace()
-    Q_ref, ok_ref = vector.solve_three_parallel(
+    Q_ref, ok_ref = vector_tp.solve_three_parallel(
         solver.geometry, G[:, :3, :3], G[:, :3, 3], dflt, ref_trace
     )
-    Q_fast, ok_fast = vector.solve_three_parallel_prepared(
+    Q_fast, ok_fast = vector_tp.solve_three_parallel_prepared(
         solver.three_parallel, G[:, :3, :3], G[:, :3, 3], dflt, fast_trace
     )
     assert not ok_ref[150:200].all()
@@ -169,7 +171,7 @@ def test_order_within_targets_equals_lexsort():
     Q = rng.choice([-np.pi, -1.0, 0.0, 0.5, np.pi], size=(owner.size, n))  # many ties
     seeds = rng.uniform(-1.0, 1.0, (N, n))
     seeds[::3] = 0.0
-    order = cf._order_within_targets(Q, owner, seeds, count, offsets)
+    order = solution_set.order_within_targets(Q, owner, seeds, count, offsets)
     D = Q - seeds[owner]
     expected = np.lexsort((np.einsum("ij,ij->i", D, D), owner))
     np.testing.assert_array_equal(order, expected)
@@ -215,7 +217,7 @@ def test_the_written_out_rigid_check_agrees_with_numpy():
                     and abs(np.abs(A[:3, :3].T @ A[:3, :3] - np.eye(3)).max() - rot_tol) < 1e-15
                 )
                 assert got == want or near, (bad, rot_tol)
-            assert (cf._exact_transform(A) is not None) == rigid_on_floats(A.tolist(), 1e-13, 0.0)
+            assert (api._exact_transform(A) is not None) == rigid_on_floats(A.tolist(), 1e-13, 0.0)
 
 
 @pytest.mark.parametrize("arm", ["ur5", "ur5-limited", "ur5 narrow limits", "ur5 mixed limits"])

@@ -1,4 +1,4 @@
-"""The prepared spherical-wrist solver (`_closed_form_scalar.Spherical`) against the general scalar
+"""The prepared spherical-wrist solver (`closed_form.spherical_wrist.Spherical`) against the general scalar
 one (`spherical`, itself the twin of the vectorised one): same branches, stages, flags and
 reasons, angles equal to round-off; on 6R arms of every position case, read from the base or the
 tip, on a moved base, and on 7R arms with the held joint at several values (the per-value cache
@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import closed_form_reference
 import numpy as np
 import pytest
 from kin_testing import (
@@ -21,8 +22,8 @@ from kin_testing import (
 )
 
 from kinematics_node.core import SerialChain, se3
-from kinematics_node.core import _closed_form_scalar as scalar
-from kinematics_node.core import closed_form as cf
+from kinematics_node.core.closed_form import chain_solver, detection, held
+from kinematics_node.core.closed_form import geometry as scalar
 from kinematics_node.robots import load_robot
 
 PI = np.pi
@@ -97,13 +98,13 @@ def compare(ref, ref_stages, fast, fast_stages, singular: bool) -> float:
 @pytest.mark.parametrize("arm", list(ARMS_6R))
 def test_prepared_spherical_solver_equals_the_general_one_6r(arm):
     chain = ARMS_6R[arm]()
-    solver = cf._solver(chain)
+    solver = detection.solver_of(chain)
     assert solver is not None and solver.structure.kind == "spherical_wrist"
     assert solver.spherical is not None
     st, g = solver.structure, solver.scalar_geometry
     rng = np.random.default_rng(21)
     T, n_singular = targets(chain, rng, 1 if st.reversed else 4)
-    names = cf._STAGE_ORDER[st.case]
+    names = chain_solver._STAGE_ORDER[st.case]
     regular_gap = singular_gap = 0.0
     n_empty = 0
     for i in range(len(T)):
@@ -114,7 +115,7 @@ def test_prepared_spherical_solver_equals_the_general_one_6r(arm):
         p = tuple(G[:3, 3].tolist())
         d = rng.uniform(-4.0, 4.0, 6).tolist()  # defaults of free angles, beyond ±π too
         ref_stages, fast_stages = scalar.Stages(names), scalar.Stages(names)
-        ref = scalar.spherical(st.case, g, R, p, d, ref_stages)
+        ref = closed_form_reference.spherical(st.case, g, R, p, d, ref_stages)
         fast = solver.spherical.solve(R, p, d, fast_stages)
         gap = compare(ref, ref_stages, fast, fast_stages, i < n_singular)
         n_empty += not ref
@@ -133,22 +134,22 @@ def test_prepared_spherical_solver_equals_the_general_one_7r(arm):
     """`_scalar_candidates` with the held joint at θ (cached geometry, prepared solver, G on
     floats) against the general solver on the NumPy route's geometry and G = T M⁻¹ E⁻¹."""
     chain = ARMS_7R[arm]()
-    solver = cf._solver(chain)
+    solver = detection.solver_of(chain)
     assert solver is not None and solver.structure.kind == "spherical_wrist"
     assert solver.held is not None and solver.held_moves is not None
     st, j = solver.structure, solver.held
     rng = np.random.default_rng(22)
     wrist = {True: 1, False: 5}[st.reversed]  # the 7R joint whose 0 aligns the wrist
     T, n_singular = targets(chain, rng, wrist)
-    names = cf._STAGE_ORDER[st.case]
+    names = chain_solver._STAGE_ORDER[st.case]
     seeds = random_q(chain, rng, len(T))
     regular_gap = singular_gap = 0.0
     for i in range(len(T)):
         seed = seeds[i].tolist()
         for theta in (seed[j], float(chain.lower[j]) + 0.3, 0.7, seed[j]):  # (last: cached)
             gv, E = solver.held_geometry(np.array([theta]))
-            g_ref = cf._lane(gv, 0)
-            G = T[i] @ solver.M_inv @ cf._inverse(E)[0]
+            g_ref = scalar.scalar_lane(gv, 0)
+            G = T[i] @ solver.M_inv @ scalar.inverse_transforms(E)[0]
             d = [seed[k] for k in solver.keep]
             if st.reversed:
                 G = se3.inverse(G)
@@ -156,10 +157,10 @@ def test_prepared_spherical_solver_equals_the_general_one_7r(arm):
             R = tuple(tuple(row) for row in G[:3, :3].tolist())
             p = tuple(G[:3, 3].tolist())
             ref_stages = scalar.Stages(names)
-            ref = cf._candidates_rp(solver, g_ref, None, R, p, d, theta)[0]
-            ref_raw = scalar.spherical(st.case, g_ref, R, p, d, ref_stages)
+            ref = chain_solver._candidates_rp(solver, g_ref, None, R, p, d, theta)[0]
+            ref_raw = closed_form_reference.spherical(st.case, g_ref, R, p, d, ref_stages)
             assert len(ref) == len(ref_raw)
-            fast, fast_stages = cf._scalar_candidates(solver, T[i].tolist(), seed, theta)
+            fast, fast_stages = chain_solver.scalar_candidates(solver, T[i].tolist(), seed, theta)
             gap = compare(ref, ref_stages, fast, fast_stages, i < n_singular)
             for q, _ in fast:
                 assert q[j] == theta and all(-math.pi < x <= math.pi for x in q[:j] + q[j + 1 :])
@@ -176,7 +177,7 @@ def test_held_values_on_floats_equal_held_order(arm):
     """`_held_order_one` (one seed, floats) gives `held_order`'s values, also for a held joint
     with a range wider than a turn and for a continuous one."""
     base = ARMS_7R[arm]()
-    solver = cf._solver(base)
+    solver = detection.solver_of(base)
     j = solver.held
     rng = np.random.default_rng(23)
     for lo_j, hi_j in ((None, None), (-4.0, 4.0), (-np.inf, np.inf), (-0.5, 0.5)):
@@ -186,11 +187,11 @@ def test_held_values_on_floats_equal_held_order(arm):
         chain = SerialChain.from_poe(
             np.asarray(base.S), np.asarray(base.M), lower=lower, upper=upper
         )
-        s = cf._solver(chain)
+        s = detection.solver_of(chain)
         for seed in random_q(chain, rng, 30):
             for count in (1, 2, 4, 37):
-                want = cf.held_order(chain, seed[None], count)[0].tolist()
-                assert cf._held_order_one(s, float(seed[j]), count) == want
+                want = held.held_order(chain, seed[None], count)[0].tolist()
+                assert held.held_order_one(s, float(seed[j]), count) == want
 
 
 @pytest.mark.parametrize("arm", ["panda", "iiwa14", "kinova"])
@@ -219,7 +220,7 @@ def test_ik_answers_reproduce_the_target_and_are_in_the_set(arm):
         assert res.orientation_error <= (1e-9 if closed else 1e-5)
         if closed:
             assert np.abs(chain.fk(res.q) - T).max() <= 1e-9
-        held = None if chain.dof == 6 else [q[cf._solver(chain).held]]
+        held = None if chain.dof == 6 else [q[detection.solver_of(chain).held]]
         every = np.array(chain.ik_all(T, q, held).solutions)
         assert np.abs(every - q).max(axis=1).min() < 1e-9
     assert n_closed >= 30
@@ -233,10 +234,11 @@ def test_ik_answers_reproduce_the_target_and_are_in_the_set(arm):
 def test_prepared_vectorised_spherical_wrist_equals_the_general_one(arm):
     """`solve_spherical` with the prepared wrist (`_wrist_prepared`, ik_batch / ik_all_batch)
     against the general one: same branches, flags and reasons, angles equal to round-off."""
-    from kinematics_node.core import _closed_form_vector as vector
+    from kinematics_node.core.closed_form import spherical_wrist as vector
+    from kinematics_node.core.closed_form.geometry import Trace
 
     chain = (ARMS_6R | ARMS_7R)[arm]()
-    solver = cf._solver(chain)
+    solver = detection.solver_of(chain)
     st = solver.structure
     rng = np.random.default_rng(25)
     wrist = (1 if st.reversed else 5) if solver.held is not None else (1 if st.reversed else 4)
@@ -248,11 +250,11 @@ def test_prepared_vectorised_spherical_wrist_equals_the_general_one(arm):
         theta = rng.uniform(chain.lower[solver.held], chain.upper[solver.held], len(T))
         g, E = solver.held_lanes(theta)
         prep = solver._held_static_solver
-        G = T @ solver.M_inv @ cf._inverse(E)
+        G = T @ solver.M_inv @ scalar.inverse_transforms(E)
     if st.reversed:
         G = np.stack([se3.inverse(x) for x in G])
     dflt = rng.uniform(-4.0, 4.0, (len(T), 6))
-    ref_trace, fast_trace = vector.Trace(), vector.Trace()
+    ref_trace, fast_trace = Trace(), Trace()
     Q_ref, ok_ref = vector.solve_spherical(st.case, g, G[:, :3, :3], G[:, :3, 3], dflt, ref_trace)
     Q_fast, ok_fast = vector.solve_spherical(
         st.case, g, G[:, :3, :3], G[:, :3, 3], dflt, fast_trace, prep

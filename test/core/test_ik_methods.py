@@ -267,7 +267,7 @@ def test_an_exported_family_is_installed_on_a_copy_without_detecting_it(name, mo
     def no_detection(_chain):
         raise AssertionError("detect() ran on the copy")
 
-    monkeypatch.setattr(closed_form, "detect", no_detection)
+    monkeypatch.setattr(closed_form.detection, "detect", no_detection)
     closed_form.import_family(clone, exported)
     assert closed_form.family_of(clone) == closed_form.family_of(chain)
     T = chain.fk(random_q(chain, np.random.default_rng(21)))
