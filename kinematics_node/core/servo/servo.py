@@ -1,27 +1,34 @@
 """`Servo`: from the measured joint state and a command, the next joint command for one period.
 
 One period (`Servo.step`) does, on the last *commanded* joint state q (so that the output is
-continuous whatever the arm's controller does):
+continuous whatever the arm's controller does; the measured state is used to start from where
+the arm is and to notice an arm that does not follow):
 
-1. Twist: the commanded pose T_ref is integrated from the commanded twist (ω, v) [base axes,
-   about the tip origin], and the loop is closed on it: V = V_cmd + K e, e = (log(R_ref Rᵀ),
-   p_ref − p). The error kept is bounded (`max_kept_error_*`): beyond it T_ref is pulled back
-   towards the arm, so a blocked arm does not wind up, and a pure rotation does not drift.
-   Pose: V points at the target, at min(K_pose d, v_max, √(2 a d)) for a distance d, which brakes
-   to zero at the target. Jog: the joint velocities as given.
+1. Twist: the command is ramped within Cartesian acceleration and jerk limits
+   (`twist_acceleration_time_s`), and the commanded pose T_ref is integrated from the ramped
+   twist (ω, v) [base axes, about the tip origin]; the loop is closed on it: V = V_ramp + K e,
+   e = (log(R_ref Rᵀ), p_ref − p). The error kept is bounded (`max_kept_error_*`): beyond it T_ref
+   is pulled back towards the arm, so a blocked arm does not wind up, and a pure rotation does
+   not drift. Pose: V points at the target, at min(K_pose d, v_max, √(2 a d)) for a distance d,
+   which brakes to zero at the target. Jog: the joint velocities as given.
 2. The followed rows of V are solved for q̇ by damped least squares (`dls`), which never stops at
-   a singularity; a redundant arm adds null-space motion towards the middle of its joint ranges.
+   a singularity; from an exact singularity, a command along the lost direction starts a motion
+   along the singular joint direction where its second-order effect agrees (`_escape`). A
+   redundant arm adds null-space motion away from its joint limits.
 3. Joint limits: a joint near a position limit may move towards it no faster than it can still
-   brake (`limits.braking_speed`); when the solution asks more, the joint is held at that speed
-   and the task is solved again by the other joints (saturation, as in Flacco, De Luca & Khatib
-   2012's SNS). The result is scaled into the velocity limits, the null-space motion giving way
-   first, then the damped directions, then the whole (which keeps the tool's direction).
-4. Ruckig moves the commanded state toward that velocity within the velocity, acceleration and
-   jerk limits, and a position guard makes a joint brake if it could no longer stop inside its
-   limits (`smoothing`).
+   brake (`limits.braking_speed`, at half its acceleration and jerk). When the solution asks more,
+   the joint is held at that speed and the task is solved again by the other joints where they
+   can do it exactly (saturation, as in Flacco, De Luca & Khatib 2012's SNS); otherwise the whole
+   motion is slowed, which keeps the tool on its path. The result is scaled into the velocity
+   limits, the null-space motion giving way first, then the damped directions, then the whole.
+4. Ruckig moves the commanded state toward that velocity within the acceleration and jerk limits,
+   with the joint acceleration J⁺(ẍ − J̇q̇) fed forward so that a ramping twist is followed
+   without lag; guards re-plan a joint that would pass its velocity limit or could no longer stop
+   inside its position limits (`smoothing`).
 
-Stopping (command timeout, a refused command, pause, the arm not following) is step 4 with a
-target velocity of zero: a jerk-limited stop along the current path.
+Stopping: a twist command that times out ramps to zero with the loop closed, so the tool stops on
+its path; any other stop (a jog or pose timeout, a refused command, pause, the arm not following,
+an unusable measurement) is step 4 with a target velocity of zero: a jerk-limited stop.
 
 Not thread-safe: call `submit`, `step`, `pause` and `resume` from one thread (or lock).
 """
