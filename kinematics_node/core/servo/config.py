@@ -113,7 +113,10 @@ class ServoConfig:
 
     Redundancy and task selection:
         nullspace_gain_1_per_s: gain [1/s] of the null-space motion that moves the joints of a
-            redundant arm towards the middle of their ranges without moving the tool (0: off).
+            redundant arm away from their limits without moving the tool (0: off); the speed is
+            −gain × h x³ for a joint at x = (q − middle)/h of its half range h, so the joints
+            nearest a limit dominate, capped at 5 % of the velocity limits and eased in over
+            0.5 s after a command starts.
         task_axes: which of the six twist components ("wx", "wy", "wz", "vx", "vy", "vz") the
             servo follows; the others are dropped (the status lists them). None: all six when the
             arm has six joints or more; for fewer, the components the arm can move at all (the
