@@ -161,9 +161,15 @@ class Servo:
         n = chain.dof
         lim = self.limits
         # Beyond this distance from a bound, braking never limits a joint's speed.
-        self._slow_zone = braking_distance(lim.velocity, lim.acceleration, lim.jerk) + (
-            2.0 * lim.velocity * cfg.period_s
+        # The braking the velocity planning uses (half the joint's acceleration and jerk, see
+        # _velocity_box); beyond this distance from a bound it never limits a joint's speed.
+        self._plan_acceleration = 0.5 * lim.acceleration
+        self._plan_jerk = 0.5 * lim.jerk
+        zone = braking_distance(lim.velocity, self._plan_acceleration, self._plan_jerk) + (
+            2.0 * cfg.period_s * lim.velocity
         )
+        self._slow_low = lim.lower + zone
+        self._slow_high = lim.upper - zone
         bounded = np.isfinite(lim.lower) & np.isfinite(lim.upper)
         self._mid = np.where(bounded, 0.5 * (lim.lower + lim.upper), 0.0)
         self._half = np.where(bounded, 0.5 * (lim.upper - lim.lower), 0.0)
@@ -548,13 +554,13 @@ class Servo:
         lim, integ = self.limits, self._integrator
         q = integ.q
         vmax = lim.velocity
+        if (q > self._slow_low).all() and (q < self._slow_high).all():
+            return self._v_low, vmax, self._no_joint
         d_up = lim.upper - q
         d_lo = q - lim.lower
-        if (d_up > self._slow_zone).all() and (d_lo > self._slow_zone).all():
-            return self._v_low, vmax, self._no_joint
         # The speed asked now is held for a period before a stop could begin: keep the distance
         # covered meanwhile (at the current speed or the one asked, whichever is higher) in hand.
-        A, J, dt2 = 0.5 * lim.acceleration, 0.5 * lim.jerk, 2.0 * self.config.period_s
+        A, J, dt2 = self._plan_acceleration, self._plan_jerk, 2.0 * self.config.period_s
         speed = np.abs(integ.v)
         s_up = braking_speed(d_up, A, J)
         s_lo = braking_speed(d_lo, A, J)
