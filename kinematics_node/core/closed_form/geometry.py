@@ -47,12 +47,17 @@ def axis_lines(S: FloatArray) -> tuple[FloatArray, FloatArray]:
 def meet_point(w: FloatArray, r: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Least-squares point nearest the lines (…, m, 3) and its largest distance from them (…).
 
-    Σ (I − ωωᵀ) x = Σ (I − ωωᵀ) r (normal equations of Σ dist(x, line)²).
+    Σ (I − ωωᵀ) x = Σ (I − ωωᵀ) r (normal equations of Σ dist(x, line)²). Where those are
+    singular (parallel lines: every point of a line is as near) the least-squares point nearest the
+    origin (pseudo-inverse); the distance is the same for each of them.
     """
     P = np.eye(3) - w[..., :, None] * w[..., None, :]  # (…, m, 3, 3)
     A = P.sum(axis=-3)
     y = (P @ r[..., None])[..., 0].sum(axis=-2)
-    x = np.linalg.solve(A, y[..., None])[..., 0]
+    try:
+        x = np.linalg.solve(A, y[..., None])[..., 0]
+    except np.linalg.LinAlgError:  # exactly parallel lines (fuzzed and planar arms)
+        x = (np.linalg.pinv(A, rcond=1e-12) @ y[..., None])[..., 0]
     d = x[..., None, :] - r
     d = d - w * sp.dot(d, w)[..., None]
     return x, sp.norm(d).max(axis=-1)
