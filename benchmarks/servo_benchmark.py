@@ -62,9 +62,21 @@ from kinematics_node.core.servo import (  # noqa: E402
     ServoLimits,
     TwistCommand,
 )
-from kinematics_node.robots import load_robot  # noqa: E402
 
 DT = 0.01
+ROBOTS = Path(__file__).resolve().parents[1] / "config" / "robots"
+LINKS = {  # the bundled robots' default chains (base link, tip link)
+    "ur5e": ("base_link", "tool0"),
+    "panda": ("panda_link0", "panda_hand_tcp"),
+    "iiwa14": ("iiwa_link_0", "iiwa_link_ee"),
+    "scara": ("base_link", "tool0"),
+}
+
+
+def load_robot(name: str) -> SerialChain:
+    return SerialChain.from_urdf(ROBOTS / f"{name}.urdf", *LINKS[name])
+
+
 HOMES = {
     "ur5e": np.array([0.3, -1.3, 1.6, -1.9, 1.2, 0.4]),
     "panda": np.array([0.0, -0.4, 0.0, -2.2, 0.0, 1.9, 0.8]),

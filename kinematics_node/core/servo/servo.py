@@ -206,6 +206,7 @@ class Servo:
         self._ramp_target = np.zeros(6)
         self._last_jacobian: FloatArray | None = None  # the task Jacobian of the last period
         self._null_ease = 0.0  # share of the null-space speed allowed (eased in per command)
+        self._anchor: FloatArray = self._integrator.q  # last well-conditioned configuration
         self._ref_p = (0.0, 0.0, 0.0)
         self._ref_q: _quat.Quat = (0.0, 0.0, 0.0, 1.0)
         self._stop: tuple[StatusCode, str] = (StatusCode.IDLE, "waiting for a command")
@@ -787,6 +788,8 @@ class Servo:
         sol = dls.solve(Jt, x, eps, lam)
         s = sol.singular_values
         details["condition"] = (float(s[0] / s[-1]) if s[-1] > 0 else math.inf, float(s[-1]))
+        if s[-1] >= eps:
+            self._anchor = self._integrator.q  # the last well-conditioned configuration
         undamped, damped, rows = sol.undamped, sol.damped, sol.row_basis
         if s[-1] < lam and s.shape[0] == Jt.shape[0]:
             damped = damped + self._escape(x, sol, details)
@@ -838,9 +841,16 @@ class Servo:
         the joints by θ along v_min moves the tool by ½ θ² H at second order (H = d²x/dθ², the
         same for ±θ). Where H has a component along the command's u_min-part, the joints move
         along v_min at |u_minᵀ x| / (2λ) (what the damped solution gives at σ = λ), weighted down to
-        nothing as σ_min grows to λ_max, so the damped solution takes over continuously. Where it
-        has none (e.g. pulling a straight elbow further out), nothing is added: that command
-        cannot be followed from here.
+        nothing as σ_min grows to λ_max, so the damped solution takes over continuously; the sign
+        is the damped solution's, or else the one back toward the last well-conditioned
+        configuration, so the arm keeps its branch (elbow up stays up).
+
+        Where H points against it, the command leads out of reach (a straight elbow pulled further
+        out: the edge of the workspace): the damped motion along v_min is dropped, since it could
+        only throw the arm through the singularity onto its other branch and back, and the tool
+        stops at the edge instead (from σ_min < λ_max/10 on: under a millimetre short of full
+        stretch on the bundled arms). Where H is nil (a wrist
+        singularity: v_min turns two aligned axes against each other) the damped solution stands.
         """
         cfg = self.config
         lam = cfg.max_damping
@@ -861,10 +871,17 @@ class Servo:
             second = np.concatenate((R.T @ second[:3], R.T @ second[3:]))
         if not self._all_rows:
             second = second[self._rows]
-        if r * float(u @ second) <= 0.0:
+        curvature = r * float(u @ second)
+        if curvature < -1e-12 and sigma < 0.1 * lam:
+            details["out_of_reach"] = True
+            return -float(v @ sol.damped) * v
+        if curvature <= 1e-12:
             return np.zeros(self._n)
         along = float(v @ (sol.undamped + sol.damped))
-        direction = 1.0 if along >= 0.0 else -1.0
+        if abs(along) > 1e-9:
+            direction = 1.0 if along > 0.0 else -1.0
+        else:
+            direction = 1.0 if float(v @ (self._anchor - q)) >= 0.0 else -1.0
         weight = 1.0 - sigma / lam
         details["escaping"] = True
         return (direction * weight * abs(r) / (2.0 * lam)) * v
@@ -944,6 +961,8 @@ class Servo:
                 f"near a singularity (condition number {kappa:.3g}, smallest singular value "
                 f"{sigma_min:.3g}): slowed in the ill-conditioned directions only"
             )
+            if details.get("out_of_reach"):
+                message += "; the command leads out of reach there (the edge of the workspace)"
         else:
             code = StatusCode.OK
             message = f"following the {self._mode} command"

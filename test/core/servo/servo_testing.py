@@ -8,21 +8,31 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from kinematics_node.core import SerialChain, so3
 from kinematics_node.core.servo import Command, Servo, ServoLimits, ServoStatus
-from kinematics_node.robots import load_robot
 
 Script = Callable[[int, float], Sequence[Command]]
 
 _CHAINS: dict[str, SerialChain] = {}
+ROBOTS = Path(__file__).resolve().parents[3] / "config" / "robots"
+#: the bundled robots' default chains (base link, tip link), as the package's robot table has them
+LINKS = {
+    "ur5e": ("base_link", "tool0"),
+    "panda": ("panda_link0", "panda_hand_tcp"),
+    "iiwa14": ("iiwa_link_0", "iiwa_link_ee"),
+    "scara": ("base_link", "tool0"),
+    "planar3r": ("base_link", "tool0"),
+}
 
 
 def robot(name: str) -> SerialChain:
+    """A bundled robot's default chain, read from config/robots."""
     if name not in _CHAINS:
-        _CHAINS[name] = load_robot(name)
+        _CHAINS[name] = SerialChain.from_urdf(ROBOTS / f"{name}.urdf", *LINKS[name])
     return _CHAINS[name]
 
 
