@@ -21,7 +21,7 @@ setup(
     ),
     package_data={"kinematics_node": ["py.typed"], "msg_adapters": ["py.typed"]},
     # Bundled robots and parameters land where a colcon install puts them too (share/<package>/config);
-    # kinematics_node.robots looks there, and in the source tree for editable installs.
+    # kinematics_node.sim.robots looks there, and in the source tree for editable installs.
     data_files=[
         (
             "share/kinematics_service/config",
@@ -60,5 +60,5 @@ setup(
         # change between minor releases
         "lint": ["ruff>=0.17,<0.18", "mypy>=1.10"],
     },
-    entry_points={"console_scripts": ["kinematics = kinematics_node.cli:main"]},
+    entry_points={"console_scripts": ["kinematics = kinematics_node.cli.main:main"]},
 )

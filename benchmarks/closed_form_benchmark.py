@@ -42,7 +42,7 @@ from ik_benchmark import ERD, TOL, peer_rtb, run_solver  # noqa: E402
 
 from kinematics_node.core import IKOptions, SerialChain  # noqa: E402
 from kinematics_node.core.closed_form import family_of  # noqa: E402
-from kinematics_node.robots import load_robot  # noqa: E402
+from kinematics_node.sim.robots import load_robot  # noqa: E402
 
 ARMS = {
     "ur5": lambda: SerialChain.from_urdf(ERD / "ur_description/urdf/ur5_robot.urdf", None, "tool0"),

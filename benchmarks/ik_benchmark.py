@@ -50,7 +50,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from kinematics_node.core import IKOptions, SerialChain, so3  # noqa: E402
 from kinematics_node.core.model import middle_of_limits  # noqa: E402
-from kinematics_node.robots import default_chain_links, load_robot, robot_path  # noqa: E402
+from kinematics_node.sim.robots import default_chain_links, load_robot, robot_path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _pinocchio import chain_setup  # noqa: E402

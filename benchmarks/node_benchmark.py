@@ -45,7 +45,7 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-from kinematics_node.ros_env import (  # noqa: E402
+from kinematics_node.ros.env import (  # noqa: E402
     clean_dead_shared_memory,
     executable,
     keep_discovery_local,
@@ -110,7 +110,7 @@ def _no_collections() -> None:
 def _spin_until_sigint(node: Any, lean: bool = False) -> None:
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
-    from kinematics_node.executor import LeanExecutor
+    from kinematics_node.ros.executor import LeanExecutor
 
     executor = LeanExecutor() if lean else SingleThreadedExecutor()
     executor.add_node(node)
@@ -197,7 +197,7 @@ def role_receiver(out: str, expect_twist: bool) -> None:
     from geometry_msgs.msg import PoseStamped, TwistStamped
     from rclpy.qos import QoSProfile
 
-    from kinematics_node.executor import LeanExecutor
+    from kinematics_node.ros.executor import LeanExecutor
 
     node = rclpy.create_node("bench_receiver")
     got: dict[str, list[tuple[int, int, int]]] = {"pose": [], "twist": []}
@@ -252,7 +252,7 @@ def role_ik_clients(arm: str, seconds: float, clients: int, timeout: float, out:
 
     from kinematics_node.core import SerialChain
     from kinematics_node.core.so3 import quaternion_from_rows
-    from kinematics_node.executor import LeanExecutor
+    from kinematics_node.ros.executor import LeanExecutor
 
     path, tip = ARMS[arm]
     chain = SerialChain.from_urdf(path, tip_link=tip or None)
@@ -667,7 +667,7 @@ def main() -> None:
         sys.exit(f"node_benchmark: cannot run the node here: {reason}")
     env = local_ros_env()
     env["PYTHONWARNINGS"] = "ignore"
-    # files of killed ROS processes: every run starts from the same state (ros_env.py says why)
+    # files of killed ROS processes: every run starts from the same state (kinematics_node/ros/env.py says why)
     shared_memory = clean_dead_shared_memory()
     print(shared_memory, file=sys.stderr)
     results: dict[str, dict[str, Any]] = {}

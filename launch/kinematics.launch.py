@@ -25,7 +25,7 @@ from launch_ros.substitutions import FindPackageShare
 
 from launch import LaunchDescription
 
-from kinematics_node.ros_env import fastdds_profile_env
+from kinematics_node.ros.env import fastdds_profile_env
 
 
 def _kinematics_node(context, *args, **kwargs):

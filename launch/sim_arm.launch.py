@@ -7,7 +7,7 @@ Arguments:
     robot: bundled robot, a file config/robots/<robot>.urdf of this package
         (ur5e, panda, iiwa14, scara, planar3r); default ur5e.
     base_link, tip_link: chain of the kinematics node; empty = the robot's default chain
-        (kinematics_node.robots.default_chain_links), e.g. panda_link0 -> panda_hand_tcp.
+        (kinematics_node.sim.robots.default_chain_links), e.g. panda_link0 -> panda_hand_tcp.
     rate: sim_arm integration and joint_states rate [Hz] (default 100.0).
     rviz: "true" starts RViz with config/sim_arm.rviz (fixed frame = base_link).
 """
@@ -22,8 +22,8 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 
-from kinematics_node.robots import default_chain_links
-from kinematics_node.ros_env import fastdds_profile_env
+from kinematics_node.sim.robots import default_chain_links
+from kinematics_node.ros.env import fastdds_profile_env
 
 PACKAGE = "kinematics_service"
 

@@ -40,7 +40,7 @@ class JointStateSample(NamedTuple):
 
 def sample_from_joint_state(msg: Any) -> JointStateSample:
     """`JointStateSample` of a sensor_msgs/JointState (values are checked by the tracker that
-    merges them, `kinematics_node.ee_state.JointStateTracker`, not here: this runs at 1 kHz)."""
+    merges them, `kinematics_node.service.ee_state.JointStateTracker`, not here: this runs at 1 kHz)."""
     stamp = msg.header.stamp
     return JointStateSample(
         msg.name, msg.position, msg.velocity, int(stamp.sec) + int(stamp.nanosec) * 1e-9

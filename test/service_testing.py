@@ -10,7 +10,7 @@ import pytest
 
 import msg_adapters as ma
 from kinematics_node.core import SerialChain
-from kinematics_node.service import KinematicsService
+from kinematics_node.service.kinematics import KinematicsService
 
 T_BASE_CAMERA = np.array(  # the fake TF tree: camera 1 m above the base, rotated 90° about z
     [[0.0, -1.0, 0.0, 0.2], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 1.0], [0.0, 0.0, 0.0, 1.0]]

@@ -1,6 +1,7 @@
 """The ROS package files are consistent with the code: package.xml declares what the code imports,
 CMakeLists.txt builds every srv and installs what the launch files use, the parameter file matches
-the declared parameters (test_import_graph.py keeps the core free of rclpy)."""
+the declared parameters, the executables and setup.py's console script name existing entry points
+(test_import_graph.py keeps the core free of rclpy)."""
 
 from __future__ import annotations
 
@@ -149,10 +150,29 @@ def test_executable_wrappers_call_existing_entry_points():
         )
         module = found.group(1)
         module_file = ROOT / (module.replace(".", "/") + ".py")
-        if module == "kinematics_node.sim_arm" and not module_file.exists():
-            pytest.skip("kinematics_node/sim_arm.py is written on the sim branch")
         assert module_file.exists(), module
         assert re.search(r"^def main\(", module_file.read_text(encoding="utf-8"), re.MULTILINE)
+
+
+def test_setup_py_console_script_is_the_installed_kinematics_command():
+    """pip's `kinematics` (setup.py) and colcon's (scripts/kinematics) run the same main()."""
+    setup = (ROOT / "setup.py").read_text(encoding="utf-8")
+    (entry,) = re.findall(r'"kinematics = ([\w.]+):(\w+)"', setup)
+    module, function = entry
+    module_file = ROOT / (module.replace(".", "/") + ".py")
+    assert module_file.exists(), module
+    assert re.search(rf"^def {function}\(", module_file.read_text(encoding="utf-8"), re.MULTILINE)
+    script = (ROOT / "scripts" / "kinematics").read_text(encoding="utf-8")
+    assert re.search(rf"from {re.escape(module)} import {function}\b", script)
+
+
+def test_cmake_test_paths_exist():
+    """The tests CMakeLists.txt hands to ament (BUILD_TESTING) are where it says."""
+    listed = CMAKE[CMAKE.index("foreach(path") :].split(")")[0]
+    paths = re.findall(r"\btest/[\w/.]+", listed)
+    tests = [*paths, *re.findall(r"add_launch_test\((\S+)", CMAKE)]
+    assert len(tests) >= 5
+    assert [t for t in tests if not (ROOT / t).exists()] == []
 
 
 def test_cmake_installs_the_python_packages_and_exports_the_runtime():
@@ -164,7 +184,7 @@ def test_cmake_installs_the_python_packages_and_exports_the_runtime():
 
 def test_parameter_file_matches_the_declared_parameters():
     yaml = pytest.importorskip("yaml")
-    from kinematics_node.parameters import SPECS, validate_parameters
+    from kinematics_node.service.parameters import SPECS, validate_parameters
 
     doc = yaml.safe_load((ROOT / "config/kinematics.yaml").read_text(encoding="utf-8"))
     (node_key,) = doc

@@ -19,7 +19,7 @@ from kinematics_node.core import (
     se3,
 )
 from kinematics_node.core.closed_form import family_of
-from kinematics_node.robots import load_robot
+from kinematics_node.sim.robots import load_robot
 
 PI = np.pi
 FK_TOL = 1e-9

@@ -24,7 +24,7 @@ from kin_testing import (
 from kinematics_node.core import SerialChain, se3
 from kinematics_node.core.closed_form import api, chain_solver, detection, solution_set
 from kinematics_node.core.closed_form import geometry as scalar
-from kinematics_node.robots import load_robot
+from kinematics_node.sim.robots import load_robot
 
 FK_TOL = 1e-9
 

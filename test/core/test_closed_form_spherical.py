@@ -24,7 +24,7 @@ from kin_testing import (
 from kinematics_node.core import SerialChain, se3
 from kinematics_node.core.closed_form import chain_solver, detection, held
 from kinematics_node.core.closed_form import geometry as scalar
-from kinematics_node.robots import load_robot
+from kinematics_node.sim.robots import load_robot
 
 PI = np.pi
 

@@ -11,7 +11,7 @@ from kin_testing import erd_path
 
 from kinematics_node.core import InvalidInputError, RobotDescriptionError, SerialChain
 from kinematics_node.core.rotations import matrix_from_quaternion
-from kinematics_node.robots import robot_path
+from kinematics_node.sim.robots import robot_path
 
 PLANAR = robot_path("planar3r").read_text(encoding="utf-8")
 Q3 = np.array([0.3, -0.4, 0.5])

@@ -100,7 +100,7 @@ def test_seed_outside_limits_is_clamped_and_result_within_limits() -> None:
 def test_arms_with_fewer_joints_than_pose_dimensions_solve_reachable_poses(name: str) -> None:
     """n < 6: a full 6-D pose is still reachable when it came from FK, and the stopping rules
     (spare degrees of freedom = max(n − 6, 0)) must not end every attempt early."""
-    from kinematics_node.robots import load_robot
+    from kinematics_node.sim.robots import load_robot
 
     chain = load_robot(name)
     assert chain.dof < 6
@@ -207,7 +207,7 @@ def test_axis_tolerances_free_an_axis_that_full_pose_ik_cannot_meet() -> None:
     """A planar arm cannot tilt its tool out of the plane: the tilted target fails as a full pose
     and succeeds once the tilt axis (tool x) has an infinite bound; every bounded component of the
     answer is then within its bound, checked with SciPy's rotation vector."""
-    from kinematics_node.robots import load_robot
+    from kinematics_node.sim.robots import load_robot
 
     chain = load_robot("planar3r")
     bounds = (math.inf, 1e-4, 1e-4, 1e-5, 1e-5, 1e-5)
@@ -564,7 +564,7 @@ def test_random_option_mixes_never_return_nan_or_leave_the_limits(batch_path: st
     """Fuzz: bundled arms of 3–7 joints, targets reachable, perturbed or far away, seeds at the
     limits, random weights / axis bounds / position-only / modes. Whatever happens, q is finite
     and within the limits and the reported errors are finite (single and batch)."""
-    from kinematics_node.robots import load_robot
+    from kinematics_node.sim.robots import load_robot
 
     chains = [load_robot(n) for n in ("ur5e", "panda", "scara", "planar3r")]
     rng = np.random.default_rng(99)

@@ -18,7 +18,7 @@ from kin_testing import erd_path, random_q, ur_hole_target
 
 from kinematics_node.core import IKOptions, InvalidInputError, SerialChain
 from kinematics_node.core.closed_form import family_of
-from kinematics_node.robots import load_robot
+from kinematics_node.sim.robots import load_robot
 
 TOL = 1e-9
 _CHAINS: dict[str, SerialChain] = {}

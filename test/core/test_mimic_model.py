@@ -159,7 +159,7 @@ def test_description_notes_say_what_was_adjusted_or_taken_as_given() -> None:
 
 
 def test_chain_cache_keeps_follower_limits_and_notes(tmp_path, monkeypatch) -> None:
-    from kinematics_node import chain_cache
+    from kinematics_node.cli import chain_cache
 
     path = tmp_path / "arm.urdf"
     path.write_text(two_joint_arm().replace('axis xyz="1 0 0"', 'axis xyz="0 0 2"'))

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from kin_testing import random_q
 
-from kinematics_node.robots import available_robots, load_robot
+from kinematics_node.sim.robots import available_robots, load_robot
 
 
 @pytest.mark.parametrize("robot", available_robots())

@@ -268,7 +268,7 @@ def _dh_surface() -> tuple[Callable[[np.random.Generator], Any], Callable[[Any],
 
 # ====================================================================== 3. CLI argv
 def _cli_surface() -> tuple[Callable[[np.random.Generator], Any], Callable[[Any], str]]:
-    from kinematics_node.cli import main
+    from kinematics_node.cli.main import main
 
     scratch = Path(tempfile.mkdtemp(prefix="kinematics_fuzz_"))
     os.environ.setdefault("KINEMATICS_CACHE_DIR", str(scratch / "cache"))
@@ -437,7 +437,7 @@ _UR5E_LINKS = ["base_link", "shoulder_link", "forearm_link", "wrist_3_link", "to
 
 
 def _service() -> Any:
-    from kinematics_node.service import KinematicsService
+    from kinematics_node.service.kinematics import KinematicsService
 
     ros = Messages()
 

@@ -37,7 +37,7 @@ from sensor_msgs.msg import JointState  # noqa: E402
 
 import launch  # noqa: E402
 from kinematics_node.core import SerialChain  # noqa: E402
-from kinematics_node.ros_env import keep_discovery_local  # noqa: E402
+from kinematics_node.ros.env import keep_discovery_local  # noqa: E402
 
 # Discovery on loopback, in a domain of this run's own, for this process and for the processes
 # launch starts (they inherit this environment): set before rclpy starts.

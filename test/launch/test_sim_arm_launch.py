@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from kinematics_node import robots
+from kinematics_node.sim import robots
 
 REPO = Path(__file__).resolve().parents[2]
 LAUNCH = REPO / "launch" / "sim_arm.launch.py"

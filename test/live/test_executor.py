@@ -1,4 +1,4 @@
-"""LeanExecutor (kinematics_node/executor.py) against real rclpy, in this process: every kind of
+"""LeanExecutor (kinematics_node/ros/executor.py) against real rclpy, in this process: every kind of
 entity it runs, the parts of rclpy's semantics it keeps (callback groups, coroutine callbacks,
 exceptions, entities created or destroyed while spinning, shutdown), and the one wait per
 callback that is its reason to exist."""
@@ -22,8 +22,8 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
 from std_msgs.msg import Int32, String
 
-import kinematics_node.executor as executor_module
-from kinematics_node.executor import LeanExecutor, lean_executor_supported, make_executor
+import kinematics_node.ros.executor as executor_module
+from kinematics_node.ros.executor import LeanExecutor, lean_executor_supported, make_executor
 
 
 class WaitCounter:
@@ -184,7 +184,7 @@ def test_a_held_response_learns_how_long_its_request_waited(
 ) -> None:
     """`DeferredResponses.hold(on_header=...)` over real rmw: the header's source timestamp
     (what the node counts against an IK timeout) measures the time since the client's send."""
-    from kinematics_node.deferred import DeferredResponses, waited_since_sent
+    from kinematics_node.ros.deferred import DeferredResponses, waited_since_sent
 
     waited: list[float] = []
 

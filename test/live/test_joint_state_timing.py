@@ -21,7 +21,11 @@ from live_node import ROBOTS, UR5E_JOINTS, ur5e_description, wait_until
 from sensor_msgs.msg import JointState
 
 from kinematics_node.core import SerialChain
-from kinematics_node.ee_state import ARRIVAL_SPAN, FROM_ARRIVAL_REPEATED, FROM_ARRIVAL_UNSTAMPED
+from kinematics_node.service.ee_state import (
+    ARRIVAL_SPAN,
+    FROM_ARRIVAL_REPEATED,
+    FROM_ARRIVAL_UNSTAMPED,
+)
 
 CHAIN = SerialChain.from_urdf(ROBOTS / "ur5e.urdf")
 Q0 = np.array([0.3, -1.2, 1.5, -0.8, 0.9, 0.2])

@@ -29,7 +29,7 @@ from std_msgs.msg import String
 from test_node_topics import joint_state
 
 from kinematics_node.core import SerialChain
-from kinematics_node.ros_env import executable, local_ros_env
+from kinematics_node.ros.env import executable, local_ros_env
 from msg_adapters import matrix_from_pose
 
 NAMESPACE = "/descriptions"

@@ -15,7 +15,7 @@ from live_node import DOMAIN_ID, UR5E, ur5e_description
 
 from kinematics_node.core import SerialChain
 from kinematics_node.core.rotations import matrix_from_quaternion
-from kinematics_node.ros_env import local_ros_env
+from kinematics_node.ros.env import local_ros_env
 
 #: A pose the UR5e reaches (tool0 pointing down), and one 5 m away, beyond its reach.
 REACHABLE = "0.4,0.1,0.4,1,0,0,0"

@@ -86,7 +86,7 @@ def test_ik_timeouts_hold_with_four_clients_at_once(client, start_node):
 
 def test_ik_answers_come_back_while_joint_states_stream_at_1_khz(client, start_node):
     """While joint_states stream (here ~1 kHz), the node collects IK answers on the stream's own
-    executor turns instead of being woken for each (`kinematics_node.mailbox`); when the stream
+    executor turns instead of being woken for each (`kinematics_node.ros.mailbox`); when the stream
     stops, it is woken again. Answers must arrive by their timeout (+ 500 ms of slack: a write
     can block ~333 ms in Fast DDS's shared-memory health check where a process lacks the
     package's profile, issue 10; lateness is measured by benchmarks/node_benchmark.py) either

@@ -36,9 +36,9 @@ from live_node import DOMAIN_ID, ROOT, Client
 
 from kinematics_node.core import SerialChain
 from kinematics_node.core.rotations import matrix_from_quaternion
-from kinematics_node.executables import SIM_ARM_PARAMETERS
-from kinematics_node.ros_env import FASTDDS_PROFILE_VARIABLES, local_ros_env
-from kinematics_node.simulator import ArmSimulator
+from kinematics_node.ros.env import FASTDDS_PROFILE_VARIABLES, local_ros_env
+from kinematics_node.ros.executables import SIM_ARM_PARAMETERS
+from kinematics_node.sim.arm import ArmSimulator
 
 README = ROOT / "README.md"
 #: What the user's description stands for here (a real arm with a gripper-less flange, tool0).
@@ -94,7 +94,7 @@ def _sim_arm_defaults() -> dict[str, Any]:
 
 def replay_sim_arm(description: Path, steps: int) -> tuple[tuple[str, ...], np.ndarray]:
     """(joint names, (steps, n) positions) that sim_arm publishes for `description` with its
-    default parameters, as the recipe starts it (sim_arm.py builds the same simulator)."""
+    default parameters, as the recipe starts it (ros/sim_arm.py builds the same simulator)."""
     p = _sim_arm_defaults()
     assert not p["tip_link"] and p["demo"]  # every moving joint, in the demo motion
     sim = ArmSimulator.from_urdf(

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from live_node import DOMAIN_ID  # (importing it skips where rclpy or the build is missing)
 
-from kinematics_node.ros_env import clean_dead_shared_memory, fastdds_tool, local_ros_env
+from kinematics_node.ros.env import clean_dead_shared_memory, fastdds_tool, local_ros_env
 
 SHM = Path("/dev/shm")
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from kinematics_node import robots
 from kinematics_node.core import InvalidInputError, UnknownNameError
-from kinematics_node.simulator import ArmSimulator
+from kinematics_node.sim import robots
+from kinematics_node.sim.arm import ArmSimulator
 from msg_adapters.joint_commands import (
     apply_trajectory_msg,
     apply_velocity_msg,

@@ -1,0 +1,121 @@
+"""ROS 2 node `sim_arm`: a simulated arm publishing ``joint_states`` (rclpy wiring only).
+
+The simulation is `kinematics_node.sim.arm.ArmSimulator`; message conversion is
+`msg_adapters.joint_commands`. This module only connects them to rclpy (Humble and Jazzy API).
+
+Parameters (`executables.SIM_ARM_PARAMETERS`, which `sim_arm --help` lists):
+    robot_description_file (str, ""): a URDF or xacro file, expanded with `xacro_args` (str,
+        "name:=value ..."), as the kinematics node reads its parameter of that name.
+    robot_description (str, ""): URDF/xacro XML; with neither, the bundled robot `robot` is used.
+    robot (str, "ur5e"): bundled robot name (see `kinematics_node.sim.robots.available_robots`).
+    base_link, tip_link (str, ""): when tip_link is set, simulate only the chain base → tip;
+        otherwise every moving non-mimic joint (what robot_state_publisher needs).
+    rate (double, 100.0): publishing and integration rate [Hz]; the step is 1/rate [s].
+    command_timeout (double, 0.5): how long a velocity command is held [s].
+    demo (bool, true): move in the built-in demo motion until the first command.
+    demo_resume_after (double, 0.0): restart the demo after this many idle seconds; ≤ 0: never.
+
+Topics (relative names): publishes ``joint_states`` (sensor_msgs/JointState); subscribes
+``joint_trajectory`` (trajectory_msgs/JointTrajectory) and ``joint_velocity_commands``
+(std_msgs/Float64MultiArray, one value per published joint name, in that order). Malformed
+commands are refused with a logged warning; the node keeps running.
+"""
+
+from __future__ import annotations
+
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.exceptions import ParameterException
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
+from trajectory_msgs.msg import JointTrajectory
+
+from kinematics_node.core import SerialChain
+from kinematics_node.core.exceptions import KinematicsError
+from kinematics_node.ros.executables import SIM_ARM_PARAMETERS
+from kinematics_node.ros.spin import spin_until_shutdown
+from kinematics_node.service.description_file import read_description_file
+from kinematics_node.sim.arm import ArmSimulator
+from kinematics_node.sim.robots import default_chain_links, robot_path
+from msg_adapters.joint_commands import apply_trajectory_msg, apply_velocity_msg, fill_joint_state
+
+
+class SimArmNode(Node):
+    """Steps an `ArmSimulator` on a timer and publishes its joint states."""
+
+    def __init__(self) -> None:
+        super().__init__("sim_arm")
+        p = self._declare_parameters()
+        description = p["robot_description"]
+        if not description and p["robot_description_file"]:
+            description = read_description_file(p["robot_description_file"], p["xacro_args"]).xml
+        bundled = not description
+        if bundled:
+            description = robot_path(p["robot"]).read_text(encoding="utf-8")
+        rate = p["rate"]
+        if not rate > 0:
+            raise KinematicsError(f"parameter rate must be > 0 Hz, got {rate}")
+        options = {
+            "command_timeout": p["command_timeout"],
+            "demo": p["demo"],
+            "demo_resume_after": p["demo_resume_after"],
+        }
+        if p["tip_link"]:
+            base = p["base_link"] or None
+            if bundled and base is None:
+                base = default_chain_links(p["robot"])[0]
+            chain = SerialChain.from_urdf(description, base_link=base, tip_link=p["tip_link"])
+            self.sim = ArmSimulator.from_chain(chain, 1.0 / rate, **options)
+        else:
+            self.sim = ArmSimulator.from_urdf(description, 1.0 / rate, **options)
+
+        self._pub = self.create_publisher(JointState, "joint_states", 10)
+        self.create_subscription(JointTrajectory, "joint_trajectory", self._on_trajectory, 10)
+        self.create_subscription(
+            Float64MultiArray, "joint_velocity_commands", self._on_velocity, 10
+        )
+        self.create_timer(1.0 / rate, self._on_timer)
+        self.get_logger().info(
+            f"simulating {self.sim.dof} joints {list(self.sim.joint_names)} at {rate:g} Hz"
+        )
+
+    def _declare_parameters(self) -> dict:
+        values = {}
+        for spec in SIM_ARM_PARAMETERS:
+            descriptor = ParameterDescriptor(description=spec.description)
+            self.declare_parameter(spec.name, spec.default, descriptor)
+            values[spec.name] = self.get_parameter(spec.name).value
+        return values
+
+    def _on_timer(self) -> None:
+        _, q, qdot = self.sim.step()
+        msg = fill_joint_state(
+            JointState(), self.sim.joint_names, q, qdot, self.get_clock().now().to_msg()
+        )
+        self._pub.publish(msg)
+
+    def _on_trajectory(self, msg: JointTrajectory) -> None:
+        try:
+            cmd = apply_trajectory_msg(self.sim, msg)
+        except (KinematicsError, ValueError) as exc:
+            self.get_logger().warning(f"refused joint_trajectory: {exc}")
+            return
+        self.get_logger().info(
+            f"following a trajectory of {len(cmd.times)} points over {cmd.times[-1]:.3g} s"
+        )
+
+    def _on_velocity(self, msg: Float64MultiArray) -> None:
+        try:
+            apply_velocity_msg(self.sim, msg)
+        except (KinematicsError, ValueError) as exc:
+            self.get_logger().warning(f"refused joint_velocity_commands: {exc}")
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of the `sim_arm` executable: 0 after SIGINT/SIGTERM, 2 when a start-up
+    parameter is invalid (one line on stderr saying which); see `spin`."""
+    return spin_until_shutdown(SimArmNode, "sim_arm", (KinematicsError, ParameterException), args)
+
+
+if __name__ == "__main__":
+    main()

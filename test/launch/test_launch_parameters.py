@@ -1,0 +1,150 @@
+"""The launch files' node parameters, without ROS 2 launch (not on PyPI): each launch file runs
+against small stand-ins of `launch`, `launch_ros` and `ament_index_python` that record the nodes it
+starts, and the kinematics node's parameters are checked against the parameters it declares.
+(Where ROS 2 launch is installed, test/launch/ runs the real thing.)"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import sys
+import types
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from kinematics_node.service.parameters import SPECS, validate_parameters
+
+ROOT = Path(__file__).resolve().parents[2]
+SHARE = "/opt/ros/share/kinematics_service"
+
+
+class _Substitution:
+    def __init__(self, *parts: Any, **kwargs: Any) -> None:
+        self.parts, self.kwargs = parts, kwargs
+
+
+class _LaunchConfiguration(_Substitution):
+    def perform(self, context: dict[str, str]) -> str:
+        return context[self.parts[0]]
+
+
+class _PathJoin(_Substitution):
+    def perform(self, context: dict[str, str]) -> str:
+        return os.path.join(
+            *(p if isinstance(p, str) else p.perform(context) for p in self.parts[0])
+        )
+
+
+class _FindPackageShare(_Substitution):
+    def perform(self, context: dict[str, str]) -> str:
+        return SHARE
+
+
+class _Action(_Substitution):
+    """DeclareLaunchArgument, OpaqueFunction, Node, LaunchDescription, IfCondition, ..."""
+
+
+def _stand_ins() -> dict[str, types.ModuleType]:
+    modules: dict[str, types.ModuleType] = {}
+    content = {
+        "launch": {"LaunchDescription": _Action},
+        "launch.actions": {"DeclareLaunchArgument": _Action, "OpaqueFunction": _Action},
+        "launch.conditions": {"IfCondition": _Action},
+        "launch.substitutions": {
+            "LaunchConfiguration": _LaunchConfiguration,
+            "PathJoinSubstitution": _PathJoin,
+        },
+        "launch_ros": {},
+        "launch_ros.actions": {"Node": _Action},
+        "launch_ros.parameter_descriptions": {"ParameterValue": _Substitution},
+        "launch_ros.substitutions": {"FindPackageShare": _FindPackageShare},
+        "ament_index_python": {},
+        "ament_index_python.packages": {"get_package_share_directory": lambda package: SHARE},
+    }
+    for name, attributes in content.items():
+        module = types.ModuleType(name)
+        module.__dict__.update(attributes)
+        modules[name] = module
+    return modules
+
+
+def _load(monkeypatch: pytest.MonkeyPatch, filename: str) -> Any:
+    for name, module in _stand_ins().items():
+        monkeypatch.setitem(sys.modules, name, module)
+    spec = importlib.util.spec_from_file_location(
+        filename.replace(".", "_"), ROOT / "launch" / filename
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _kinematics_parameters(nodes: list[_Action]) -> dict[str, Any]:
+    """The parameter overrides (dicts, after the parameter file) of the one kinematics node."""
+    (node,) = [n for n in nodes if n.kwargs.get("executable") == "kinematics_node"]
+    assert node.kwargs["package"] == "kinematics_service"
+    merged: dict[str, Any] = {}
+    for entry in node.kwargs["parameters"]:
+        if isinstance(entry, dict):
+            merged.update(entry)
+    return merged
+
+
+def _check_declared(params: dict[str, Any]) -> None:
+    assert set(params) <= set(SPECS), set(params) - set(SPECS)
+    assert validate_parameters(params) is None
+
+
+def _arguments(module: Any) -> dict[str, str]:
+    """The launch file's declared arguments with their defaults."""
+    description = module.generate_launch_description()
+    (entities,) = description.parts
+    return {
+        a.parts[0]: a.kwargs.get("default_value", "")
+        for a in entities
+        if a.parts and isinstance(a.parts[0], str)
+    }
+
+
+def test_kinematics_launch_passes_the_file_and_xacro_args_as_parameters(monkeypatch, tmp_path):
+    module = _load(monkeypatch, "kinematics.launch.py")
+    arguments = _arguments(module)
+    assert {"description_file", "xacro_args", "base_link", "tip_link"} <= set(arguments)
+    monkeypatch.chdir(tmp_path)
+    context = {
+        **arguments,
+        "description_file": "robots/arm.urdf.xacro",  # relative to where `ros2 launch` runs
+        "xacro_args": "prefix:=left_ name:=arm",
+        "tip_link": "tool0",
+        "params_file": "params.yaml",
+        "namespace": "",
+    }
+    params = _kinematics_parameters(module._kinematics_node(context))
+    assert params == {
+        "robot_description_file": str(tmp_path / "robots" / "arm.urdf.xacro"),
+        "xacro_args": "prefix:=left_ name:=arm",
+        "tip_link": "tool0",
+    }
+    _check_declared(params)
+    # nothing given: the parameter file decides (the topic, by default)
+    context |= {"description_file": "", "xacro_args": "", "tip_link": ""}
+    assert _kinematics_parameters(module._kinematics_node(context)) == {}
+
+
+@pytest.mark.parametrize("robot", ["ur5e", "panda"])
+def test_sim_arm_launch_gives_the_node_the_bundled_file(monkeypatch, robot):
+    module = _load(monkeypatch, "sim_arm.launch.py")
+    monkeypatch.setattr(module, "get_package_share_directory", lambda package: str(ROOT))
+    arguments = _arguments(module)
+    nodes = module._nodes({**arguments, "robot": robot})
+    params = _kinematics_parameters(nodes)
+    _check_declared(params)
+    assert params["robot_description_file"] == str(ROOT / "config" / "robots" / f"{robot}.urdf")
+    assert "robot_description" not in params  # the file, not its text (one source)
+    (rsp,) = [n for n in nodes if n.kwargs.get("executable") == "robot_state_publisher"]
+    (rsp_params,) = rsp.kwargs["parameters"]
+    text = rsp_params["robot_description"].parts[0]  # robot_state_publisher takes the XML
+    assert text == (ROOT / "config" / "robots" / f"{robot}.urdf").read_text(encoding="utf-8")
