@@ -172,26 +172,29 @@ def test_hand_built_arms_family():
 
 
 @pytest.mark.parametrize("offset", [1e-3, 1e-4])
-def test_arms_just_outside_a_family_are_not_detected(offset):
+def test_arms_just_outside_a_family_go_to_the_general_solver(offset):
+    """Not detected as the named family they miss; the general 6R solver takes them, and its set
+    contains the configuration the target came from."""
     # Puma and KUKA with an offset wrist (a5 ≠ 0: axes 5 and 6 miss each other).
+    q = np.array([0.3, -0.4, 0.5, 0.6, -0.7, 0.8])
     for rows in (PUMA, KUKA):
         bad = [list(r) for r in rows]
         bad[4][0] = offset
         chain = dh_arm(bad)
-        assert chain.ik_family is None
-        with pytest.raises(NoClosedFormError, match="miss a common point"):
-            chain.ik_all(chain.fk(np.zeros(6)))
+        assert chain.ik_family == "general_6r"
+        sols = chain.ik_all(chain.fk(q)).solutions
+        assert np.abs(np.asarray(sols) - q).max(axis=1).min() < 1e-9
     # KUKA with joint 3 tilted (axes 2 and 3 no longer parallel, and they do not meet).
     bad = [list(r) for r in KUKA]
     bad[1][1] = offset
-    assert dh_arm(bad).ik_family is None
+    assert dh_arm(bad).ik_family == "general_6r"
     # UR5 with its wrist (axes 4-6) tilted about the base x axis: axis 4 is no longer parallel
     # to axes 2 and 3 (and the wrist axes still do not meet at a point).
     ur = ur5_erd()
     S = np.asarray(ur.S).copy()
     S[:, 3:] = se3.adjoint(se3.make_transform(_rot_x(offset), np.zeros(3))) @ S[:, 3:]
     assert ur.ik_family == "three_parallel"
-    assert SerialChain.from_poe(S, ur.M, lower=ur.lower, upper=ur.upper).ik_family is None
+    assert SerialChain.from_poe(S, ur.M, lower=ur.lower, upper=ur.upper).ik_family == "general_6r"
 
 
 def _rot_x(a):

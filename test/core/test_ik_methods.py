@@ -192,15 +192,13 @@ def test_closed_form_refused_where_it_does_not_apply(options, why):
 
 
 def test_arm_without_a_family_refuses_closed_form_and_auto_searches():
-    """A Puma with an offset wrist (a₅ = 1 mm: axes 5 and 6 miss each other) has no closed form."""
+    """A 5R arm (the Puma without its last joint) has no closed form; "auto" searches."""
     from core.test_closed_form import PUMA, dh_arm
 
-    rows = [list(r) for r in PUMA]
-    rows[4][0] = 1e-3
-    chain = dh_arm(rows)
+    chain = dh_arm(PUMA[:5])
     assert chain.ik_family is None
     T = chain.fk(random_q(chain, np.random.default_rng(2)))
-    with pytest.raises(InvalidInputError, match="does not apply: no structure was found"):
+    with pytest.raises(InvalidInputError, match="does not apply: it has 5 joints"):
         chain.ik(T, options=IKOptions(method="closed_form"))
     res = chain.ik(T, options=IKOptions(timeout=0.5))
     assert res.success and res.iterations > 0 and reproduces(chain, res.q, T, 1e-4)
@@ -330,8 +328,12 @@ def test_solve_closed_form_gives_none_where_ik_would_search_or_has_nothing():
     from core.test_closed_form import PUMA, dh_arm
 
     rows = [list(r) for r in PUMA]
-    rows[4][0] = 1e-3  # an offset wrist: no closed form
+    rows[4][0] = 1e-3  # an offset wrist: no named family, the general 6R solver
     offset = dh_arm(rows)
-    assert solve_closed_form(offset, offset.fk(random_q(offset, np.random.default_rng(2)))) is None
+    T = offset.fk(random_q(offset, np.random.default_rng(2)))
+    res = solve_closed_form(offset, T)
+    assert res is not None and reproduces(offset, res.q, T, 1e-9)
+    five = dh_arm(PUMA[:5])  # no closed form at all
+    assert solve_closed_form(five, five.fk(random_q(five, np.random.default_rng(2)))) is None
     with pytest.raises(InvalidInputError):
         solve_closed_form(chain, np.full((4, 4), np.nan))

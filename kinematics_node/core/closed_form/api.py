@@ -386,7 +386,7 @@ def nearest_batch(
         held = q_seeds[:, solver.held : solver.held + 1]
     Q, ok, owner_lane, _, _ = solve_branches(solver, T_targets, q_seeds, held)
     Qf = Q.reshape(-1, n)
-    owner = np.repeat(owner_lane, 8)
+    owner = np.repeat(owner_lane, Q.shape[1])
     # The whole-turn equivalent within the limits nearest the seed, joint by joint (`_nearest_turn`).
     S = q_seeds[owner]
     lo = np.where(np.isfinite(solver.lower_arr), solver.lower_arr, S - math.pi)

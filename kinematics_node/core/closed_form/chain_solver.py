@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import TWO_PI, KinematicChain
+from .general_6r import prepared_coefficients, solve_general_6r_shifted
 from .geometry import (
     INV_TWO_PI,
     BoolArray,
@@ -93,19 +94,28 @@ def _solve_6r(
     p: FloatArray,
     dflt: FloatArray,
     trace: Trace,
-    prepared: Prepared | None = None,
+    prepared: Prepared | FloatArray | None = None,
 ) -> tuple[FloatArray, BoolArray]:
-    """All (≤ 8) solutions of e₁ ⋯ e₆ = G = (R, p) for L lanes: Q (L, 8, 6) and ok (L, 8).
+    """All (≤ 8, or ≤ 16 for the general 6R) solutions of e₁ ⋯ e₆ = G = (R, p) for L lanes:
+    Q (L, B, 6) and ok (L, B).
 
     `dflt` (L, 6) gives the value of an angle that the target leaves free (singular poses).
-    `prepared`: the constants of a geometry g that is the same for every lane (three-parallel or
-    spherical-wrist).
+    `prepared`: the constants of a geometry g that is the same for every lane (three-parallel,
+    spherical-wrist, or the general 6R's arm coefficients).
     """
+    if st.kind == "general_6r":
+        shift = int(st.case or 0)
+        P = prepared if isinstance(prepared, np.ndarray) else None
+        if P is None and shift == 0:
+            P = prepared_coefficients(g.w, g.r, g.scale)
+        return solve_general_6r_shifted(g.w, g.r, P, R, p, g.scale, trace, shift)
     if isinstance(prepared, ThreeParallel):
         return solve_three_parallel_prepared(prepared, R, p, dflt, trace)
     if st.kind == "three_parallel":
         return solve_three_parallel(g, R, p, dflt, trace)
-    return solve_spherical(st.case, g, R, p, dflt, trace, prepared)
+    return solve_spherical(
+        st.case, g, R, p, dflt, trace, prepared if isinstance(prepared, Spherical) else None
+    )
 
 
 class ChainSolver(JointLimits):
@@ -136,6 +146,12 @@ class ChainSolver(JointLimits):
             lane_geometry(structure, w[None], r[None], self.scale) if held is None else None
         )
         self.scalar_geometry = None if self.geometry is None else scalar_lane(self.geometry, 0)
+        # The general 6R solver's arm coefficients P (1, 14, 3, 9), for a 6R arm.
+        self.general = (
+            prepared_coefficients(self.geometry.w, self.geometry.r, self.scale)
+            if self.geometry is not None and structure.kind == "general_6r" and not structure.case
+            else None
+        )
         # The three-parallel solver with its constants prepared, for one target of a 6R arm.
         self.three_parallel = (
             ThreeParallel(self.scalar_geometry)
@@ -324,7 +340,12 @@ class ChainSolver(JointLimits):
         idx = [i + 1 for i in self.keep]
         if st.reversed:
             idx = idx[::-1]
-        if st.kind == "three_parallel":
+        if st.kind == "general_6r":
+            desc = (
+                f"joints {', '.join(map(str, sorted(idx)))} in no named family: every solution "
+                "from one eigenvalue problem (Raghavan–Roth)"
+            )
+        elif st.kind == "three_parallel":
             desc = (
                 f"joints {idx[1]}, {idx[2]}, {idx[3]} parallel; joints {idx[4]} and {idx[5]} meet"
             )
@@ -340,7 +361,7 @@ class ChainSolver(JointLimits):
         held = None if self.held is None else names[self.held]
         if held is not None:
             desc += f", with {held} held"
-        return ClosedFormFamily(kind, held, st.reversed, CASE_LABEL[st.case], desc)
+        return ClosedFormFamily(kind, held, st.reversed, CASE_LABEL.get(st.case, ""), desc)
 
 
 def _refine(
@@ -461,9 +482,9 @@ def solve_branches(
         G = inverse_transforms(G)
         dflt = -dflt[:, ::-1]
     trace = Trace()
-    prepared: Prepared | None = None
+    prepared: Prepared | FloatArray | None = None
     if solver.held is None:
-        prepared = solver.three_parallel or solver.spherical
+        prepared = solver.three_parallel or solver.spherical or solver.general
     elif solver._held_static and st.kind == "spherical_wrist":  # every lane has the same geometry
         prepared = solver._held_static_solver
     Q6, ok = _solve_6r(st, g, G[:, :3, :3], G[:, :3, 3], dflt, trace, prepared)
@@ -544,23 +565,24 @@ def _solve_arrays_once(
     N = T.shape[0]
     Q, ok, owner_lane, held_lane, trace = solve_branches(solver, T, seeds, held)
     L = Q.shape[0]
-    free = np.zeros((L, 8), dtype=bool)
-    free_codes = np.full((L, 8), -1)
+    B = Q.shape[1]  # branches per lane: 8 for the named families, 16 for the general 6R
+    free = np.zeros((L, B), dtype=bool)
+    free_codes = np.full((L, B), -1)
     for code, (_, f) in enumerate(trace.frees):
         free_codes = np.where(f & (free_codes < 0), code, free_codes)
         free |= f
     # Forward-kinematics check (refining near misses) on branches that passed every subproblem.
-    flat_Q = Q.reshape(L * 8, n)
-    flat_owner = np.repeat(owner_lane, 8)
+    flat_Q = Q.reshape(L * B, n)
+    flat_owner = np.repeat(owner_lane, B)
     idx = np.flatnonzero(ok.reshape(-1))
-    acc = np.zeros(L * 8, dtype=bool)
+    acc = np.zeros(L * B, dtype=bool)
     if idx.size:
         Qc, ep, er = fk_check(solver, flat_Q[idx], T[flat_owner[idx]], wrap_angles)
         flat_Q[idx] = Qc
         acc[idx] = (ep <= tol) & (er <= tol)
-    acc2 = acc.reshape(L, 8)
+    acc2 = acc.reshape(L, B)
     # One solution once: drop a branch equal (mod 2π) to an earlier accepted one of the same lane.
-    acc2 &= ~duplicate_branches(flat_Q.reshape(L, 8, n), acc2)
+    acc2 &= ~duplicate_branches(flat_Q.reshape(L, B, n), acc2)
     lane_count = acc2.sum(axis=1)
     keep = np.flatnonzero(acc2.reshape(-1))
     Qk, owner = flat_Q[keep], flat_owner[keep]
@@ -587,7 +609,7 @@ def _solve_arrays_once(
     reasons = [""] * N
     empty = np.flatnonzero(count == 0)
     if empty.size:
-        ok_so_far = np.ones((L, 8), dtype=bool)
+        ok_so_far = np.ones((L, B), dtype=bool)
         stage_dead: list[tuple[str, BoolArray]] = []
         for name, f in trace.fails:
             ok_so_far = ok_so_far & f
@@ -614,6 +636,7 @@ def _solve_arrays_once(
 
 
 _STAGE_ORDER = {
+    "general_6r": ("reach",),
     "three_parallel": ("shoulder", "wrist", "elbow"),
     "int12": ("elbow", "shoulder", "wrist"),
     "par23": ("shoulder", "elbow", "wrist"),
@@ -629,6 +652,8 @@ def scalar_candidates(
     angles in (−π, π] (a 7R arm's held joint at `held_value`), unchecked, with the reasons of the
     angles the target left free (taken from `seed`), and the stages the branches passed."""
     st = solver.structure
+    if st.kind == "general_6r":
+        return _general_candidates(solver, T, seed, held_value)
     if held_value is None and not st.reversed and solver.three_parallel is not None:
         R, p = _times_inverse_home(T, solver.M_inv_rows)
         stages = Stages(_STAGE_ORDER["three_parallel"])
@@ -685,6 +710,19 @@ def scalar_candidates(
         G = inverse_transforms(G[None])[0]
         d = [-x for x in reversed(d)]
     return _candidates_of(solver, g, G.tolist(), d, held_value)
+
+
+def _general_candidates(
+    solver: ChainSolver, T: list[list[float]], seed: list[float], held_value: float | None
+) -> tuple[list[Candidate], Stages]:
+    """`scalar_candidates` of the general 6R solver: its vectorised form on one lane (the
+    eigenvalue problem dominates a single target, whatever the arithmetic around it)."""
+    held = None if held_value is None else np.array([held_value])
+    Q, ok, _, _, _ = solve_branches(solver, np.array([T]), np.array([seed]), held)
+    stages = Stages(_STAGE_ORDER["general_6r"])
+    rows = Q[0][ok[0]].tolist()
+    stages.passed["reach"] = len(rows)
+    return [(q, ()) for q in rows], stages
 
 
 def _times_inverse_home(T: list[list[float]], Mi: list[list[float]]) -> tuple[Mat, Vec]:

@@ -21,9 +21,11 @@ from .structure import (
     ANGLE_TOLERANCE,
     CASE_LABEL,
     DISTANCE_TOLERANCE,
+    EXACT_RELATION,
     ClosedFormFamily,
     Structure,
     structure_candidates,
+    structure_residual,
 )
 
 
@@ -84,7 +86,14 @@ def detect(chain: KinematicChain) -> ChainSolver | None:
     if not np.allclose(sp.norm(w), 1.0, atol=1e-9) or np.abs(sp.dot(w, S[3:].T)).max() > 1e-9:
         return None  # not pure revolute screws
     if chain.dof == 6:
+        scale = float(max(1e-3, np.abs(r).max(), np.abs(np.asarray(chain.M)[:3, 3]).max()))
         for st in structure_candidates(w, r):
+            if structure_residual(st, w, r, scale) > EXACT_RELATION:
+                continue  # a family only to rounding: the general solver needs no Newton steps
+            solver = ChainSolver(chain, st, None)
+            if _confirm(solver):
+                return solver
+        for st in _GENERAL + structure_candidates(w, r):  # (then the families to rounding)
             solver = ChainSolver(chain, st, None)
             if _confirm(solver):
                 return solver
@@ -115,6 +124,16 @@ def detect(chain: KinematicChain) -> ChainSolver | None:
     best = max(c for c, _ in scored)
     ties = [s for c, s in scored if c >= best - 0.1]
     return min(ties, key=lambda s: (abs((s.held or 0) - 3), s.held))
+
+
+#: The general 6R solver read from the base, then from the tip (a geometry that degenerates one
+#: elimination may not degenerate the other).
+#: Then with the loop read from another joint (`general_6r.solve_general_6r_shifted`).
+_GENERAL = [
+    Structure("general_6r", "" if k == 0 else str(k), rev)
+    for k in range(6)
+    for rev in (False, True)
+]
 
 
 def _held_coverage(solver: ChainSolver) -> float:
@@ -173,7 +192,9 @@ def import_family(chain: KinematicChain, exported: ExportedFamily) -> None:
         return
     try:
         kind, case, rev, held = exported
-        ok = kind in ("three_parallel", "spherical_wrist") and case in CASE_LABEL
+        ok = (kind in ("three_parallel", "spherical_wrist") and case in CASE_LABEL) or (
+            kind == "general_6r" and case in ("", "1", "2", "3", "4", "5")
+        )
         ok = ok and (held is None if chain.dof == 6 else held in range(chain.dof))
     except (TypeError, ValueError):
         ok = False

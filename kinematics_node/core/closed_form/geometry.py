@@ -135,9 +135,9 @@ def tile_lanes(g: LaneGeometry, N: int) -> LaneGeometry:
 
 
 def insert_held(Q6: FloatArray, j: int, values: FloatArray) -> FloatArray:
-    """Insert the held joint's value as column j: (L, 8, 6) → (L, 8, 7)."""
+    """Insert the held joint's value as column j: (L, B, 6) → (L, B, 7)."""
     L = Q6.shape[0]
-    col = np.broadcast_to(values[:, None, None], (L, 8, 1))
+    col = np.broadcast_to(values[:, None, None], (L, Q6.shape[1], 1))
     return np.concatenate((Q6[..., :j], col, Q6[..., j:]), axis=2)
 
 

@@ -299,6 +299,7 @@ _STAGE_TEXT = {
     "for the arm's offsets, or too far)",
     "elbow": "the wrist centre is out of the arm's reach (too far from or too close to the shoulder)",
     "wrist": "the wrist cannot take the target orientation at any reachable wrist position",
+    "reach": "the arm's eigenvalue problem has no real root (the target is out of reach)",
 }
 
 

@@ -45,8 +45,9 @@ class ClosedFormFamily:
 
 @dataclass(frozen=True)
 class Structure:
-    kind: str  # "three_parallel" | "spherical_wrist"
-    case: str  # spherical wrist: "par23" | "int12" | "int23" | "par12"; else ""
+    kind: str  # "three_parallel" | "spherical_wrist" | "general_6r"
+    case: str  # spherical wrist: "par23" | "int12" | "int23" | "par12"; general_6r: the joint
+    # (0-based, "" for 0) its loop is read from; else ""
     reversed: bool
 
 
@@ -68,6 +69,31 @@ def _meets(w: FloatArray, r: FloatArray, idx: tuple[int, ...]) -> bool:
             return False
     _, miss = meet_point(w[list(idx)], r[list(idx)])
     return bool(miss <= DISTANCE_TOLERANCE)
+
+
+#: A named family whose axis relations hold only to more than this (angle [rad], distance / the
+#: arm's size) is left to the general 6R solver: its candidates would each need Newton steps.
+EXACT_RELATION = 1e-9
+
+
+def structure_residual(st: Structure, w6: FloatArray, r6: FloatArray, scale: float) -> float:
+    """How far the 6R lines (w6, r6) are from the relations of the named structure st: the largest
+    sine between axes taken as parallel and miss distance / scale of axes taken as meeting."""
+    w, r = (w6[::-1], r6[::-1]) if st.reversed else (w6, r6)
+
+    def par(i: int, j: int) -> float:
+        return float(sp.norm(sp.cross(w[i], w[j])))
+
+    def miss(*idx: int) -> float:
+        return float(meet_point(w[list(idx)], r[list(idx)])[1]) / scale
+
+    if st.kind == "three_parallel":
+        return max(par(1, 2), par(2, 3), miss(4, 5))
+    relation = {
+        "par23": lambda: par(1, 2), "int12": lambda: miss(0, 1),
+        "int23": lambda: miss(1, 2), "par12": lambda: par(0, 1),
+    }.get(st.case, lambda: 0.0)  # fmt: skip
+    return max(miss(3, 4, 5), relation())
 
 
 def structure_candidates(w6: FloatArray, r6: FloatArray) -> list[Structure]:
@@ -101,6 +127,8 @@ def lane_geometry(st: Structure, w: FloatArray, r: FloatArray, scale: float) -> 
         w, r = w[:, ::-1], r[:, ::-1]
     L = w.shape[0]
     zeros, ones = np.zeros((L, 3)), np.ones((L, 3))
+    if st.kind == "general_6r":  # the axes alone (`general_6r`)
+        return LaneGeometry(w, r, zeros, zeros, zeros, perpendicular_lanes(w[:, 5]), ones, scale)
     if st.kind == "three_parallel":
         h = w[:, 1]
         c, _ = meet_point(w[:, 4:6], r[:, 4:6])
