@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import TWO_PI, KinematicChain
-from .general_6r import prepared_coefficients, solve_general_6r_shifted
+from .general_6r import Arm, solve_general_6r_shifted
 from .geometry import (
     INV_TWO_PI,
     BoolArray,
@@ -94,7 +94,7 @@ def _solve_6r(
     p: FloatArray,
     dflt: FloatArray,
     trace: Trace,
-    prepared: Prepared | FloatArray | None = None,
+    prepared: Prepared | Arm | None = None,
 ) -> tuple[FloatArray, BoolArray]:
     """All (≤ 8, or ≤ 16 for the general 6R) solutions of e₁ ⋯ e₆ = G = (R, p) for L lanes:
     Q (L, B, 6) and ok (L, B).
@@ -104,11 +104,8 @@ def _solve_6r(
     spherical-wrist, or the general 6R's arm coefficients).
     """
     if st.kind == "general_6r":
-        shift = int(st.case or 0)
-        P = prepared if isinstance(prepared, np.ndarray) else None
-        if P is None and shift == 0:
-            P = prepared_coefficients(g.w, g.r, g.scale)
-        return solve_general_6r_shifted(g.w, g.r, P, R, p, g.scale, trace, shift)
+        arm = prepared if isinstance(prepared, Arm) else None
+        return solve_general_6r_shifted(g.w, g.r, arm, R, p, g.scale, trace, int(st.case or 0))
     if isinstance(prepared, ThreeParallel):
         return solve_three_parallel_prepared(prepared, R, p, dflt, trace)
     if st.kind == "three_parallel":
@@ -146,9 +143,9 @@ class ChainSolver(JointLimits):
             lane_geometry(structure, w[None], r[None], self.scale) if held is None else None
         )
         self.scalar_geometry = None if self.geometry is None else scalar_lane(self.geometry, 0)
-        # The general 6R solver's arm coefficients P (1, 14, 3, 9), for a 6R arm.
+        # The general 6R solver's precomputed arm (`general_6r.Arm`), for a 6R arm.
         self.general = (
-            prepared_coefficients(self.geometry.w, self.geometry.r, self.scale)
+            Arm(self.geometry.w, self.geometry.r, self.scale)
             if self.geometry is not None and structure.kind == "general_6r" and not structure.case
             else None
         )
@@ -482,7 +479,7 @@ def solve_branches(
         G = inverse_transforms(G)
         dflt = -dflt[:, ::-1]
     trace = Trace()
-    prepared: Prepared | FloatArray | None = None
+    prepared: Prepared | Arm | None = None
     if solver.held is None:
         prepared = solver.three_parallel or solver.spherical or solver.general
     elif solver._held_static and st.kind == "spherical_wrist":  # every lane has the same geometry

@@ -46,7 +46,8 @@ THETA3_OFFSET = 0.6180339887498949
 #: An eigenvalue x₃ counts as real when |Im x₃| ≤ this × (1 + |x₃|²) (a double real root splits
 #: into a complex pair of about √ε; Newton steps and the FK check decide).
 REAL_ROOT = 1e-4
-#: Above this condition number of C₂ a lane is solved again with θ₃ measured from φ + 1.
+#: Where C₂⁻¹[C₀ C₁] has entries beyond this × those of Σ, a lane is solved again with θ₃
+#: measured from φ + 1 (C₂ is singular where θ₃ = φ + π is a root).
 _C2_CONDITION = 1e10
 
 # Angles 0, 2π/3, 4π/3: f(θ) = a + b cos θ + c sin θ from its three values, (a, b, c) = V⁻¹ f.
@@ -64,9 +65,24 @@ def _rotate(k: FloatArray, c: FloatArray, s: FloatArray, x: FloatArray) -> Float
 
 def _equations(p: FloatArray, l: FloatArray) -> FloatArray:
     """Raghavan and Roth's 14 quantities of a point p and a direction l (…, 3): (…, 14)."""
-    pp = sp.dot(p, p)[..., None]
-    pl = sp.dot(p, l)[..., None]
-    return np.concatenate((p, l, pp, pl, sp.cross(p, l), pp * l - 2.0 * pl * p), axis=-1)
+    pp = np.einsum("...i,...i->...", p, p)[..., None]
+    pl = np.einsum("...i,...i->...", p, l)[..., None]
+    pxl = _cross(p, l)
+    return np.concatenate((p, l, pp, pl, pxl, pp * l - 2.0 * pl * p), axis=-1)
+
+
+_EPS = np.zeros((3, 3, 3))
+_EPS[0, 1, 2] = _EPS[1, 2, 0] = _EPS[2, 0, 1] = 1.0
+_EPS[0, 2, 1] = _EPS[2, 1, 0] = _EPS[1, 0, 2] = -1.0
+
+
+def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
+    """a × b for (…, 3) arrays (one einsum: np.cross costs ten times more on small arrays)."""
+    return np.einsum("ijk,...j,...k->...i", _EPS, a, b)
+
+
+# (1, cos, sin) ⊗ (1, cos, sin) coefficients from the 3 × 3 samples, as one 9 × 9 matrix.
+_V_INV2 = np.kron(_V_INV, _V_INV)
 
 
 def _interpolate(values: FloatArray, axes: int) -> FloatArray:
@@ -78,89 +94,125 @@ def _interpolate(values: FloatArray, axes: int) -> FloatArray:
     return out
 
 
-def arm_coefficients(w: FloatArray, r: FloatArray) -> FloatArray:
-    """P of every lane: w, r (L, 6, 3) axis directions and points (origin on axis 3, scaled) →
-    (L, 14, 3, 9): equation, θ₃ term (1, c₃, s₃), m₄₅ = (1, c₄, s₄) ⊗ (1, c₅, s₅)."""
-    L = w.shape[0]
-    c, s = np.cos(_SAMPLES), np.sin(_SAMPLES)
-    # every (θ₃, θ₄, θ₅) of the samples: axes (L, 3, 3, 3)
-    shape = (L, 3, 3, 3)
-
-    def ax(i: int) -> tuple[FloatArray, FloatArray]:
-        return w[:, None, None, None, i], r[:, None, None, None, i]
-
-    c5, s5 = np.broadcast_to(c[None, None, None, :], shape), np.broadcast_to(s, shape)
-    c4 = np.broadcast_to(c[None, None, :, None], shape)
-    s4 = np.broadcast_to(s[None, None, :, None], shape)
-    c3 = np.broadcast_to(c[None, :, None, None], shape)
-    s3 = np.broadcast_to(s[None, :, None, None], shape)
-    (w3, r3), (w4, r4), (w5, r5), (w6, r6) = ax(2), ax(3), ax(4), ax(5)
-    p = r5 + _rotate(w5, c5, s5, r6 - r5)
-    p = r4 + _rotate(w4, c4, s4, p - r4)
-    p = r3 + _rotate(w3, c3, s3, p - r3)
-    l = _rotate(w3, c3, s3, _rotate(w4, c4, s4, _rotate(w5, c5, s5, np.broadcast_to(w6, p.shape))))
-    E = _interpolate(_equations(p, l), 3)  # (L, 3, 3, 3, 14)
-    return np.moveaxis(E, -1, 1).reshape(L, 14, 3, 9)
+def screw_parts(w: FloatArray, r: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """A, B, C (…, 4, 4) with e^{[S]θ} = A + B cos θ + C sin θ for the revolute screws of unit
+    directions w and points r (…, 3): e^{[S]θ} = I + sin θ [S] + (1 − cos θ)[S]² (MR eq. 3.88)."""
+    K = np.zeros(w.shape[:-1] + (4, 4))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
+    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = w[..., 2], -w[..., 1], w[..., 0]
+    K[..., :3, 3] = np.cross(r, w)  # v = −ω × r
+    K2 = K @ K
+    return np.eye(4) + K2, -K2, K
 
 
-def target_coefficients(w: FloatArray, r: FloatArray, R: FloatArray, t: FloatArray) -> FloatArray:
-    """The right-hand sides of L lanes: axes w, r (L, 6, 3) (origin on axis 3, scaled) and
-    G = (R, t) (L, 3, 3), (L, 3) in the same coordinates → (L, 14, 9) over (1, c₁, s₁) ⊗ (1, c₂, s₂)."""
-    L = w.shape[0]
-    c, s = np.cos(_SAMPLES), np.sin(_SAMPLES)
-    g = np.einsum("lij,lj->li", R, r[:, 5]) + t  # G r₆
-    h = np.einsum("lij,lj->li", R, w[:, 5])  # R_G ω₆
-    shape = (L, 3, 3)
-    c1, s1 = np.broadcast_to(c[None, :, None], shape), np.broadcast_to(s[None, :, None], shape)
-    c2, s2 = np.broadcast_to(c[None, None, :], shape), np.broadcast_to(s[None, None, :], shape)
-    w1, r1 = w[:, None, None, 0], r[:, None, None, 0]
-    w2, r2 = w[:, None, None, 1], r[:, None, None, 1]
-    gg, hh = g[:, None, None], h[:, None, None]
-    x = r1 + _rotate(w1, c1, -s1, gg - r1)  # e₁⁻¹
-    p = r2 + _rotate(w2, c2, -s2, x - r2)  # e₂⁻¹
-    l = _rotate(w2, c2, -s2, _rotate(w1, c1, -s1, np.broadcast_to(hh, p.shape)))
-    E = _interpolate(_equations(p, l), 2)  # (L, 3, 3, 14)
-    return np.moveaxis(E, -1, 1).reshape(L, 14, 9)
+class Arm:
+    """What the general solver precomputes for lanes of 6R axes w, r (L, 6, 3) (L = 1 for a 6R
+    arm): coordinates with the origin on axis 3 and lengths / scale, the screws' parts
+    (`screw_parts`), the arm coefficients P (L, 14, 3, 9), and e₂⁻¹e₁⁻¹ at the sample angles."""
+
+    def __init__(self, w: FloatArray, r: FloatArray, scale: float) -> None:
+        self.origin = r[:, 2].copy()
+        self.scale = scale
+        rs = (r - self.origin[:, None]) / scale
+        self.w, self.r = w, rs
+        self.A, self.B, self.C = screw_parts(w, rs)  # (L, 6, 4, 4)
+        c, s = np.cos(_SAMPLES), np.sin(_SAMPLES)
+
+        def at(i: int, sign: float) -> FloatArray:  # e^{±[S_i]θ_k} at the samples: (L, 3, 4, 4)
+            return (
+                self.A[:, i, None]
+                + c[None, :, None, None] * self.B[:, i, None]
+                + sign * s[None, :, None, None] * self.C[:, i, None]
+            )
+
+        E3, E4, E5 = at(2, 1.0), at(3, 1.0), at(4, 1.0)
+        X = E3[:, :, None, None] @ E4[:, None, :, None] @ E5[:, None, None, :]  # (L, 3, 3, 3, 4, 4)
+        p = X[..., :3, :3] @ rs[:, None, None, None, 5, :, None] + X[..., :3, 3:]
+        l = X[..., :3, :3] @ w[:, None, None, None, 5, :, None]
+        E = _interpolate(_equations(p[..., 0], l[..., 0]), 3)  # (L, 3, 3, 3, 14)
+        L = w.shape[0]
+        self.P = np.moveaxis(E, -1, 1).reshape(L, 14, 3, 9)
+        # Σ's arm part with θ₃ measured from φ, and from φ + 1 (`solve_general_6r`).
+        self.G = (
+            poly_coefficients(self.P, THETA3_OFFSET),
+            poly_coefficients(self.P, THETA3_OFFSET + 1.0),
+        )
+        # e₂⁻¹(θ₂ₖ) e₁⁻¹(θ₁ⱼ) at the samples: (L, 3 [j], 3 [k], 4, 4)
+        self.M12 = at(1, -1.0)[:, None, :] @ at(0, -1.0)[:, :, None]
+        self.x6 = _perpendicular(w[:, 5])
+
+    def target_coefficients(self, R: FloatArray, t: FloatArray) -> FloatArray:
+        """Right-hand sides of L targets G = (R, t) (L, 3, 3), (L, 3) in the base frame [m] →
+        (L, 14, 9) over (1, c₁, s₁) ⊗ (1, c₂, s₂)."""
+        L = R.shape[0]
+        ts = np.einsum("lij,lj->li", R, np.broadcast_to(self.origin, (L, 3))) + t - self.origin
+        ts /= self.scale  # G in the solver's coordinates: G′ x′ = (R (s x′ + o) + t − o) / s
+        g = np.einsum("lij,lj->li", R, np.broadcast_to(self.r[:, 5], (L, 3))) + ts  # G r₆
+        h = np.einsum("lij,lj->li", R, np.broadcast_to(self.w[:, 5], (L, 3)))  # R_G ω₆
+        M = self.M12
+        p = np.einsum("ljkab,lb->ljka", M[..., :3, :3], g) + M[..., :3, 3]
+        l = np.einsum("ljkab,lb->ljka", M[..., :3, :3], h)
+        E = np.einsum("ab,lbe->lea", _V_INV2, _equations(p, l).reshape(L, 9, 14))
+        return E  # (L, 14, 9)
+
+
+def poly_coefficients(P: FloatArray, phi: float) -> FloatArray:
+    """The arm's part of Σ: P (L, 14, 3, 9) → (L, 3, 14, 9), the 14 equations times
+    (1 + x₃²)(1 + x₄²)(1 + x₅²) as polynomials: power k of x₃ (θ₃ = φ + 2 atan x₃), then the
+    monomials x₄ⁱ x₅ʲ (i, j ≤ 2) in the order 3i + j. Linear in P."""
+    L = P.shape[0]
+    cp, sn = math.cos(phi), math.sin(phi)
+    B0 = P[:, :, 0]
+    Bc = P[:, :, 1] * cp + P[:, :, 2] * sn  # cos(φ + u) = cos φ cos u − sin φ sin u
+    Bs = -P[:, :, 1] * sn + P[:, :, 2] * cp
+    A = np.stack((B0 + Bc, 2.0 * Bs, B0 - Bc), axis=1)  # (L, 3, 14, 9), powers 0, 1, 2 of x₃
+    F = np.einsum("ai,lkeab,bj->lkeij", _HALF, A.reshape(L, 3, 14, 3, 3), _HALF)
+    return F.reshape(L, 3, 14, 9)
+
+
+#: `poly_coefficients` of the constant monomial alone (where q₀ enters): (3, 9).
+_CONSTANT = poly_coefficients(np.eye(27)[0].reshape(1, 1, 3, 9).repeat(14, axis=1), 0.0)[0, :, 0]
 
 
 def _companion(
-    P: FloatArray, RHS: FloatArray, phi: float
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """The 24 × 24 companion matrices of Σ(x₃) for lanes P (L, 14, 3, 9), RHS (L, 14, 9), with
-    θ₃ = φ + 2 atan x₃; also the pseudo-inverse of Q (L, 8, 14), q₀ (L, 14) and cond(C₂) (L,)."""
-    L = P.shape[0]
+    G: FloatArray, RHS: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray]:
+    """The 24 × 24 companion matrices of Σ(x₃) for lanes with `poly_coefficients` G
+    (L or 1, 3, 14, 9) and right-hand sides RHS (L, 14, 9); also the pseudo-inverse of Q
+    (L, 8, 14), q₀ (L, 14), and where C₂ was invertible (L,)."""
+    L = RHS.shape[0]
     Q, q0 = RHS[:, :, 1:], RHS[:, :, 0]
     U, S, Vt = np.linalg.svd(Q)  # Q = U S Vᵀ, U (L, 14, 14)
     N = U[:, :, 8:].swapaxes(1, 2)  # (L, 6, 14): left null space of Q
     inv_s = np.where(S > S[:, :1] * 1e-12, 1.0 / np.where(S > 0, S, 1.0), 0.0)
     Q_pinv = (Vt.swapaxes(1, 2) * inv_s[:, None, :]) @ U[:, :, :8].swapaxes(1, 2)
-    Pm = P.copy()
-    Pm[:, :, 0, 0] -= q0  # q₀ joins the constant monomial of the θ₃-free part
-    B = np.einsum("lke,leim->lkim", N, Pm)  # (L, 6, 3, 9)
-    B0 = B[:, :, 0]
-    cp, sp_ = math.cos(phi), math.sin(phi)
-    Bc = B[:, :, 1] * cp + B[:, :, 2] * sp_  # cos(φ + u) = cos φ cos u − sin φ sin u
-    Bs = -B[:, :, 1] * sp_ + B[:, :, 2] * cp
-    A = (B0 + Bc, 2.0 * Bs, B0 - Bc)  # (1 + x₃²) × the equations, powers 0, 1, 2 of x₃
-    C = np.zeros((3, L, 12, 12))
-    for k, Ak in enumerate(A):
-        F = np.einsum("ai,lkab,bj->lkij", _HALF, Ak.reshape(L, 6, 3, 3), _HALF)  # (L, 6, 3, 3)
-        F = F.reshape(L, 6, 9)
-        for shift in (0, 1):  # the equations, and the equations × x₄
-            rows = slice(6 * shift, 6 * shift + 6)
-            for i in range(3):
-                C[k, :, rows, 3 * (i + shift) : 3 * (i + shift) + 3] = F[:, :, 3 * i : 3 * i + 3]
-    C0, C1, C2 = C
-    cond = np.linalg.cond(C2)
-    ok = np.isfinite(cond) & (cond < _C2_CONDITION)
-    C2s = np.where(ok[:, None, None], C2, np.eye(12))
-    D0 = np.linalg.solve(C2s, C0)
-    D1 = np.linalg.solve(C2s, C1)
+    # N (P(θ₃) m₄₅ − q₀) = 0; q₀ joins the constant monomial.
+    Gt = G - q0[:, None, :, None] * _CONSTANT[None, :, None, :]  # (L, 3, 14, 9)
+    F = np.einsum("lie,lkem->lkim", N, Gt)  # (L, 3, 6, 9)
+    C = np.zeros((L, 3, 12, 12))
+    C[:, :, :6, :9] = F  # the six equations on x₄ⁱ x₅ʲ, i ≤ 2
+    C[:, :, 6:, 3:] = F  # the same times x₄
+    # C₂⁻¹ [C₀ C₁]; a near-singular C₂ shows as entries far larger than those of Σ.
+    C01 = np.concatenate((C[:, 0], C[:, 1]), axis=2)
+    try:
+        D = np.linalg.solve(C[:, 2], C01)
+    except np.linalg.LinAlgError:  # an exactly singular C₂ in some lane: one lane at a time
+        D = np.stack([_solve_or_inf(a, b) for a, b in zip(C[:, 2], C01, strict=True)])
+    size = np.abs(F).max(axis=(1, 2, 3)) + 1e-300
+    good = np.isfinite(D).all(axis=(1, 2)) & (np.abs(D).max(axis=(1, 2)) < _C2_CONDITION * size)
+    D = np.where(good[:, None, None], D, 0.0)
     M = np.zeros((L, 24, 24))
     M[:, :12, 12:] = np.eye(12)
-    M[:, 12:, :12] = -D0
-    M[:, 12:, 12:] = -D1
-    return M, Q_pinv, q0, cond
+    M[:, 12:, :] = -D
+    return M, Q_pinv, q0, good
+
+
+def _solve_or_inf(a: FloatArray, b: FloatArray) -> FloatArray:
+    """a⁻¹ b, or inf where a is singular."""
+    try:
+        return np.asarray(np.linalg.solve(a, b), dtype=np.float64)
+    except np.linalg.LinAlgError:
+        return np.full(b.shape, np.inf)
 
 
 def _roots(M: FloatArray, phi: float) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray]:
@@ -191,64 +243,47 @@ def _roots(M: FloatArray, phi: float) -> tuple[FloatArray, FloatArray, FloatArra
 
 
 def solve_general_6r(
-    w: FloatArray,
-    r: FloatArray,
-    P: FloatArray,
-    R: FloatArray,
-    t: FloatArray,
-    scale: float,
-    trace: Trace,
+    arm: Arm, R: FloatArray, t: FloatArray, trace: Trace
 ) -> tuple[FloatArray, BoolArray]:
     """All (≤ 16) solutions of e₁ ⋯ e₆ = G = (R, t) for L lanes: Q (L, 16, 6), ok (L, 16).
 
-    w, r (L or 1, 6, 3): the lanes' axes; P (L or 1, 14, 3, 9): `arm_coefficients` of the same
-    axes moved to the origin on axis 3 and scaled by 1/scale. Unpolished: the caller refines and
-    checks by forward kinematics.
+    `arm`: the lanes' axes (one arm for every lane, or one per lane). Unpolished: the caller
+    refines and checks by forward kinematics.
     """
     L = R.shape[0]
-    origin = r[:, 2]  # (L or 1, 3)
-    rs = (r - origin[:, None]) / scale
-    ws = np.broadcast_to(w, (L,) + w.shape[1:])
-    rs = np.broadcast_to(rs, (L,) + rs.shape[1:])
-    # G in the shifted, scaled coordinates: x' = (x − o)/s, G' x' = (R (s x' + o) + t − o)/s.
-    ts = (np.einsum("lij,lj->li", R, np.broadcast_to(origin, (L, 3))) + t - origin) / scale
-    RHS = target_coefficients(ws, rs, R, ts)
-    Pl = np.broadcast_to(P, (L,) + P.shape[1:])
-    M, Q_pinv, q0, cond = _companion(Pl, RHS, THETA3_OFFSET)
+    RHS = arm.target_coefficients(R, t)
+    G = np.broadcast_to(arm.G[0], (L,) + arm.G[0].shape[1:])
+    M, Q_pinv, q0, good = _companion(G, RHS)
     theta3, x4, x5, ok = _roots(M, THETA3_OFFSET)
-    bad = ~(np.isfinite(cond) & (cond < _C2_CONDITION))
+    ok &= good[:, None]
+    bad = ~good
     if bad.any():  # C₂ near singular: θ₃ = φ + π nearly a root; measure from another offset
-        phi2 = THETA3_OFFSET + 1.0
-        M2, _, _, cond2 = _companion(Pl[bad], RHS[bad], phi2)
-        t3b, x4b, x5b, okb = _roots(M2, phi2)
-        okb &= (np.isfinite(cond2) & (cond2 < _C2_CONDITION))[:, None]
-        theta3[bad], x4[bad], x5[bad], ok[bad] = t3b, x4b, x5b, okb
-    theta4, theta5 = 2.0 * np.arctan(x4), 2.0 * np.arctan(x5)
+        G2 = np.broadcast_to(arm.G[1], (L,) + arm.G[1].shape[1:])
+        M2, _, _, good2 = _companion(G2[bad], RHS[bad])
+        t3b, x4b, x5b, okb = _roots(M2, THETA3_OFFSET + 1.0)
+        theta3[bad], x4[bad], x5[bad], ok[bad] = t3b, x4b, x5b, okb & good2[:, None]
     trace.fails.append(("reach", ok))
+    theta4, theta5 = 2.0 * np.arctan(x4), 2.0 * np.arctan(x5)
+
+    def E(i: int, th: FloatArray) -> FloatArray:  # e^{[S_i]θ} (L, 16, 4, 4)
+        c, s = np.cos(th)[..., None, None], np.sin(th)[..., None, None]
+        return arm.A[:, None, i] + c * arm.B[:, None, i] + s * arm.C[:, None, i]
+
+    X345 = E(2, theta3) @ E(3, theta4) @ E(4, theta5)
+    p = X345[..., :3, :3] @ arm.r[:, None, 5, :, None] + X345[..., :3, 3:]
+    l = X345[..., :3, :3] @ arm.w[:, None, 5, :, None]
     # θ₁, θ₂ from the 14 equations at (θ₃, θ₄, θ₅): Q m₁₂ = P m₄₅ − q₀ by least squares.
-    W = ws[:, None]  # (L, 1, 6, 3)
-    Rr = rs[:, None]
-    c3, s3 = np.cos(theta3), np.sin(theta3)
-    c4, s4 = np.cos(theta4), np.sin(theta4)
-    c5, s5 = np.cos(theta5), np.sin(theta5)
-    p = Rr[..., 4, :] + _rotate(W[..., 4, :], c5, s5, Rr[..., 5, :] - Rr[..., 4, :])
-    p = Rr[..., 3, :] + _rotate(W[..., 3, :], c4, s4, p - Rr[..., 3, :])
-    p = Rr[..., 2, :] + _rotate(W[..., 2, :], c3, s3, p - Rr[..., 2, :])
-    l = _rotate(
-        W[..., 2, :], c3, s3,
-        _rotate(W[..., 3, :], c4, s4, _rotate(W[..., 4, :], c5, s5, np.broadcast_to(W[..., 5, :], p.shape))),
-    )  # fmt: skip
-    lhs = _equations(p, l) - q0[:, None, :]  # (L, 16, 14)
+    lhs = _equations(p[..., 0], l[..., 0]) - q0[:, None, :]  # (L, 16, 14)
     m12 = np.einsum("lke,lbe->lbk", Q_pinv, lhs)  # (L, 16, 8): (c₂, s₂, c₁, c₁c₂, c₁s₂, s₁, …)
     theta1 = np.arctan2(m12[..., 5], m12[..., 2])
     theta2 = np.arctan2(m12[..., 1], m12[..., 0])
-    # θ₆: R₆ = (R₁ ⋯ R₅)ᵀ R_G; a unit x ⟂ ω₆ goes to R₆ x = y.
-    w6 = ws[:, None, 5]
-    x = np.broadcast_to(_perpendicular(ws[:, 5])[:, None], (L, BRANCHES, 3))
-    y = np.einsum("lij,lbj->lbi", R, x)
-    for k, th in ((0, theta1), (1, theta2), (2, theta3), (3, theta4), (4, theta5)):
-        y = _rotate(W[..., k, :], np.cos(th), -np.sin(th), y)
-    theta6 = np.arctan2(sp.dot(w6, sp.cross(x, y)), sp.dot(x, y))
+    # θ₆: R₆ = (R₁ ⋯ R₅)ᵀ R_G; a unit x ⟂ ω₆ goes to y = R₆ x.
+    R15 = (E(0, theta1) @ E(1, theta2) @ X345)[..., :3, :3]
+    x = arm.x6[:, None, :]
+    y = np.einsum("lbji,lj->lbi", R15, np.einsum("lij,lj->li", R, np.broadcast_to(arm.x6, (L, 3))))
+    w6 = arm.w[:, None, 5]
+    theta6 = np.arctan2(np.einsum("lbi,lbi->lb", np.broadcast_to(w6, y.shape), _cross(x, y)),
+                        np.einsum("lbi,lbi->lb", np.broadcast_to(x, y.shape), y))  # fmt: skip
     Q = np.stack((theta1, theta2, theta3, theta4, theta5, theta6), axis=-1)
     return Q, ok & np.isfinite(Q).all(axis=-1)
 
@@ -256,20 +291,20 @@ def solve_general_6r(
 def solve_general_6r_shifted(
     w: FloatArray,
     r: FloatArray,
-    P: FloatArray | None,
+    arm: Arm | None,
     R: FloatArray,
     t: FloatArray,
     scale: float,
     trace: Trace,
     shift: int,
 ) -> tuple[FloatArray, BoolArray]:
-    """`solve_general_6r` with the chain's loop read from joint `shift` + 1: e₁ ⋯ e₆ = G is
-    e_{k+1} ⋯ e₆ e′₁ ⋯ e′ₖ = G with e′ᵢ = G⁻¹ eᵢ G, the rotation about axis i moved by G⁻¹
-    (k = shift). An elimination that degenerates for one order of the axes (three axes through a
-    point among joints 3-5, say) need not for another. P is used only for shift 0."""
+    """`solve_general_6r` for lanes of axes w, r (L or 1, 6, 3) with the chain's loop read from
+    joint `shift` + 1: e₁ ⋯ e₆ = G is e_{k+1} ⋯ e₆ e′₁ ⋯ e′ₖ = G with e′ᵢ = G⁻¹ eᵢ G, the rotation
+    about axis i moved by G⁻¹ (k = shift). An elimination that degenerates for one order of the
+    axes (three axes through a point among joints 3-5, say) need not for another. `arm`, the
+    prepared `Arm` of w, r, is used when given and shift is 0."""
     if shift == 0:
-        assert P is not None
-        return solve_general_6r(w, r, P, R, t, scale, trace)
+        return solve_general_6r(arm or Arm(w, r, scale), R, t, trace)
     L = R.shape[0]
     Rt = R.swapaxes(1, 2)
     wl = np.broadcast_to(w, (L,) + w.shape[1:]).copy()
@@ -277,10 +312,8 @@ def solve_general_6r_shifted(
     wl[:, :shift] = np.einsum("lij,lkj->lki", Rt, wl[:, :shift])
     rl[:, :shift] = np.einsum("lij,lkj->lki", Rt, rl[:, :shift] - t[:, None])
     order = [*range(shift, 6), *range(shift)]
-    ws, rs = wl[:, order], rl[:, order]
-    Q, ok = solve_general_6r(ws, rs, prepared_coefficients(ws, rs, scale), R, t, scale, trace)
-    back = np.argsort(order)
-    return Q[..., back], ok
+    Q, ok = solve_general_6r(Arm(wl[:, order], rl[:, order], scale), R, t, trace)
+    return Q[..., np.argsort(order)], ok
 
 
 def _perpendicular(a: FloatArray) -> FloatArray:
@@ -288,11 +321,5 @@ def _perpendicular(a: FloatArray) -> FloatArray:
     helper = np.where(
         (np.abs(a[..., 0]) < 0.9)[..., None], np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
     )
-    x = sp.cross(a, helper)
-    return x / sp.norm(x)[..., None]
-
-
-def prepared_coefficients(w: FloatArray, r: FloatArray, scale: float) -> FloatArray:
-    """`arm_coefficients` of lanes w, r (L, 6, 3) in the solver's coordinates (origin on axis 3,
-    lengths / scale)."""
-    return arm_coefficients(w, (r - r[:, 2:3]) / scale)
+    x = np.cross(a, helper)
+    return x / np.linalg.norm(x, axis=-1, keepdims=True)
