@@ -454,6 +454,7 @@ def solve_branches(
     held value): `held` (K,) values for every target or (N, K) per target, lane i·K + k."""
     st = solver.structure
     N = T.shape[0]
+    general_arm: Arm | None = None
     if solver.held is None:
         g = solver.geometry
         assert g is not None
@@ -467,6 +468,8 @@ def solve_branches(
         if held.ndim == 1:  # shared values: the geometry of K lanes, tiled over the targets
             gK, EK = solver.held_lanes(held)
             g = tile_lanes(gK, N)
+            if st.kind == "general_6r" and not st.case:  # the K lanes' arms, tiled likewise
+                general_arm = Arm(gK.w, gK.r, solver.scale).tile(N)
             E = np.tile(EK, (N, 1, 1))
             held_lane = np.tile(held, N)
         else:
@@ -479,7 +482,7 @@ def solve_branches(
         G = inverse_transforms(G)
         dflt = -dflt[:, ::-1]
     trace = Trace()
-    prepared: Prepared | Arm | None = None
+    prepared: Prepared | Arm | None = general_arm
     if solver.held is None:
         prepared = solver.three_parallel or solver.spherical or solver.general
     elif solver._held_static and st.kind == "spherical_wrist":  # every lane has the same geometry

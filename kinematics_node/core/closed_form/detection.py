@@ -116,6 +116,13 @@ def detect(chain: KinematicChain) -> ChainSolver | None:
             if _confirm(solver):
                 found_solvers.append(solver)
                 break
+    if not found_solvers:  # no named family with any joint held: the general 6R solver
+        for j in range(7):
+            for st in _GENERAL:
+                solver = ChainSolver(chain, st, j)
+                if _confirm(solver):
+                    found_solvers.append(solver)
+                    break
     if not found_solvers:
         return None
     # Prefer the held joint whose values least often make a target unreachable (Panda: joint 7,

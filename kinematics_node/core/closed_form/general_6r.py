@@ -141,6 +141,17 @@ class Arm:
         self.M12 = at(1, -1.0)[:, None, :] @ at(0, -1.0)[:, :, None]
         self.x6 = _perpendicular(w[:, 5])
 
+    def tile(self, n: int) -> Arm:
+        """This arm's K lanes repeated for n targets: lane i·K + k is target i, lane k."""
+        out = Arm.__new__(Arm)
+        for name, value in vars(self).items():
+            if isinstance(value, np.ndarray):
+                value = np.tile(value, (n,) + (1,) * (value.ndim - 1))
+            elif isinstance(value, tuple):
+                value = tuple(np.tile(v, (n,) + (1,) * (v.ndim - 1)) for v in value)
+            setattr(out, name, value)
+        return out
+
     def target_coefficients(self, R: FloatArray, t: FloatArray) -> FloatArray:
         """Right-hand sides of L targets G = (R, t) (L, 3, 3), (L, 3) in the base frame [m] →
         (L, 14, 9) over (1, c₁, s₁) ⊗ (1, c₂, s₂)."""
