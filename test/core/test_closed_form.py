@@ -151,7 +151,7 @@ def test_bundled_arms_family(robot, family, held):
         ("kinova_description/robots/kinova.urdf", "j2s6s200_end_effector", "spherical_wrist", None),
         ("panda_description/urdf/panda.urdf", "panda_hand", "7r_spherical_wrist", "panda_joint7"),
         ("xarm_description/urdf/xarm7.urdf", "link_eef", "7r_spherical_wrist", "joint7"),
-        ("baxter_description/urdf/baxter.urdf", "left_gripper", None, None),
+        ("baxter_description/urdf/baxter.urdf", "left_gripper", "7r_general_6r", "left_e0"),
     ],
 )
 def test_example_robot_data_arms_family(rel, tip, family, held):

@@ -245,10 +245,11 @@ def _roots(M: FloatArray, phi: float) -> tuple[FloatArray, FloatArray, FloatArra
     a = mag[:, :, :3, :].reshape(L, BRANCHES, 9).argmax(axis=2)
     i, j = a // 3, a % 3
     lb = np.arange(L)[:, None], np.arange(BRANCHES)[None, :]
-    x4 = (v[lb[0], lb[1], i + 1, j] / v[lb[0], lb[1], i, j]).real
-    b = mag[:, :, :, :2].reshape(L, BRANCHES, 8).argmax(axis=2)
-    i, j = b // 2, b % 2
-    x5 = (v[lb[0], lb[1], i, j + 1] / v[lb[0], lb[1], i, j]).real
+    with np.errstate(divide="ignore", invalid="ignore"):  # (a zero vector: not ok below)
+        x4 = (v[lb[0], lb[1], i + 1, j] / v[lb[0], lb[1], i, j]).real
+        b = mag[:, :, :, :2].reshape(L, BRANCHES, 8).argmax(axis=2)
+        i, j = b // 2, b % 2
+        x5 = (v[lb[0], lb[1], i, j + 1] / v[lb[0], lb[1], i, j]).real
     theta3 = phi + 2.0 * np.arctan(x3)
     return theta3, x4, x5, ok & np.isfinite(x4) & np.isfinite(x5)
 
