@@ -1,0 +1,138 @@
+"""The general 6R closed form (issue 24): every solution of any 6R chain, and every 7R arm.
+
+Oracles: forward kinematics (the configuration a target came from must be in its set, and every
+solution must reproduce the target) and the numeric solver from many random seeds (an exhaustive
+search finds no solution the set lacks). CI runs a few configurations per arm;
+`benchmarks/general_6r_benchmark.py` runs 10,000 per arm (the "slow" check).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kinematics_node.core import IKOptions, SerialChain
+from kinematics_node.core.closed_form import family_of
+from kinematics_node.core.closed_form.geometry import pose_errors
+
+PI = np.pi
+
+
+def dh_chain(rows, lower=-PI, upper=PI) -> SerialChain:
+    """A revolute chain from standard DH rows (a, alpha, d) [m, rad, m], limits ±π."""
+    return SerialChain.from_dh(
+        [
+            {"a": a, "alpha": al, "d": d, "theta": 0.0, "type": "R", "lower": lower, "upper": upper}
+            for a, al, d in rows
+        ]
+    )
+
+
+def random_rows(rng, n=6):
+    return [(rng.uniform(0.0, 0.6), rng.uniform(-PI, PI), rng.uniform(-0.4, 0.4)) for _ in range(n)]
+
+
+RANDOM_ARMS = {f"random {k}": random_rows(np.random.default_rng(100 + k)) for k in range(20)}
+DEGENERATE_ARMS = {
+    # every twist 90°, offsets only along the links: no two axes parallel or meeting
+    "90° twists": [(0.3, PI / 2, 0.1), (0.4, -PI / 2, 0.2), (0.2, PI / 2, 0.15),
+                   (0.25, -PI / 2, 0.1), (0.1, PI / 2, 0.2), (0.15, 0.0, 0.1)],
+    # zero link lengths (a = 0: consecutive axes meet) and general twists, no spherical wrist
+    "zero lengths": [(0.0, 0.7, 0.3), (0.4, -1.1, 0.0), (0.0, 0.9, 0.25),
+                     (0.3, -0.6, 0.1), (0.0, 1.2, 0.2), (0.2, 0.0, 0.1)],
+    # two parallel pairs (α = 0) with offsets that break every named family
+    "parallel pairs": [(0.2, PI / 2, 0.3), (0.5, 0.0, 0.1), (0.3, PI / 2, 0.12),
+                       (0.1, -PI / 2, 0.4), (0.25, 0.0, 0.05), (0.1, 0.8, 0.1)],
+    # a Puma whose wrist is offset by 1 mm (in the spherical-wrist family only approximately)
+    "offset Puma": [(0.0, PI / 2, 0.0), (0.4318, 0.0, 0.0), (0.0203, -PI / 2, 0.15005),
+                    (0.0, PI / 2, 0.4318), (1e-3, -PI / 2, 0.0), (0.0, 0.0, 0.0)],
+}  # fmt: skip
+ARMS = {**RANDOM_ARMS, **DEGENERATE_ARMS}
+
+
+def _contains(sols: np.ndarray, q: np.ndarray, tol: float) -> bool:
+    if not len(sols):
+        return False
+    d = np.abs((np.asarray(sols) - q + PI) % (2 * PI) - PI).max(axis=1)
+    return bool(d.min() <= tol)
+
+
+@pytest.mark.parametrize("name", list(ARMS))
+def test_every_6r_arm_gets_all_solutions_and_each_reproduces_its_target(name):
+    chain = dh_chain(ARMS[name])
+    assert chain.ik_family == "general_6r"
+    rng = np.random.default_rng(7)
+    q = rng.uniform(-PI, PI, size=(40, 6))
+    T = chain.fk(q)
+    out = chain.ik_all_batch(T)
+    for i in range(len(q)):
+        sols = out.solutions_of(i)
+        assert _contains(sols, q[i], 1e-6), (name, i, q[i])
+        ep, er = pose_errors(chain.fk(sols), np.broadcast_to(T[i], (len(sols), 4, 4)))
+        assert ep.max() <= 1e-9 and er.max() <= 1e-9
+        assert len(sols) <= 16
+    # one target at a time gives the same sets (the single-target path)
+    for i in range(5):
+        single = np.asarray(chain.ik_all(T[i]).solutions)
+        assert single.shape == out.solutions_of(i).shape
+        for s in single:
+            assert _contains(out.solutions_of(i), s, 1e-9)
+
+
+@pytest.mark.parametrize("name", ["random 0", "random 3", "90° twists"])
+def test_the_set_equals_what_an_exhaustive_numeric_search_finds(name):
+    """The numeric solver (to 1e-10) from 150 random seeds finds no solution outside
+    the closed-form set,
+    and every solution of the set is found by it from some seed."""
+    chain = dh_chain(ARMS[name])
+    rng = np.random.default_rng(11)
+    q = rng.uniform(-PI, PI, 6)
+    T = chain.fk(q)
+    closed = np.asarray(chain.ik_all(T).solutions)
+    found: list[np.ndarray] = []
+    opts = IKOptions(
+        method="numeric", timeout=0.05, position_tolerance=1e-10, orientation_tolerance=1e-10
+    )
+    for seed in rng.uniform(-PI, PI, size=(150, 6)):
+        res = chain.ik(T, q_seed=seed, options=opts)
+        if res.success:
+            qn = (res.q + PI) % (2 * PI) - PI
+            if not any(np.abs(qn - f).max() <= 1e-6 for f in found):
+                found.append(qn)
+    assert found
+    for f in found:
+        assert _contains(closed, f, 1e-6), f
+    for c in closed:
+        assert _contains(np.array(found), c, 1e-6), c
+
+
+def test_a_seven_r_arm_without_a_named_family_holds_a_joint_for_the_general_solver():
+    rows = random_rows(np.random.default_rng(7), 7)
+    chain = dh_chain(rows)
+    info = family_of(chain)
+    assert info is not None and info.name == "7r_general_6r" and info.held_joint is not None
+    j = chain.joint_names.index(info.held_joint)
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-PI, PI, size=(20, 7))
+    T = chain.fk(q)
+    out = chain.ik_all_batch(T, held=q[:, j : j + 1])
+    for i in range(len(q)):
+        assert _contains(out.solutions_of(i), q[i], 1e-6)
+    for i in range(5):
+        res = chain.ik(T[i])
+        assert res.success and "closed form" in res.message
+        ep, er = pose_errors(chain.fk(res.q)[None], T[i][None])
+        assert ep[0] <= 1e-9 and er[0] <= 1e-9
+
+
+def test_unreachable_targets_give_an_empty_set_with_the_reason():
+    chain = dh_chain(ARMS["random 1"])
+    far = np.eye(4)
+    far[:3, 3] = (10.0, 0.0, 0.0)
+    res = chain.ik_all(far)
+    assert len(res.solutions) == 0 and "unreachable" in res.message
+
+
+def test_mimic_and_five_joint_chains_still_have_no_closed_form():
+    five = dh_chain(ARMS["random 2"][:5])
+    assert five.ik_family is None
