@@ -15,7 +15,9 @@ executable really takes.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+import os
 import sys
 import textwrap
 from collections.abc import Callable, Sequence
@@ -175,8 +177,7 @@ def run(executable: str, module: str, argv: Sequence[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else list(argv)
     own = _own_arguments(args)
     if any(arg in ("-h", "--help") for arg in own):
-        print(usage(executable))
-        return 0
+        return _print_usage(executable)
     if own:
         print(
             f"{executable}: error: unexpected argument {own[0]!r}: ROS parameters follow "
@@ -187,6 +188,19 @@ def run(executable: str, module: str, argv: Sequence[str] | None = None) -> int:
         return USAGE_ERROR
     main: Callable[[], int] = _import_main(executable, module)
     return main()
+
+
+def _print_usage(executable: str) -> int:
+    """Print the usage; 0, or 141 (128 + SIGPIPE, as a shell reports it) when the reader went away
+    first (``kinematics_node --help | head``), quietly, as `kinematics` does."""
+    try:
+        print(usage(executable), flush=True)
+    except BrokenPipeError:
+        # stdout to /dev/null, so that the interpreter's final flush does not fail again
+        with contextlib.suppress(OSError, ValueError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
+    return 0
 
 
 def _import_main(executable: str, module: str) -> Callable[[], int]:

@@ -72,6 +72,21 @@ def test_help_prints_the_usage_and_starts_nothing(script, flag):
         assert all(topic in text for topic in ("ee_pose", "ee_twist", "compute_ik"))
 
 
+@pytest.mark.parametrize("script", ["kinematics_node", "sim_arm"])
+def test_help_into_a_closed_pipe_ends_quietly(script):
+    """`kinematics_node --help | head -3`: the reader goes away first; no traceback."""
+    code = (
+        "import os, runpy, sys; sys.modules['rclpy'] = None; "
+        "r, w = os.pipe(); os.close(r); os.dup2(w, 1); "
+        f"sys.argv = [{script!r}, '--help']; "
+        f"runpy.run_path({str(SCRIPTS / script)!r}, run_name='__main__')"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=ROOT
+    )
+    assert (out.returncode, out.stderr) == (141, "")
+
+
 def test_the_usage_lists_exactly_the_declared_parameters():
     for script, specs in SPECS.items():
         listed = re.findall(
