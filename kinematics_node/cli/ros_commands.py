@@ -208,11 +208,12 @@ def _ik(client: RosClient, args: argparse.Namespace, emit: Callable[[str], None]
                 }
             )
         )
-    else:
+    elif response.success or (names and response.position_error >= 0):
+        # a failure's reason goes to stderr once (below); stdout shows a best effort, if any
         head = (
             f"solved by {client.resolve(args.service)}"
             if response.success
-            else f"not solved by {client.resolve(args.service)}: {response.message}"
+            else "best effort (not a solution):"
         )
         rows = [head] + [f"  {n:<28}{v: .6f}" for n, v in zip(names, values, strict=True)]
         if response.position_error >= 0:

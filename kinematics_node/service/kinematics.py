@@ -760,13 +760,15 @@ class KinematicsService:
             failure = fn(request, response)
             response.success = failure is None
             response.message = "ok" if failure is None else failure
+            return response
         except KinematicsError as exc:
-            response.success = False
             response.message = str(exc)
         except Exception as exc:  # a request must never take the node down
             _log.exception("%s: unexpected error", service)
-            response.success = False
             response.message = f"internal error ({type(exc).__name__}): {exc}"
+        response.success = False
+        if hasattr(response, "position_error"):  # ComputeIK refused: no solve ran (see the srv)
+            response.position_error = response.orientation_error = -1.0
         return response
 
     def _snapshot(self) -> tuple[RobotModel, dict[str, float], dict[str, Any]]:

@@ -280,3 +280,22 @@ def test_unstamped_joint_states_have_an_unknown_latency_not_the_time_since_1970(
     clock.now += 0.01  # an unstamped one again: unknown again
     ur5.on_joint_state(js(ros, names, 0.5 * np.ones(6), t=(0, 0)), 0.2)
     assert _values(ur5)["joint_states_latency_s"] == "unknown (unstamped joint_states)"
+
+
+def test_a_refused_ik_request_reports_its_errors_as_unknown(ros, ur5_path, clock) -> None:
+    """A request refused before any solve (no tip chosen yet; a NaN target) answers
+    position_error = orientation_error = -1, "unknown (no solve ran)" as ComputeIK.srv defines
+    them, not 0, which a client reads as a pose reached exactly."""
+    waiting = KinematicsService(ros.types, {"robot_description": ur5_path.read_text()}, clock=clock)
+    loaded = KinematicsService(
+        ros.types, {"robot_description": ur5_path.read_text(), "tip_link": "tool0"}, clock=clock
+    )
+    T_nan = np.eye(4)
+    T_nan[0, 3] = math.nan
+    for svc, T, reason in ((waiting, np.eye(4), "waiting for a tip"), (loaded, T_nan, "nan")):
+        req = ros.request("ComputeIK")
+        req.target = ik_target(ros, T)
+        response = ros.response("ComputeIK")
+        assert svc.prepare_ik(ros.roundtrip(req), response) is None
+        assert not response.success and reason in response.message.lower()
+        assert (response.position_error, response.orientation_error) == (-1.0, -1.0)
