@@ -13,6 +13,7 @@ before the limit instead of at it.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -119,6 +120,25 @@ def braking_speed(distance: FloatArray, acceleration: FloatArray, jerk: FloatArr
     return np.where(np.isinf(d), np.inf, out)
 
 
+def braking_speeds(
+    distances: Sequence[float], acceleration: Sequence[float], jerk: Sequence[float]
+) -> list[float]:
+    """`braking_speed` on lists of floats, one value per joint (the same arithmetic, with NumPy's
+    cube root, so that the results are the same floats)."""
+    d = [x if x > 0.0 else 0.0 for x in distances]
+    roots = np.cbrt([x * x * j for x, j in zip(d, jerk, strict=True)]).tolist()
+    out = []
+    for x, v_short, A, J in zip(d, roots, acceleration, jerk, strict=True):
+        b = A * A / J
+        if x == math.inf:
+            out.append(math.inf)
+        elif v_short <= b:
+            out.append(v_short)
+        else:
+            out.append(0.5 * (-b + math.sqrt(b * b + 8.0 * A * x)))
+    return out
+
+
 def _phase(x: float, v: float, a: float, j: float, t: float) -> tuple[float, float, float]:
     """State (x, v, a) after `t` [s] of constant jerk `j`."""
     return x + t * (v + t * (a / 2 + t * j / 6)), v + t * (a + t * j / 2), a + t * j
@@ -145,6 +165,17 @@ def _forward_reach(v0: float, a0: float, A: float, J: float) -> tuple[float, flo
     return lowest, max(0.0, x_end)
 
 
+def braking_reach_one(q: float, v: float, a: float, A: float, J: float) -> tuple[float, float]:
+    """`braking_reach` of one joint, on floats: (lowest, highest) position of its fastest stop
+    from position q, velocity v and acceleration a under acceleration limit A and jerk limit J."""
+    if v + a * abs(a) / (2 * J) >= 0.0:
+        low, high = _forward_reach(v, a, A, J)
+    else:
+        neg_high, neg_low = _forward_reach(-v, -a, A, J)
+        low, high = -neg_low, -neg_high
+    return q + low, q + high
+
+
 def braking_reach(
     q: FloatArray, v: FloatArray, a: FloatArray, acceleration: FloatArray, jerk: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
@@ -156,11 +187,5 @@ def braking_reach(
     for k, (qk, vk, ak, A, J) in enumerate(
         zip(q.tolist(), v.tolist(), a.tolist(), acceleration.tolist(), jerk.tolist(), strict=True)
     ):
-        if vk + ak * abs(ak) / (2 * J) >= 0.0:
-            low, high = _forward_reach(vk, ak, A, J)
-        else:
-            neg_high, neg_low = _forward_reach(-vk, -ak, A, J)
-            low, high = -neg_low, -neg_high
-        lo[k] = qk + low
-        hi[k] = qk + high
+        lo[k], hi[k] = braking_reach_one(qk, vk, ak, A, J)
     return lo, hi

@@ -52,7 +52,7 @@ from . import _quat, dls
 from .axes import select_axes, task_jacobian_rows
 from .commands import JointJogCommand, PoseCommand, TwistCommand
 from .config import TWIST_AXES, ServoConfig
-from .limits import ServoLimits, braking_distance, braking_speed
+from .limits import ServoLimits, braking_distance, braking_speeds
 from .smoothing import JerkLimitedIntegrator, VelocityRamp
 from .status import ServoStatus, StatusCode
 
@@ -94,7 +94,9 @@ def _finite_reals(values: Any, count: int | None) -> tuple[float, ...] | None:
         return None
     out = []
     for x in items:
-        if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
+        if type(x) is not float and (
+            isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating))
+        ):
             return None
         f = float(x)
         if not math.isfinite(f):
@@ -105,6 +107,11 @@ def _finite_reals(values: Any, count: int | None) -> tuple[float, ...] | None:
 
 def _norm3(x: float, y: float, z: float) -> float:
     return math.sqrt(x * x + y * y + z * z)
+
+
+def _rotation(t: Sequence[float]) -> FloatArray:
+    """The (3, 3) rotation of a pose given as 12 floats (rotation row-major, then position)."""
+    return np.array(((t[0], t[1], t[2]), (t[3], t[4], t[5]), (t[6], t[7], t[8])))
 
 
 class Servo:
@@ -168,22 +175,42 @@ class Servo:
         zone = braking_distance(lim.velocity, self._plan_acceleration, self._plan_jerk) + (
             2.0 * cfg.period_s * lim.velocity
         )
-        self._slow_low = lim.lower + zone
-        self._slow_high = lim.upper - zone
+        # Per-joint constants of the period as lists of floats: on 6 or 7 joints, plain Python
+        # arithmetic costs less than NumPy calls (~1 µs each) and gives the same floats.
+        self._slow_low: list[float] = (lim.lower + zone).tolist()
+        self._slow_high: list[float] = (lim.upper - zone).tolist()
+        self._lower: list[float] = lim.lower.tolist()
+        self._upper: list[float] = lim.upper.tolist()
+        self._v_high: list[float] = lim.velocity.tolist()
+        self._v_low: list[float] = (-lim.velocity).tolist()
+        self._plan_a: list[float] = self._plan_acceleration.tolist() * 2  # for (up, down)
+        self._plan_j: list[float] = self._plan_jerk.tolist() * 2
         bounded = np.isfinite(lim.lower) & np.isfinite(lim.upper)
-        self._mid = np.where(bounded, 0.5 * (lim.lower + lim.upper), 0.0)
-        self._half = np.where(bounded, 0.5 * (lim.upper - lim.lower), 0.0)
-        self._v_low = readonly(-lim.velocity)
+        lower_b = np.where(bounded, lim.lower, 0.0)
+        upper_b = np.where(bounded, lim.upper, 0.0)
+        half = 0.5 * (upper_b - lower_b)
+        self._mid: list[float] = (0.5 * (lower_b + upper_b)).tolist()
+        self._inv_half: list[float] = np.where(
+            half > 0, 1.0 / np.where(half > 0, half, 1.0), 0.0
+        ).tolist()
+        self._inv_null_cap: list[float] = (
+            1.0 / (_NULLSPACE_SPEED_FRACTION * lim.velocity)
+        ).tolist()
+        self._null_coef: list[float] = (-cfg.nullspace_gain_1_per_s * half).tolist()
         self._zeros = readonly(np.zeros(n))
+        self._zero_list = [0.0] * n
         self._no_joint = readonly(np.zeros(n, dtype=bool), np.bool_)
-        self._inv_half = np.where(
-            self._half > 0, 1.0 / np.where(self._half > 0, self._half, 1.0), 0.0
-        )
-        self._inv_null_cap = 1.0 / (_NULLSPACE_SPEED_FRACTION * lim.velocity)
-        self._null_coef = -cfg.nullspace_gain_1_per_s * self._half
         self._base = chain.link_names[0]
         self._tip = chain.link_names[-1]
+        self._links = frozenset(chain.link_names)
         self._n = n
+        # The chain's generated forward kinematics on floats (what `chain.fk_jacobian` calls after
+        # checking its input, which the servo's own state does not need).
+        model = chain.solver_model
+        self._fk_world = model.kernel.fk_world
+        self._fk_pose = model.kernel.fk_pose
+        self._to_internal = model.to_internal
+        self._G = model.G
         # Active command, in the form the steps use.
         self._mode: str | None = None
         self._winding_down = False  # a twist command timed out: its twist is ramping to zero
@@ -193,7 +220,7 @@ class Servo:
             0.0,
         ) * 6  # (ω, v) in the command frame's axes, already speed-limited
         self._twist_scaled = False
-        self._jog = np.zeros(n)
+        self._jog: list[float] = [0.0] * n
         self._jog_scaled = False
         self._goal_p = (0.0, 0.0, 0.0)
         self._goal_q: _quat.Quat = (0.0, 0.0, 0.0, 1.0)
@@ -203,7 +230,7 @@ class Servo:
         acc = np.array((ang_a, ang_a, ang_a, lin_a, lin_a, lin_a))
         self._ramp = VelocityRamp(acc, acc / cfg.jerk_time_s, cfg.period_s)
         self._ramp_valid = False
-        self._ramp_target = np.zeros(6)
+        self._ramp_target: list[float] = [0.0] * 6
         self._last_jacobian: FloatArray | None = None  # the task Jacobian of the last period
         self._null_ease = 0.0  # share of the null-space speed allowed (eased in per command)
         self._anchor: FloatArray = self._integrator.q  # last well-conditioned configuration
@@ -337,7 +364,7 @@ class Servo:
         return self._accept_pose(command)
 
     def _frame_problem(self, kind: str, frame: Any) -> tuple[StatusCode, str] | None:
-        if isinstance(frame, str) and frame in self.chain.link_names:
+        if isinstance(frame, str) and frame in self._links:
             return None
         shown = frame if isinstance(frame, str) else repr(frame)
         err = UnknownNameError("frame", str(shown)[:80], self.chain.link_names)
@@ -415,7 +442,7 @@ class Servo:
                 f"JointJogCommand refused: velocities must be {len(names)} finite numbers (one per "
                 f"joint name), got {cmd.velocities!r}"[:300],
             )
-        jog = np.zeros(self._n)
+        jog = [0.0] * self._n
         seen: set[str] = set()
         for name, value in zip(names, vel, strict=True):
             if not isinstance(name, str) or name not in self.chain.joint_names:
@@ -509,16 +536,16 @@ class Servo:
                 self._end(StatusCode.TIMEOUT_STOP, message)
         details: dict[str, Any] = {}
         if self._mode is None:
-            target = np.zeros(self._n)
+            target = self._zero_list
         elif self._mode == "jog":
             target = self._jog_target(details)
         else:
             target = self._task_target(details)
         braking = integ.step(target, details.get("target_acceleration"))
-        if self._winding_down and not (self._ramp.v.any() or self._ramp.a.any()):
+        if self._winding_down and not (any(self._ramp.v) or any(self._ramp.a)):
             self._end(*self._stop)  # the twist is down to zero: let the joints settle
-        if braking.any():
-            at_limit = details.get("at_limit", np.zeros(self._n, dtype=bool)) | braking
+        if braking is not None:
+            at_limit = details.get("at_limit", self._no_joint) | np.array(braking)
             details["at_limit"] = at_limit
         status = self._status(trouble, details)
         return ServoOutput(integ.q, integ.v, integ.a, now + cfg.period_s, status)
@@ -534,14 +561,18 @@ class Servo:
                 f"measured_positions must have {self._n} values (joints "
                 f"{list(self.chain.joint_names)}), got shape {q.shape}",
             )
-        if not np.isfinite(q).all():
+        values = q.tolist()
+        # A non-finite value makes the sum non-finite; a finite sum rules them out (an overflowing
+        # sum of finite values is checked one by one).
+        if not math.isfinite(sum(values)) and not np.isfinite(q).all():
             return StatusCode.STATE_REFUSED, "measured_positions contains a non-finite value"
         self._measured = q
         integ = self._integrator
         if self._mode is not None and not integ.at_rest:
-            dev = np.abs(q - integ.q)
-            if dev.max() > self.config.max_following_error:
-                k = int(np.argmax(dev))
+            dev = [abs(m - c) for m, c in zip(values, integ.q_list, strict=True)]
+            worst = max(dev)
+            if worst > self.config.max_following_error:
+                k = dev.index(worst)
                 return (
                     StatusCode.NOT_FOLLOWING,
                     f"joint {self.chain.joint_names[k]!r} is {dev[k]:.3g} from its command (more "
@@ -550,65 +581,88 @@ class Servo:
         return None
 
     # ------------------------------------------------------------------ velocity bounds
-    def _velocity_box(self) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
-        """(lo, hi, position-limited mask): the joint velocities allowed this period."""
-        lim, integ = self.limits, self._integrator
-        q = integ.q
-        vmax = lim.velocity
-        if (q > self._slow_low).all() and (q < self._slow_high).all():
-            return self._v_low, vmax, self._no_joint
-        d_up = lim.upper - q
-        d_lo = q - lim.lower
+    def _velocity_box(self) -> tuple[list[float], list[float], list[bool] | None]:
+        """(lo, hi, position-limited joints or None when none is): the joint velocities allowed
+        this period."""
+        integ = self._integrator
+        q = integ.q_list
+        v_low, v_high = self._v_low, self._v_high
+        if all(a < x < b for x, a, b in zip(q, self._slow_low, self._slow_high, strict=True)):
+            return v_low, v_high, None
+        d_up = [u - x for x, u in zip(q, self._upper, strict=True)]
+        d_lo = [x - lw for x, lw in zip(q, self._lower, strict=True)]
         # The speed asked now is held for a period before a stop could begin: keep the distance
         # covered meanwhile (at the current speed or the one asked, whichever is higher) in hand.
-        A, J, dt2 = self._plan_acceleration, self._plan_jerk, 2.0 * self.config.period_s
-        speed = np.abs(integ.v)
-        s_up = braking_speed(d_up, A, J)
-        s_lo = braking_speed(d_lo, A, J)
-        hi = np.minimum(vmax, braking_speed(d_up - dt2 * np.maximum(speed, s_up), A, J))
-        lo = -np.minimum(vmax, braking_speed(d_lo - dt2 * np.maximum(speed, s_lo), A, J))
-        limited = (hi < vmax) | (lo > -vmax)
+        # (Unbounded sides keep an infinite distance, and no braking speed.)
+        n, dt2 = self._n, 2.0 * self.config.period_s
+        reach = braking_speeds(d_up + d_lo, self._plan_a, self._plan_j)
+        left = [
+            d if d == math.inf else d - dt2 * (s if s > abs(v) else abs(v))
+            for d, s, v in zip(d_up + d_lo, reach, integ.v_list * 2, strict=True)
+        ]
+        allowed = braking_speeds(left, self._plan_a, self._plan_j)
+        hi = [s if s < vm else vm for s, vm in zip(allowed[:n], v_high, strict=True)]
+        lo = [-(s if s < vm else vm) for s, vm in zip(allowed[n:], v_high, strict=True)]
+        limited = [h < vm or lw > -vm for h, lw, vm in zip(hi, lo, v_high, strict=True)]
+        if not any(limited):
+            return v_low, v_high, None
         return lo, hi, limited
 
     @staticmethod
-    def _max_scale(base: FloatArray, part: FloatArray, lo: FloatArray, hi: FloatArray) -> float:
+    def _max_scale(
+        base: Sequence[float], part: Sequence[float], lo: Sequence[float], hi: Sequence[float]
+    ) -> float:
         """The largest s ∈ [0, 1] with lo ≤ base + s·part ≤ hi (base inside the box)."""
-        trial = base + part
-        if ((trial <= hi) & (trial >= lo)).all():
+        if all(a <= b + p <= c for b, p, a, c in zip(base, part, lo, hi, strict=True)):
             return 1.0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            up = np.where(part > 0.0, (hi - base) / part, np.inf)
-            down = np.where(part < 0.0, (lo - base) / part, np.inf)
-        return float(min(1.0, max(0.0, min(up.min(), down.min()))))
+        s = math.inf
+        for b, p, a, c in zip(base, part, lo, hi, strict=True):
+            if p > 0.0:
+                s = min(s, (c - b) / p)
+            elif p < 0.0:
+                s = min(s, (a - b) / p)
+        return min(1.0, max(0.0, s))
 
     # ------------------------------------------------------------------ jog
-    def _jog_target(self, details: dict[str, Any]) -> FloatArray:
+    def _jog_target(self, details: dict[str, Any]) -> list[float]:
         lo, hi, _ = self._velocity_box()
         want = self._jog
-        qd = np.clip(want, lo, hi)
-        details["at_limit"] = np.abs(qd - want) > 1e-12
-        vmax = self.limits.velocity
-        speed = np.abs(qd)
-        if np.any(speed > vmax):
-            qd = qd * float(np.min(np.where(speed > 0, vmax / np.maximum(speed, 1e-300), np.inf)))
+        qd = [a if w < a else b if w > b else w for w, a, b in zip(want, lo, hi, strict=True)]
+        held = [abs(d - w) > 1e-12 for d, w in zip(qd, want, strict=True)]
+        details["at_limit"] = np.array(held) if any(held) else self._no_joint
+        vmax = self._v_high
+        if any(abs(d) > vm for d, vm in zip(qd, vmax, strict=True)):
+            scale = min(vm / abs(d) for d, vm in zip(qd, vmax, strict=True) if d != 0.0)
+            qd = [d * scale for d in qd]
             details["scaled"] = True
         details["condition"] = None
         return qd
 
     # ------------------------------------------------------------------ twist and pose
-    def _task_target(self, details: dict[str, Any]) -> FloatArray:
+    def _task_target(self, details: dict[str, Any]) -> list[float]:
         cfg = self.config
-        q = self._integrator.q
-        T, J = self.chain.fk_jacobian(q, "world")
-        R = T[:3, :3]
-        p = (float(T[0, 3]), float(T[1, 3]), float(T[2, 3]))
-        q_now = so3.quaternion_from_rows(R.ravel().tolist())
+        q = self._integrator.q_list
+        t, cols = self._fk_world(q if self._to_internal is None else self._to_internal(q))
+        J = np.array(cols).T  # (6, n): rows (ω, v) of the tip origin, base axes
+        if self._G is not None:
+            J = J @ self._G
+        p = (t[9], t[10], t[11])
+        q_now = so3.quaternion_from_rows(t)
         tip_axes = cfg.task_axes_frame == "tip"
+        R = (
+            _rotation(t)
+            if tip_axes or (self._mode == "twist" and self._twist_frame == self._tip)
+            else None
+        )
         if self._mode == "twist":
             x = self._twist_task(R, p, q_now, tip_axes, details)
         else:
             x = self._pose_task(R, p, q_now, tip_axes, details)
-        Jt = task_jacobian_rows(J, R, cfg.task_axes_frame)
+        if tip_axes:
+            assert R is not None
+            Jt = task_jacobian_rows(J, R, cfg.task_axes_frame)
+        else:
+            Jt = J
         if not self._all_rows:
             Jt = Jt[self._rows]
             x = x[self._rows]
@@ -617,28 +671,35 @@ class Servo:
         return self._solve(Jt, x, details)
 
     def _kept_error(
-        self, R: FloatArray, e: FloatArray, tip_axes: bool
+        self, R: FloatArray | None, e: FloatArray, tip_axes: bool
     ) -> tuple[FloatArray, FloatArray]:
         """(error in task axes with dropped components zeroed, the same in base axes)."""
         if tip_axes:
+            assert R is not None
             e_task = np.concatenate((R.T @ e[:3], R.T @ e[3:]))
         else:
             e_task = e
         if not self._all_rows:
             e_task = np.where(self._dropped_mask, 0.0, e_task)
-            e_base = np.concatenate((R @ e_task[:3], R @ e_task[3:])) if tip_axes else e_task
+            if tip_axes:
+                assert R is not None
+                e_base = np.concatenate((R @ e_task[:3], R @ e_task[3:]))
+            else:
+                e_base = e_task
         else:
             e_base = e
         return e_task, e_base
 
     def _twist_task(
         self,
-        R: FloatArray,
+        R: FloatArray | None,
         p: tuple[float, float, float],
         q_now: _quat.Quat,
         tip_axes: bool,
         details: dict[str, Any],
     ) -> FloatArray:
+        """The task velocity (6,): the ramped commanded twist plus the loop closed on the kept
+        error. `R`: the tip's orientation, given where tip axes or the tip's frame need it."""
         cfg = self.config
         if not self._ref_valid:
             self._ref_p, self._ref_q, self._ref_valid = p, q_now, True
@@ -646,6 +707,7 @@ class Servo:
         ew = _quat.to_rotvec(_quat.mul(self._ref_q, _quat.conj(q_now)))
         rp = self._ref_p
         ev = (rp[0] - p[0], rp[1] - p[1], rp[2] - p[2])
+        e_task: Sequence[float] | FloatArray
         if self._all_rows and not tip_axes:  # the common case, on floats
             nw, nv = _norm3(*ew), _norm3(*ev)
             sw = min(1.0, cfg.max_kept_error_rad / nw) if nw > 0 else 1.0
@@ -655,7 +717,7 @@ class Servo:
                 ev = (ev[0] * sv, ev[1] * sv, ev[2] * sv)
                 self._ref_q = _quat.mul(_quat.from_rotvec(*ew), q_now)
                 self._ref_p = (p[0] + ev[0], p[1] + ev[1], p[2] + ev[2])
-            e_task = np.array(ew + ev)
+            e_task = ew + ev
         else:
             e = np.array(ew + ev)
             e_task, e_base = self._kept_error(R, e, tip_axes)
@@ -673,12 +735,14 @@ class Servo:
         frame = self._twist_frame
         tw = self._twist
         if frame == self._base:
-            target = np.array(tw)
+            target = list(tw)
         else:
-            R_bf = (
-                R if frame == self._tip else self.chain.link_pose(self._integrator.q, frame)[:3, :3]
-            )
-            target = np.concatenate((R_bf @ tw[:3], R_bf @ tw[3:]))
+            if frame == self._tip:
+                assert R is not None
+                R_bf = R
+            else:
+                R_bf = self.chain.link_pose(self._integrator.q, frame)[:3, :3]
+            target = (R_bf @ tw[:3]).tolist() + (R_bf @ tw[3:]).tolist()
         # Ramp the twist within Cartesian acceleration and jerk limits (base axes).
         if not self._ramp_valid:
             self._ramp.reset(self._tool_twist())
@@ -686,27 +750,30 @@ class Servo:
         self._ramp_target = target
         ramped = self._ramp.step(target)
         ramp_acc = self._ramp.a
-        if tip_axes:
-            Rt = R.T
-            ramp_acc = np.concatenate((Rt @ ramp_acc[:3], Rt @ ramp_acc[3:]))
-            V_task = np.concatenate((Rt @ ramped[:3], Rt @ ramped[3:]))
-        else:
-            V_task = ramped
-        details["task_acceleration"] = ramp_acc
         # Integrate the commanded pose over the period: R_ref ← exp([ω] dt) R_ref, p_ref += v dt.
         dt = cfg.period_s
-        wx, wy, wz, vx, vy, vz = ramped.tolist()
+        wx, wy, wz, vx, vy, vz = ramped
         self._ref_q = _quat.normalized(
             _quat.mul(_quat.from_rotvec(wx * dt, wy * dt, wz * dt), self._ref_q)
         )
         rp = self._ref_p
         self._ref_p = (rp[0] + vx * dt, rp[1] + vy * dt, rp[2] + vz * dt)
         details["scaled"] = self._twist_scaled
-        return V_task + cfg.tracking_gain_1_per_s * e_task
+        K = cfg.tracking_gain_1_per_s
+        if tip_axes:
+            assert R is not None
+            Rt = R.T
+            details["task_acceleration"] = np.concatenate((Rt @ ramp_acc[:3], Rt @ ramp_acc[3:]))
+            V_task = np.concatenate((Rt @ ramped[:3], Rt @ ramped[3:]))
+            return V_task + K * np.asarray(e_task)
+        details["task_acceleration"] = np.array(ramp_acc)
+        if isinstance(e_task, np.ndarray):
+            return np.array(ramped) + K * e_task
+        return np.array([v + K * e for v, e in zip(ramped, e_task, strict=True)])
 
     def _pose_task(
         self,
-        R: FloatArray,
+        R: FloatArray | None,
         p: tuple[float, float, float],
         q_now: _quat.Quat,
         tip_axes: bool,
@@ -715,8 +782,11 @@ class Servo:
         cfg = self.config
         ew = _quat.to_rotvec(_quat.mul(self._goal_q, _quat.conj(q_now)))
         g = self._goal_p
-        e = np.array((ew[0], ew[1], ew[2], g[0] - p[0], g[1] - p[1], g[2] - p[2]))
-        e_task, _ = self._kept_error(R, e, tip_axes)
+        e = (ew[0], ew[1], ew[2], g[0] - p[0], g[1] - p[1], g[2] - p[2])
+        if self._all_rows and not tip_axes:
+            e_task = e
+        else:
+            e_task = tuple(self._kept_error(R, np.array(e), tip_axes)[0].tolist())
         ang, dist = _norm3(*e_task[:3]), _norm3(*e_task[3:])
         K = cfg.pose_gain_1_per_s
         speed_v = min(
@@ -729,11 +799,9 @@ class Servo:
             K * ang,
             math.sqrt(2.0 * cfg.pose_angular_acceleration_rad_s2 * ang),
         )
-        V = np.zeros(6)
-        if ang > 0:
-            V[:3] = e_task[:3] * (speed_w / ang)
-        if dist > 0:
-            V[3:] = e_task[3:] * (speed_v / dist)
+        fw = speed_w / ang if ang > 0 else 0.0
+        fv = speed_v / dist if dist > 0 else 0.0
+        V = np.array([x * fw for x in e_task[:3]] + [x * fv for x in e_task[3:]])
         details["errors"] = (dist, ang)
         details["reached"] = (
             dist <= cfg.pose_position_tolerance_m and ang <= cfg.pose_orientation_tolerance_rad
@@ -745,7 +813,7 @@ class Servo:
         reached the command: restart the ramp from what the arm does, so that it does not run
         ahead of the arm (wind up). A ramp still on its way (the command changed, e.g. reversed
         to leave the limit) goes on."""
-        if self._mode == "twist" and np.array_equal(self._ramp.v, self._ramp_target):
+        if self._mode == "twist" and self._ramp.v == self._ramp_target:
             self._ramp_valid = False
 
     def _tool_twist(self) -> FloatArray:
@@ -761,8 +829,13 @@ class Servo:
             return self._zeros  # no null space (or switched off)
         # −k h x³ with x = (q − mid)/h, h the half range: the gradient of Σ h² x⁴/4, flat in
         # the middle and steep near the limits, so the joints nearest a limit dominate.
-        x = (self._integrator.q - self._mid) * self._inv_half
-        grad = self._null_coef * (x * x * x)
+        grad_list = []
+        for qk, mid, inv_h, coef in zip(
+            self._integrator.q_list, self._mid, self._inv_half, self._null_coef, strict=True
+        ):
+            x = (qk - mid) * inv_h
+            grad_list.append(coef * (x * x * x))
+        grad = np.array(grad_list)
         if active is not None:
             grad = grad[active]
         motion = grad - rows.T @ (rows @ grad)
@@ -773,35 +846,45 @@ class Servo:
         # Eased in over 0.5 s after a command starts: a step in the null-space speed bends the
         # tool's path while the joints take it up.
         self._null_ease = min(1.0, self._null_ease + self.config.period_s / 0.5)
-        peak = float((np.abs(motion) * self._inv_null_cap).max()) / self._null_ease
+        peak = (
+            max(abs(m) * c for m, c in zip(motion.tolist(), self._inv_null_cap, strict=True))
+            / self._null_ease
+        )
         return motion / peak if peak > 1.0 else motion
 
-    def _solve(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> FloatArray:
+    def _solve(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> list[float]:
         qd = self._solve_at(Jt, x, details)
         self._last_jacobian = Jt
         return qd
 
-    def _solve_at(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> FloatArray:
+    def _solve_at(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> list[float]:
         cfg = self.config
         eps, lam = cfg.singular_value_threshold, cfg.max_damping
         lo, hi, limited = self._velocity_box()
         sol = dls.solve(Jt, x, eps, lam)
         s = sol.singular_values
-        details["condition"] = (float(s[0] / s[-1]) if s[-1] > 0 else math.inf, float(s[-1]))
-        if s[-1] >= eps:
+        s_first, s_last = float(s[0]), float(s[-1])
+        details["condition"] = (s_first / s_last if s_last > 0 else math.inf, s_last)
+        if s_last >= eps:
             self._anchor = self._integrator.q  # the last well-conditioned configuration
         undamped, damped, rows = sol.undamped, sol.damped, sol.row_basis
-        if s[-1] < lam and s.shape[0] == Jt.shape[0]:
+        if s_last < lam and s.shape[0] == Jt.shape[0]:
             damped = damped + self._escape(x, sol, details)
         fixed: FloatArray | float = 0.0
         active = None  # all joints
         at_limit = self._no_joint
-        if limited.any():
-            qd = undamped + damped
-            at_limit = limited & ((qd > hi + 1e-12) | (qd < lo - 1e-12))
-            if at_limit.any():
+        if limited is not None:
+            qd = (undamped + damped).tolist()
+            over = [
+                m and (v > h + 1e-12 or v < lw - 1e-12)
+                for m, v, lw, h in zip(limited, qd, lo, hi, strict=True)
+            ]
+            if any(over):
+                at_limit = np.array(over)
                 self._hold_ramp()
-                saturated = self._saturate(Jt, x, lo, hi, limited, sol)
+                saturated = self._saturate(
+                    Jt, x, np.array(lo), np.array(hi), np.array(limited), sol
+                )
                 if saturated is not None:
                     fixed, undamped, damped, rows, active = saturated
                 # else: the other joints cannot take over the task exactly; the uniform scaling
@@ -809,28 +892,31 @@ class Servo:
         details["at_limit"] = at_limit
         null = self._null_motion(active, rows)
         total = undamped + damped + null + fixed
-        if ((total <= hi) & (total >= lo)).all():
+        total_list = total.tolist()
+        if all(a <= t <= b for t, a, b in zip(total_list, lo, hi, strict=True)):
             task_acc = details.get("task_acceleration")
-            if task_acc is not None and at_limit is self._no_joint:
+            if task_acc is not None and limited is None:
                 # q̈ = J⁺ (ẍ − J̇ q̇): the joint acceleration that keeps up with the ramping twist
                 # as the arm moves, fed forward to the smoothing; J̇ from the last period's J.
                 prev = self._last_jacobian
                 if prev is not None:
                     task_acc = task_acc - (Jt - prev) @ total / cfg.period_s
-                details["target_acceleration"] = dls.apply(sol, task_acc)
-            return total
+                details["target_acceleration"] = dls.apply(sol, task_acc).tolist()
+            return total_list
         # Fit into the box: the whole undamped part first (uniform scaling keeps its direction),
         # then as much of the damped part, then of the null-space motion.
         base = undamped + fixed
-        s_base = self._max_scale(self._zeros, base, lo, hi)
+        s_base = self._max_scale(self._zero_list, base.tolist(), lo, hi)
         base = base * s_base
-        s_damped = self._max_scale(base, damped, lo, hi)
+        s_damped = self._max_scale(base.tolist(), damped.tolist(), lo, hi)
         base = base + s_damped * damped
-        base = base + self._max_scale(base, null, lo, hi) * null
+        base = base + self._max_scale(base.tolist(), null.tolist(), lo, hi) * null
         details["scaled"] = details.get("scaled", False) or s_base < 1.0 or s_damped < 1.0
         if s_base < 1.0:
             self._hold_ramp()
-        return np.minimum(np.maximum(base, lo), hi)
+        return [
+            a if b < a else c if b > c else b for b, a, c in zip(base.tolist(), lo, hi, strict=True)
+        ]
 
     def _escape(self, x: FloatArray, sol: dls.DLSSolution, details: dict[str, Any]) -> FloatArray:
         """Motion along the singular joint direction v_min that leaves a singularity the way the
@@ -860,15 +946,24 @@ class Servo:
             return np.zeros(self._n)
         h = 1e-3
         q = self._integrator.q
-        T0 = self.chain.fk(q)
-        second = np.zeros(6)
+        t0 = self._pose(q.tolist())
+        R0 = _rotation(t0)
+        p0 = t0[9:]
+        w = [0.0, 0.0, 0.0]
+        d = [0.0, 0.0, 0.0]
         for sign in (1.0, -1.0):
-            T = self.chain.fk(q + sign * h * v)
-            second[:3] += so3.vee(T[:3, :3] @ T0[:3, :3].T - T0[:3, :3] @ T[:3, :3].T) / 2.0
-            second[3:] += T[:3, 3] - T0[:3, 3]
+            t = self._pose((q + sign * h * v).tolist())
+            R = _rotation(t)
+            # ½ vee(R R0ᵀ − R0 Rᵀ) (so3.vee), halved: the rotation part of the second difference
+            m = (R @ R0.T - R0 @ R.T).tolist()
+            w[0] += 0.5 * (m[2][1] - m[1][2]) / 2.0
+            w[1] += 0.5 * (m[0][2] - m[2][0]) / 2.0
+            w[2] += 0.5 * (m[1][0] - m[0][1]) / 2.0
+            for i in range(3):
+                d[i] += t[9 + i] - p0[i]
+        second = np.array(w + d)
         if cfg.task_axes_frame == "tip":
-            R = T0[:3, :3]
-            second = np.concatenate((R.T @ second[:3], R.T @ second[3:]))
+            second = np.concatenate((R0.T @ second[:3], R0.T @ second[3:]))
         if not self._all_rows:
             second = second[self._rows]
         curvature = r * float(u @ second)
@@ -885,6 +980,10 @@ class Servo:
         weight = 1.0 - sigma / lam
         details["escaping"] = True
         return (direction * weight * abs(r) / (2.0 * lam)) * v
+
+    def _pose(self, q: list[float]) -> tuple[float, ...]:
+        """The tip pose at joint values `q` as 12 floats (rotation row-major, then position)."""
+        return self._fk_pose(q if self._to_internal is None else self._to_internal(q))[0]
 
     def _saturate(
         self,
@@ -940,7 +1039,9 @@ class Servo:
         at_limit_mask = details.get("at_limit")
         at_limit = (
             tuple(names[k] for k in np.flatnonzero(at_limit_mask))
-            if at_limit_mask is not None and at_limit_mask.any()
+            if at_limit_mask is not None
+            and at_limit_mask is not self._no_joint
+            and at_limit_mask.any()
             else ()
         )
         condition = details.get("condition")

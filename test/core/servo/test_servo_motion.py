@@ -257,6 +257,25 @@ def test_jogging_into_a_joint_limit_and_out_stays_within_every_limit(name):
     assert trace.q[-1, joint] < top - 0.05  # and came back out
 
 
+def test_a_continuous_joint_goes_on_while_another_joint_meets_its_limit():
+    # planar3r's joint1 is continuous (no position limit): the velocity planning near joint2's
+    # limit must leave it its full speed (an infinite distance to its bound once gave NaN)
+    chain = robot("planar3r")
+    assert chain.joint_types[0] == "continuous"
+    servo = Servo(chain, [0.0, 2.0, 0.3])
+    jog = JointJogCommand(["joint1", "joint2"], [0.5, 0.8], 0.0)
+
+    def script(k, t):
+        return [JointJogCommand(jog.joint_names, jog.velocities, t)]
+
+    trace = run(servo, script, 3.0)
+    assert limit_violations(servo.limits, trace) == []
+    assert trace.q[-1, 1] == pytest.approx(servo.limits.upper[1], abs=1e-3)  # held at its bound
+    assert "joint2" in trace.statuses[-1].joints_at_limit
+    assert trace.v[-1, 0] == pytest.approx(0.5)  # joint1 keeps its commanded speed
+    assert trace.q[-1, 0] > 1.2
+
+
 @pytest.mark.parametrize("name", ["ur5e", "panda", "iiwa14"])
 def test_a_twist_into_a_joint_limit_stops_there_without_winding_up(name):
     chain = robot(name)
