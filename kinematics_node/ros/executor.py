@@ -34,15 +34,20 @@ at the start of the next turn, when the changed entity list releases the plan; `
 when it returns, and so does the first turn after `shutdown`.
 
 It uses the rclpy internals that rclpy's own executors use (`_rclpy.WaitSet`, handle pointers,
-`Executor._take_*`, and on Humble `Executor._execute_*`); `lean_executor_supported` checks them,
-and `make_executor` falls back to `SingleThreadedExecutor` where they differ. Run here on Jazzy;
-Humble's two-step take/execute form is exercised by a test that imitates it.
+`Executor._take_*` and on Humble `Executor._execute_*`, the state `Executor.__init__` sets up, a
+guard condition's `_executor_triggered`), and it defines every method that rclpy's `Executor`
+leaves to its subclasses (those that raise NotImplementedError there: `spin_once`,
+`spin_once_until_future_complete`, and from rclpy 9 (Kilted) on `_spin_once_until_future_complete`,
+which `Executor.spin_until_future_complete` calls). `lean_executor_supported` checks all of it,
+and `make_executor` falls back to `SingleThreadedExecutor`, saying why, where something differs
+(a future rclpy). Tested on rclpy 7.1 (Jazzy) and 9.1 (Kilted); Humble's two-step take/execute
+form is exercised by a test that imitates it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Coroutine
-from contextlib import ExitStack
+from contextlib import ExitStack, suppress
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -52,9 +57,19 @@ from rclpy.executors import (
     ExternalShutdownException,
     SingleThreadedExecutor,
 )
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.task import Task
-from rclpy.utilities import timeout_sec_to_nsec
+from rclpy.waitable import NumberOfEntities
+
+# Internals, imported so that an rclpy without them still imports this module (and the node falls
+# back to rclpy's executor, `make_executor`)
+try:
+    from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+except ImportError:  # pragma: no cover - an rclpy that moved its C extension
+    _rclpy = None
+try:
+    from rclpy.utilities import timeout_sec_to_nsec
+except ImportError:  # pragma: no cover
+    timeout_sec_to_nsec = None  # type: ignore[assignment]
 
 #: entity kind -> (the wait set's name of it, WaitSet.add_*, the Executor's taker)
 _KINDS = (
@@ -70,7 +85,10 @@ _KINDS = (
 #: entities wait at most 15 more callbacks of each of those for their turn.
 MORE_TAKES = 15
 
-#: The rclpy internals LeanExecutor relies on (module docstring).
+#: The rclpy internals LeanExecutor relies on (module docstring): rclpy's Executor's takers; the
+#: calls of `_rclpy.WaitSet`; the members of `_rclpy`'s entity handles it reads; what
+#: `Executor.__init__` sets up in an executor; a guard condition's flag for a trigger that the wait
+#: set consumed; and what a waitable's `get_num_entities()` counts.
 _TAKERS = (*(taker for *_, taker in _KINDS), "_take_waitable")
 _WAIT_SET_CALLS = (
     "clear_entities",
@@ -78,17 +96,73 @@ _WAIT_SET_CALLS = (
     "wait",
     "get_ready_entities",
 )
+_HANDLE_MEMBERS = (
+    *((cls, "pointer") for cls in ("Timer", "Subscription", "GuardCondition", "Client", "Service")),
+    ("Timer", "is_timer_ready"),
+)
+_EXECUTOR_STATE = ("_context", "_guard", "_is_shutdown", "_tasks", "_tasks_lock", "_work_tracker")
+#: ... and what it uses only where rclpy has it: the SIGINT guard condition (an executor's wake-up
+#: on Ctrl-C), Humble's `_execute_<kind>` halves of its takers (`LeanExecutor._taker`)
+_OPTIONAL = ("_sigint_gc", *(taker.replace("_take_", "_execute_", 1) for taker in _TAKERS))
+_GUARD_STATE = ("_executor_triggered",)
+_ENTITY_COUNTS = (
+    "num_subscriptions",
+    "num_guard_conditions",
+    "num_timers",
+    "num_clients",
+    "num_services",
+    "num_events",
+)
 
 
-def lean_executor_supported() -> str | None:
-    """None when this rclpy has what `LeanExecutor` uses, else what is missing."""
-    missing = [name for name in _TAKERS if not callable(getattr(Executor, name, None))]
-    wait_set = getattr(_rclpy, "WaitSet", None)
-    if wait_set is None:
-        missing.append("_rclpy.WaitSet")
-    else:
-        missing += [f"WaitSet.{n}" for n in _WAIT_SET_CALLS if not hasattr(wait_set, n)]
+def lean_executor_supported(executor: Executor | None = None) -> str | None:
+    """None when this rclpy has what `LeanExecutor` uses, else what is missing (comma-separated).
+
+    Without `executor`, what can be checked before one exists (classes and modules); with one (a
+    LeanExecutor just made), also the state that rclpy's `Executor.__init__` set up in it."""
+    missing = []
+    if _rclpy is None:
+        missing.append("rclpy.impl.implementation_singleton.rclpy_implementation")
+    if timeout_sec_to_nsec is None:
+        missing.append("rclpy.utilities.timeout_sec_to_nsec")
+    missing += [
+        f"Executor.{name}" for name in _TAKERS if not callable(getattr(Executor, name, None))
+    ]
+    missing += [f"LeanExecutor.{name}" for name in _hooks_left_undefined()]
+    if _rclpy is not None:
+        wait_set = getattr(_rclpy, "WaitSet", None)
+        if wait_set is None:
+            missing.append("_rclpy.WaitSet")
+        else:
+            missing += [f"WaitSet.{n}" for n in _WAIT_SET_CALLS if not hasattr(wait_set, n)]
+        missing += [
+            f"_rclpy.{cls}.{member}"
+            for cls, member in _HANDLE_MEMBERS
+            if not hasattr(getattr(_rclpy, cls, None), member)
+        ]
+    counts = NumberOfEntities()
+    missing += [f"NumberOfEntities.{n}" for n in _ENTITY_COUNTS if not hasattr(counts, n)]
+    if executor is not None:
+        missing += [f"Executor.{n}" for n in _EXECUTOR_STATE if not hasattr(executor, n)]
+        guard = getattr(executor, "_guard", None)
+        if guard is not None:
+            missing += [f"GuardCondition.{n}" for n in _GUARD_STATE if not hasattr(guard, n)]
     return ", ".join(missing) or None
+
+
+def _hooks_left_undefined() -> list[str]:
+    """The methods rclpy's `Executor` leaves to its subclasses (its own raise NotImplementedError,
+    as `spin_once` does) that `LeanExecutor` does not define: a public method of `Executor` that
+    calls one of them would raise NotImplementedError on a LeanExecutor."""
+    undefined = []
+    for name in dir(Executor):
+        method = getattr(Executor, name, None)
+        code = getattr(method, "__code__", None)
+        if code is None or "NotImplementedError" not in code.co_names:
+            continue
+        if getattr(LeanExecutor, name, None) is method:
+            undefined.append(name)
+    return undefined
 
 
 def make_executor(
@@ -99,7 +173,13 @@ def make_executor(
     if kind == "lean":
         missing = lean_executor_supported()
         if missing is None:
-            return LeanExecutor(context=context)
+            executor = LeanExecutor(context=context)
+            missing = lean_executor_supported(executor)
+            if missing is None:
+                return executor
+            # let go of its guard conditions, as far as rclpy's shutdown still fits it
+            with suppress(Exception):
+                executor.shutdown()
         if log is not None:
             log(
                 f"this rclpy lacks what the lean executor uses ({missing}); "
@@ -144,6 +224,11 @@ class LeanExecutor(Executor):
 
     def spin_once_until_future_complete(self, future: Any, timeout_sec: Any = None) -> None:
         future.add_done_callback(lambda _: self.wake())
+        self._spin_once_until_future_complete(future, timeout_sec)
+
+    def _spin_once_until_future_complete(self, future: Any, timeout_sec: Any = None) -> None:
+        """One turn that returns at once when `future` is done (rclpy 9's
+        `Executor.spin_until_future_complete` calls this; it has made the future wake us)."""
         # Iron and later pass the time left as a TimeoutObject, Humble as a float
         self._turn(getattr(timeout_sec, "timeout", timeout_sec), future.done)
 

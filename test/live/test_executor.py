@@ -5,6 +5,7 @@ callback that is its reason to exist."""
 
 from __future__ import annotations
 
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -16,7 +17,7 @@ import rclpy
 from kinematics_service.srv import ComputeFK  # any service type with success and message
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.event_handler import SubscriptionEventCallbacks
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import Executor, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.task import Future
@@ -83,19 +84,361 @@ def spin_until(ex: LeanExecutor, done: Callable[[], bool], seconds: float = 10.0
 
 def test_this_rclpy_has_what_the_lean_executor_uses(context: Any) -> None:
     assert lean_executor_supported() is None
-    assert isinstance(make_executor(context=context), LeanExecutor)
+    ex = make_executor(context=context)
+    assert isinstance(ex, LeanExecutor)
+    assert lean_executor_supported(ex) is None
 
 
-def test_without_those_internals_the_process_falls_back_to_rclpy_and_says_so(
+def test_asked_for_rclpys_executor_the_process_gets_it_and_nothing_is_said(context: Any) -> None:
+    said: list[str] = []
+    assert type(make_executor("rclpy", said.append, context)) is SingleThreadedExecutor
+    assert said == []
+
+
+class Hiding:
+    """Stands in for `real` without the attributes `hidden`, and with `replaced` in place of
+    others (everything else goes to `real`)."""
+
+    def __init__(self, real: Any, *hidden: str, **replaced: Any) -> None:
+        self._real, self._hidden, self._replaced = real, hidden, replaced
+
+    def __getattr__(self, name: str) -> Any:
+        if name in self._hidden:
+            raise AttributeError(name)
+        if name in self._replaced:
+            return self._replaced[name]
+        return getattr(self._real, name)
+
+
+def _rclpy_hooks() -> list[str]:
+    """The methods this rclpy's Executor leaves to its subclasses (they raise NotImplementedError
+    there): spin_once, spin_once_until_future_complete, and on rclpy 9 (Kilted)
+    _spin_once_until_future_complete, which Executor.spin_until_future_complete calls."""
+    return [
+        name
+        for name in dir(Executor)
+        if "NotImplementedError" in getattr(getattr(Executor, name), "__code__", NO_CODE).co_names
+    ]
+
+
+NO_CODE = (lambda: None).__code__
+
+
+def _internals() -> list[str]:
+    """Every rclpy internal that `lean_executor_supported` checks, as it names them."""
+    m = executor_module
+    return [
+        "rclpy.impl.implementation_singleton.rclpy_implementation",
+        "rclpy.utilities.timeout_sec_to_nsec",
+        *(f"Executor.{name}" for name in m._TAKERS),
+        *(f"LeanExecutor.{name}" for name in _rclpy_hooks()),
+        "_rclpy.WaitSet",
+        *(f"WaitSet.{name}" for name in m._WAIT_SET_CALLS),
+        *(f"_rclpy.{cls}.{member}" for cls, member in m._HANDLE_MEMBERS),
+        *(f"NumberOfEntities.{name}" for name in m._ENTITY_COUNTS),
+        *(f"Executor.{name}" for name in m._EXECUTOR_STATE),
+        *(f"GuardCondition.{name}" for name in m._GUARD_STATE),
+    ]
+
+
+def _take_away(internal: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Make this rclpy look like one without `internal` (as `_internals` names it)."""
+    m = executor_module
+    owner, _, name = internal.rpartition(".")
+    if internal.startswith("rclpy."):
+        monkeypatch.setattr(m, "_rclpy" if "implementation" in internal else name, None)
+    elif owner == "Executor" and name in m._TAKERS:
+        monkeypatch.delattr(Executor, name)
+    elif owner == "LeanExecutor":
+        monkeypatch.delattr(LeanExecutor, name)
+    elif internal == "_rclpy.WaitSet":
+        monkeypatch.setattr(m, "_rclpy", Hiding(m._rclpy, "WaitSet"))
+    elif owner == "WaitSet":
+        monkeypatch.setattr(m, "_rclpy", Hiding(m._rclpy, WaitSet=Hiding(m._rclpy.WaitSet, name)))
+    elif owner.startswith("_rclpy."):
+        cls = owner.split(".")[1]
+        monkeypatch.setattr(
+            m, "_rclpy", Hiding(m._rclpy, **{cls: Hiding(getattr(m._rclpy, cls), name)})
+        )
+    elif owner == "NumberOfEntities":
+        real = m.NumberOfEntities
+        monkeypatch.setattr(m, "NumberOfEntities", lambda: Hiding(real(), name))
+    else:  # state that rclpy's Executor.__init__ sets up, in the executor or its guard condition
+        init = Executor.__init__
+
+        def without(self: Any, *args: Any, **kwargs: Any) -> None:
+            init(self, *args, **kwargs)
+            if isinstance(self, LeanExecutor):  # (rclpy's executor, the fallback, keeps it)
+                monkeypatch.delattr(self._guard if owner == "GuardCondition" else self, name)
+
+        monkeypatch.setattr(Executor, "__init__", without)
+
+
+@pytest.mark.parametrize("internal", _internals())
+def test_where_rclpy_lacks_an_internal_the_process_falls_back_to_rclpy_and_says_which(
+    internal: str, context: Any
+) -> None:
+    said: list[str] = []
+    # (its own monkeypatch: what is taken away is back before the context shuts down, which
+    # wakes every executor made in it, through the guard condition rclpy's Executor made)
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        _take_away(internal, monkeypatch)
+        ex = make_executor(log=said.append, context=context)
+    assert type(ex) is SingleThreadedExecutor
+    assert len(said) == 1 and internal in said[0].split("(", 1)[1], said
+
+
+def test_a_method_a_future_rclpy_leaves_to_executors_is_noticed(
     monkeypatch: pytest.MonkeyPatch, context: Any
 ) -> None:
-    monkeypatch.setattr(executor_module, "lean_executor_supported", lambda: "_rclpy.WaitSet")
+    """A new method that rclpy's Executor leaves to subclasses (as rclpy 9 added
+    _spin_once_until_future_complete): LeanExecutor lacks it, so the node falls back."""
+
+    def _spin_some_new_way(self: Any) -> None:
+        raise NotImplementedError()
+
+    monkeypatch.setattr(Executor, "_spin_some_new_way", _spin_some_new_way, raising=False)
+    assert lean_executor_supported() == "LeanExecutor._spin_some_new_way"
     said: list[str] = []
-    ex = make_executor(log=said.append, context=context)
-    assert type(ex) is SingleThreadedExecutor
-    assert len(said) == 1 and "_rclpy.WaitSet" in said[0]
-    assert type(make_executor("rclpy", said.append, context)) is SingleThreadedExecutor
-    assert len(said) == 1  # asked for: nothing to say
+    assert type(make_executor(log=said.append, context=context)) is SingleThreadedExecutor
+    assert len(said) == 1 and "LeanExecutor._spin_some_new_way" in said[0]
+
+
+class Recording(WaitCounter):
+    """Stands in for `_rclpy` in the executor module: records which of its members and of its
+    wait sets' the module uses."""
+
+    def __init__(self, real: Any) -> None:
+        super().__init__(real)
+        self.used: set[str] = set()
+        counting = self.WaitSet
+        recording = self
+
+        class WaitSet(counting):  # type: ignore[valid-type, misc]
+            def __getattr__(self, name: str) -> Any:
+                if sys._getframe(1).f_code.co_filename == executor_module.__file__:
+                    recording.used.add(f"WaitSet.{name}")  # (rclpy's waitables add their own)
+                return super().__getattr__(name)
+
+        self.WaitSet = WaitSet
+
+    def __getattr__(self, name: str) -> Any:
+        self.used.add(f"_rclpy.{name}")
+        return super().__getattr__(name)
+
+
+def test_every_rclpy_internal_the_lean_executor_touches_is_checked(
+    context: Any, node: Node, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Every kind of entity through a LeanExecutor (timer, subscription, guard condition,
+    service and client, a QoS event waitable, a coroutine callback left pending as a task), while
+    recording what of rclpy beyond its public API the module's code touches: the executor's
+    private attributes that rclpy's Executor defines, `_rclpy`'s members and its wait set's
+    calls. Each must be one that `lean_executor_supported` checks (or uses only where present)."""
+    m = executor_module
+    recording = Recording(m._rclpy)
+    monkeypatch.setattr(m, "_rclpy", recording)
+    touched: set[str] = set()
+
+    class Touching(LeanExecutor):
+        def __getattribute__(self, name: str) -> Any:
+            if name.startswith("_") and not name.startswith("__"):
+                if sys._getframe(1).f_code.co_filename == m.__file__:
+                    touched.add(name)
+            return object.__getattribute__(self, name)
+
+    ex = Touching(context=context)
+    ex.add_node(node)
+    fired: list[str] = []
+    gate: Future = Future()
+
+    async def slow(request: Any, response: Any) -> Any:
+        await gate
+        response.success = True
+        return response
+
+    node.create_timer(0.01, lambda: fired.append("timer"))
+    node.create_subscription(Int32, "lean_touch", lambda m: fired.append("message"), 10)
+    guard = node.create_guard_condition(lambda: fired.append("guard"))
+    node.create_service(ComputeFK, "lean_touch", slow)
+    client = node.create_client(ComputeFK, "lean_touch")
+    node.create_subscription(
+        Int32,
+        "lean_touch_qos",
+        lambda m: None,
+        QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE),
+        event_callbacks=SubscriptionEventCallbacks(incompatible_qos=lambda e: fired.append("qos")),
+    )
+    node.create_publisher(
+        Int32, "lean_touch_qos", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+    )
+    pub = node.create_publisher(Int32, "lean_touch", 10)
+    spin_until(ex, lambda: pub.get_subscription_count() > 0 and client.service_is_ready())
+    pub.publish(Int32(data=1))
+    guard.trigger()
+    future = client.call_async(ComputeFK.Request())
+    spin_until(ex, lambda: {"timer", "message", "guard", "qos"} <= set(fired))
+    gate.set_result(None)
+    ex.spin_until_future_complete(future, timeout_sec=10.0)
+    assert future.result().success
+    ex.shutdown()
+    ex.spin_once(timeout_sec=0.0)
+
+    own = (
+        set(vars(LeanExecutor))
+        | (set(vars(LeanExecutor(context=context))) - set(vars(ex)))
+        | (
+            set(vars(LeanExecutor(context=context)))
+            - set(vars(SingleThreadedExecutor(context=context)))
+        )
+    )
+    checked = {*m._TAKERS, *m._EXECUTOR_STATE, *m._OPTIONAL, *_rclpy_hooks()}
+    assert touched - own, "(the recording works)"
+    assert touched - own <= checked, touched - own - checked
+    calls = {f"_rclpy.{cls}" for cls, _ in m._HANDLE_MEMBERS} | {"_rclpy.WaitSet"}
+    calls |= {f"WaitSet.{name}" for name in m._WAIT_SET_CALLS}
+    assert recording.used and recording.used <= calls, recording.used - calls
+
+
+def _nodes(ex: LeanExecutor, node: Node, context: Any) -> None:
+    other = Node("lean_other", context=context)
+    ticks: list[int] = []
+    other.create_timer(0.01, lambda: ticks.append(1))
+    assert ex.add_node(other) and not ex.add_node(other)
+    assert set(ex.get_nodes()) == {node, other}
+    spin_until(ex, lambda: len(ticks) >= 2)
+    ex.remove_node(other)
+    assert ex.get_nodes() == [node]
+    ex.spin_once(timeout_sec=0.05)  # (lets go of the other node's timer)
+    ticks.clear()
+    for _ in range(5):
+        ex.spin_once(timeout_sec=0.02)
+    assert ticks == []
+    other.destroy_node()
+
+
+def _a_future_done_by_a_timer(node: Node, future: Future | None = None) -> Future:
+    future = Future() if future is None else future
+    node.create_timer(0.05, lambda: future.done() or future.set_result("done"))
+    return future
+
+
+def _spin_until_future_complete(ex: LeanExecutor, node: Node, context: Any) -> None:
+    """The method rclpy 9 builds on `_spin_once_until_future_complete` (NotImplementedError
+    on LeanExecutor before it had one): with a timeout, without, and one that runs out."""
+    future = _a_future_done_by_a_timer(node)
+    ex.spin_until_future_complete(future, timeout_sec=10.0)
+    assert future.result() == "done"
+    future = _a_future_done_by_a_timer(node)
+    ex.spin_until_future_complete(future)
+    assert future.result() == "done"
+    never: Future = Future()
+    ex.spin_until_future_complete(never, timeout_sec=0.1)
+    assert not never.done()
+
+
+def _spin_once_until_future_complete(ex: LeanExecutor, node: Node, context: Any) -> None:
+    future = _a_future_done_by_a_timer(node)
+    end = time.monotonic() + 10.0
+    while not future.done() and time.monotonic() < end:
+        ex.spin_once_until_future_complete(future, timeout_sec=1.0)
+    assert future.result() == "done"
+
+
+def _create_task(ex: LeanExecutor, node: Node, context: Any) -> None:
+    async def seven() -> int:
+        return 7
+
+    plain, coroutine = ex.create_task(lambda x: x + 1, 41), ex.create_task(seven)
+    spin_until(ex, lambda: plain.done() and coroutine.done())
+    assert (plain.result(), coroutine.result()) == (42, 7)
+
+
+def _create_future(ex: LeanExecutor, node: Node, context: Any) -> None:
+    future = _a_future_done_by_a_timer(node, ex.create_future())
+    ex.spin_until_future_complete(future, timeout_sec=10.0)
+    assert future.result() == "done"
+
+
+def _spin_once(ex: LeanExecutor, node: Node, context: Any) -> None:
+    ticks: list[int] = []
+    node.create_timer(0.01, lambda: ticks.append(1))
+    spin_until(ex, lambda: len(ticks) >= 3)
+
+
+def _spin_and_shutdown(ex: LeanExecutor, node: Node, context: Any) -> None:
+    ticks: list[int] = []
+    node.create_timer(0.01, lambda: ticks.append(1))
+    spinner = threading.Thread(target=ex.spin)
+    spinner.start()
+    end = time.monotonic() + 10.0
+    while len(ticks) < 3 and time.monotonic() < end:
+        time.sleep(0.01)
+    assert ex.shutdown(timeout_sec=10.0)
+    spinner.join(10.0)
+    assert len(ticks) >= 3 and not spinner.is_alive()
+
+
+def _wake(ex: LeanExecutor, node: Node, context: Any) -> None:
+    for _ in range(3):  # the wake-ups of add_node
+        ex.spin_once(timeout_sec=0.05)
+    spinner = threading.Thread(target=ex.spin_once, kwargs={"timeout_sec": 60.0})
+    spinner.start()
+    time.sleep(0.2)
+    ex.wake()
+    spinner.join(10.0)
+    assert not spinner.is_alive()  # woken, not timed out
+
+
+def _can_execute(ex: LeanExecutor, node: Node, context: Any) -> None:
+    group = MutuallyExclusiveCallbackGroup()
+    sub = node.create_subscription(Int32, "lean_can", lambda m: None, 10, callback_group=group)
+    assert ex.can_execute(sub)
+    assert group.beginning_execution(sub)
+    assert not ex.can_execute(sub)  # its exclusive group is busy
+    group.ending_execution(sub)
+
+
+def _wait_for_ready_callbacks(ex: LeanExecutor, node: Node, context: Any) -> None:
+    woken: list[bool] = []
+    guard = node.create_guard_condition(lambda: woken.append(True))
+    guard.trigger()
+    end = time.monotonic() + 10.0
+    while not woken and time.monotonic() < end:
+        handler, _, _ = ex.wait_for_ready_callbacks(timeout_sec=1.0)
+        handler()
+    assert woken
+
+
+def _context(ex: LeanExecutor, node: Node, context: Any) -> None:
+    assert ex.context is context
+
+
+#: rclpy's public Executor methods, each run on a LeanExecutor (rclpy 7.1 lacks create_future)
+PUBLIC_METHODS: dict[str, Callable[[LeanExecutor, Node, Any], None]] = {
+    "add_node": _nodes,
+    "remove_node": _nodes,
+    "get_nodes": _nodes,
+    "can_execute": _can_execute,
+    "context": _context,
+    "create_future": _create_future,
+    "create_task": _create_task,
+    "shutdown": _spin_and_shutdown,
+    "spin": _spin_and_shutdown,
+    "spin_once": _spin_once,
+    "spin_once_until_future_complete": _spin_once_until_future_complete,
+    "spin_until_future_complete": _spin_until_future_complete,
+    "wait_for_ready_callbacks": _wait_for_ready_callbacks,
+    "wake": _wake,
+}
+
+
+@pytest.mark.parametrize("name", sorted(n for n in dir(Executor) if not n.startswith("_")))
+def test_every_public_method_of_rclpys_executor_works_on_the_lean_executor(
+    name: str, node: Node, executor: LeanExecutor, context: Any
+) -> None:
+    assert name in PUBLIC_METHODS, f"rclpy's Executor has {name}, which no test here runs"
+    PUBLIC_METHODS[name](executor, node, context)
 
 
 def test_every_message_arrives_in_order_with_one_wait_each(
