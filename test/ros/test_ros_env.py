@@ -3,7 +3,10 @@ gets (discovery on loopback, a domain of the run's own, the package's Fast DDS p
 
 from __future__ import annotations
 
+import os
+import sys
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 from kinematics_node.ros import env as ros_env
 from kinematics_node.ros.env import FASTDDS_PROFILE, FASTDDS_PROFILE_VARIABLES, local_ros_env
@@ -11,13 +14,47 @@ from kinematics_node.ros.env import FASTDDS_PROFILE, FASTDDS_PROFILE_VARIABLES, 
 NS = {"dds": "http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles"}
 
 
-def test_children_get_the_profile_unless_one_is_named_already():
-    env = local_ros_env(123, base={"PATH": "/bin"})
-    assert env["ROS_DOMAIN_ID"] == "123" and env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
-    for variable in FASTDDS_PROFILE_VARIABLES:
+def _prefix(root: Path, *libraries: str) -> str:
+    """A ROS prefix whose lib/ holds (empty stand-ins of) `libraries`."""
+    (root / "lib").mkdir(parents=True)
+    for library in libraries:
+        (root / "lib" / library).touch()
+    return str(root)
+
+
+def test_children_get_the_profile_in_the_variable_their_fast_dds_reads(tmp_path, monkeypatch):
+    """Fast DDS 2 (Jazzy) reads only FASTRTPS_DEFAULT_PROFILES_FILE; Fast DDS 3 (Kilted) reads
+    FASTDDS_DEFAULT_PROFILES_FILE and warns in every process that the other is deprecated. Which
+    one is installed: the library in the first prefix of AMENT_PREFIX_PATH that has one."""
+    jazzy = _prefix(tmp_path / "jazzy", "libfastrtps.so.2.14.5", "librmw_fastrtps_cpp.so")
+    kilted = _prefix(tmp_path / "kilted", "libfastdds.so", "libfastdds.so.3.2.2")
+    workspace = _prefix(tmp_path / "workspace", "libkinematics_service__rosidl_generator_c.so")
+    for prefixes, variable in (
+        ([workspace, jazzy], "FASTRTPS_DEFAULT_PROFILES_FILE"),
+        ([workspace, kilted], "FASTDDS_DEFAULT_PROFILES_FILE"),
+        ([kilted, jazzy], "FASTDDS_DEFAULT_PROFILES_FILE"),  # the first one found
+        ([jazzy, kilted], "FASTRTPS_DEFAULT_PROFILES_FILE"),
+    ):
+        env = local_ros_env(123, base={"AMENT_PREFIX_PATH": os.pathsep.join(prefixes)})
+        assert env["ROS_DOMAIN_ID"] == "123"
+        assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
+        assert [v for v in FASTDDS_PROFILE_VARIABLES if v in env] == [variable], prefixes
         assert env[variable] == str(FASTDDS_PROFILE)
-    for variable in FASTDDS_PROFILE_VARIABLES:  # the user's own profile, by either name, is kept
-        mine = local_ros_env(123, base={variable: "/etc/my_profile.xml"})
+    # nothing on AMENT_PREFIX_PATH: this Python's prefix (a venv of wheels) decides
+    monkeypatch.setattr(sys, "prefix", kilted)
+    assert ros_env.fastdds_major({}) == 3
+    # no Fast DDS anywhere: both variables (each version reads its own)
+    monkeypatch.setattr(sys, "prefix", workspace)
+    assert ros_env.fastdds_major({"AMENT_PREFIX_PATH": workspace}) is None
+    env = local_ros_env(123, base={"AMENT_PREFIX_PATH": workspace})
+    assert all(env[v] == str(FASTDDS_PROFILE) for v in FASTDDS_PROFILE_VARIABLES)
+
+
+def test_the_users_own_profile_is_kept_by_either_name(tmp_path):
+    kilted = _prefix(tmp_path / "kilted", "libfastdds.so")
+    for variable in FASTDDS_PROFILE_VARIABLES:
+        base = {variable: "/etc/my_profile.xml", "AMENT_PREFIX_PATH": kilted}
+        mine = local_ros_env(123, base=base)
         assert mine[variable] == "/etc/my_profile.xml"
         assert all(mine.get(v) in (None, "/etc/my_profile.xml") for v in FASTDDS_PROFILE_VARIABLES)
     assert ros_env.fastdds_profile_env("/no/such/profile.xml", base={}) == {}
