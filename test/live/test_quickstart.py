@@ -2,8 +2,10 @@
 
 The recipe is the bash block between ``<!-- quickstart -->`` and ``<!-- /quickstart -->`` in
 README.md. It runs in one `bash -c`, as a user's shell would run it: PATH=/usr/bin:/bin (nothing of
-ours on it until the recipe sources build/ros/env.sh), in a directory that looks like the clone
-(links to its Makefile, tools/, .venv and build/) and holds the robot description under the name
+ours on it until the recipe sources build/ros/env.sh) behind one directory whose `python3` is the
+interpreter of this run's venv (so `make` picks this run's ROS 2 distribution, as for a user whose
+`python3` that is), in a directory that looks like the clone (links to its Makefile and tools/,
+and .venv and build/ros to this run's venv and build) and holds the robot description under the name
 the recipe uses: a copy of example-robot-data's UR5, a description nobody here wrote, whose
 several leaves (tool0, ee_link) need the recipe's tip_link. DDS stays on loopback, in this run's
 domain. What it prints is checked against the core:
@@ -26,6 +28,7 @@ import re
 import shutil
 import signal
 import subprocess
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -46,7 +49,16 @@ ROBOT = "ur_description/urdf/ur5_robot.urdf"
 #: The recipe's whole run, `make ros` included (a rebuild takes ~30 s where sources changed).
 RECIPE_TIMEOUT = 180.0
 #: The links the temporary directory gets, so that `make ros` and `. build/ros/env.sh` work there.
-CLONE_ENTRIES = ("Makefile", "tools", ".venv", "build")
+CLONE_ENTRIES = ("Makefile", "tools")
+
+
+def this_runs_build() -> Path:
+    """The build directory of this run's ROS 2 (build/ros, or build/ros-<distro> for a
+    distribution other than the one of the machine's `python3`): where tools/ros-from-pypi
+    installed the node, <build>/install/kinematics_service/lib/kinematics_service/."""
+    node = os.environ.get("KINEMATICS_NODE_EXECUTABLE")
+    return Path(node).parents[4] if node else ROOT / "build" / "ros"
+
 
 POSE = re.compile(
     r"^(?P<topic>\S+): pose in '(?P<frame>[^']*)' at stamp (?P<sec>\d+)\.(?P<nsec>\d{9})\n"
@@ -124,6 +136,11 @@ def test_the_readme_recipe_runs_as_written(tmp_path: Path, client: Client) -> No
     target = [float(v) for v in _one(r"--target (\S+)", recipe, "IK target").split(",")]
     for entry in CLONE_ENTRIES:
         (tmp_path / entry).symlink_to(ROOT / entry)
+    (tmp_path / ".venv").symlink_to(sys.prefix)
+    (tmp_path / "build").mkdir()
+    (tmp_path / "build" / "ros").symlink_to(this_runs_build())
+    (tmp_path / "bin").mkdir()
+    (tmp_path / "bin" / "python3").symlink_to(sys._base_executable)  # type: ignore[attr-defined]
     shutil.copyfile(erd_path(ROBOT), tmp_path / robot_file)
     chain = SerialChain.from_urdf(tmp_path / robot_file, tip_link=tip)
 
@@ -135,7 +152,7 @@ def test_the_readme_recipe_runs_as_written(tmp_path: Path, client: Client) -> No
         states[stamp] = (tuple(msg.name), np.array(msg.position))
 
     subscription = client.node.create_subscription(JointState, "joint_states", keep, 1000)
-    env = {"PATH": "/usr/bin:/bin", "HOME": str(tmp_path), "LANG": "C.UTF-8"}
+    env = {"PATH": f"{tmp_path / 'bin'}:/usr/bin:/bin", "HOME": str(tmp_path), "LANG": "C.UTF-8"}
     # DDS on loopback, in this run's domain; no Fast DDS profile, as in a user's shell
     local = local_ros_env(DOMAIN_ID, base={})
     env.update({k: v for k, v in local.items() if k not in FASTDDS_PROFILE_VARIABLES})
