@@ -5,7 +5,8 @@ and rosbags message classes in the tests:
 
 * trajectory_msgs/JointTrajectory → `TrajectoryCommand` (waypoint times [s] from
   ``time_from_start``, positions, optional velocities);
-* std_msgs/Float64MultiArray → joint velocity vector (order = the published joint names);
+* std_msgs/Float64MultiArray → joint velocity or position vector (order = the published joint
+  names), as ros2_control's forward command controllers take them;
 * simulator state → sensor_msgs/JointState fields (lists of Python floats, as rclpy requires).
 
 Every malformed message raises `InvalidInputError` (or `UnknownNameError` for unknown joints)
@@ -44,6 +45,8 @@ class CommandableArm(Protocol):
     ) -> None: ...
 
     def command_velocity(self, qdot: ArrayLike) -> None: ...
+
+    def command_position(self, q: ArrayLike) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -103,15 +106,28 @@ def trajectory_from_msg(msg: Any) -> TrajectoryCommand:
     )
 
 
-def velocity_from_msg(msg: Any, joint_names: Sequence[str]) -> FloatArray:
-    """Joint velocities from a std_msgs/Float64MultiArray, one value per joint in `joint_names`.
+def velocity_from_msg(
+    msg: Any, joint_names: Sequence[str], topic: str = "joint_velocity_commands"
+) -> FloatArray:
+    """Joint velocities from a std_msgs/Float64MultiArray, one value per joint in `joint_names`
+    (`topic` names the message in errors).
 
     Raises:
         InvalidInputError: wrong number of values or NaN/inf.
     """
     n = len(joint_names)
-    data = _finite_row(msg.data, n, f"joint_velocity_commands (joints {list(joint_names)})")
+    data = _finite_row(msg.data, n, f"{topic} (joints {list(joint_names)})")
     return np.array(data)
+
+
+def position_from_msg(msg: Any, joint_names: Sequence[str], topic: str) -> FloatArray:
+    """Joint positions from a std_msgs/Float64MultiArray, one value per joint in `joint_names`
+    (`topic` names the message in errors).
+
+    Raises:
+        InvalidInputError: wrong number of values or NaN/inf.
+    """
+    return velocity_from_msg(msg, joint_names, topic)
 
 
 def apply_trajectory_msg(sim: CommandableArm, msg: Any) -> TrajectoryCommand:
@@ -121,11 +137,20 @@ def apply_trajectory_msg(sim: CommandableArm, msg: Any) -> TrajectoryCommand:
     return cmd
 
 
-def apply_velocity_msg(sim: CommandableArm, msg: Any) -> FloatArray:
+def apply_velocity_msg(
+    sim: CommandableArm, msg: Any, topic: str = "joint_velocity_commands"
+) -> FloatArray:
     """Validate a Float64MultiArray velocity command and apply it; returns the velocities."""
-    v = velocity_from_msg(msg, sim.joint_names)
+    v = velocity_from_msg(msg, sim.joint_names, topic)
     sim.command_velocity(v)
     return v
+
+
+def apply_position_msg(sim: CommandableArm, msg: Any, topic: str) -> FloatArray:
+    """Validate a Float64MultiArray position command and apply it; returns the positions."""
+    q = position_from_msg(msg, sim.joint_names, topic)
+    sim.command_position(q)
+    return q
 
 
 def fill_joint_state(

@@ -1,5 +1,5 @@
-"""The installed executables `kinematics_node` and `sim_arm` up to the moment ROS starts (no rclpy
-import here): their own arguments (``-h``/``--help``), their usage text, and a one-line message
+"""The installed executables `kinematics_node`, `sim_arm` and `servo` up to the moment ROS starts
+(no rclpy import here): their own arguments (``-h``/``--help``), their usage text, and a one-line message
 where ROS 2 is missing instead of a traceback.
 
 Arguments: ROS passes its own after ``--ros-args`` (up to a ``--`` or the end), as ``ros2 run``,
@@ -9,8 +9,8 @@ is refused (exit status 2, one line naming it), since rclpy would ignore it sile
 node without what the user meant to give (``kinematics_node my_robot.urdf``).
 
 The usage is built from the parameter tables the nodes declare from (`parameters.PARAMETERS` for
-the kinematics node, `SIM_ARM_PARAMETERS` here for the simulated arm), so it lists what the
-executable really takes.
+the kinematics node, `SIM_ARM_PARAMETERS` here for the simulated arm,
+`servo_parameters.SERVO_PARAMETERS` for the servo), so it lists what the executable really takes.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import textwrap
 from collections.abc import Callable, Sequence
 
 from ..service.parameters import PARAMETERS, ParameterSpec
+from ..service.servo_parameters import CONTROLLER_TOPICS, SERVO_PARAMETERS
 
 #: Exit status of a usage error (as argparse's).
 USAGE_ERROR = 2
@@ -64,9 +65,31 @@ SIM_ARM_PARAMETERS: tuple[ParameterSpec, ...] = (
     ParameterSpec(
         "demo_resume_after", 0.0, "Restart the demo after this idle time [s]; <= 0: never."
     ),
+    ParameterSpec(
+        "command_mode",
+        "demo",
+        "What moves the arm: 'demo' = the demo motion until a command comes on "
+        "joint_trajectory or joint_velocity_commands; 'position', 'velocity', 'trajectory' = "
+        "no demo: it holds still until commanded on command_topic as ros2_control's "
+        "controllers are (std_msgs/Float64MultiArray of positions or velocities, one per "
+        "simulated joint in joint_states order; trajectory_msgs/JointTrajectory).",
+        choices=("demo", *CONTROLLER_TOPICS),
+    ),
+    ParameterSpec(
+        "command_topic",
+        "",
+        "Topic of the commands in the position, velocity and trajectory modes; empty = the "
+        "controller's: " + ", ".join(f"{k} {v}" for k, v in CONTROLLER_TOPICS.items()) + ".",
+    ),
+    ParameterSpec(
+        "initial_positions",
+        (),
+        "Joint positions to start at, one per simulated joint in joint_states order [rad or "
+        "m]; empty = the middle of each joint's limits.",
+    ),
 )
 
-_ROS_TYPES = {bool: "bool", int: "integer", float: "double", str: "string"}
+_ROS_TYPES = {bool: "bool", int: "integer", float: "double", str: "string", tuple: "double[]"}
 
 _NODE_ABOUT = """\
 The kinematics node of the ROS 2 package kinematics_service. It reads a robot description
@@ -107,12 +130,43 @@ topics (relative names):
   joint_trajectory          trajectory_msgs/JointTrajectory        subscribed: follow it
   joint_velocity_commands   std_msgs/Float64MultiArray    subscribed: one velocity per joint,
                                                           in the order of joint_states' names
+  command_topic             (command_mode position, velocity or trajectory) subscribed: what
+                            ros2_control's forward_command_controller or
+                            joint_trajectory_controller would take
 """
 
 _SIM_ARM_EXAMPLES = """\
 examples:
   sim_arm --ros-args -p robot_description_file:=my_robot.urdf
   sim_arm --ros-args -p robot:=panda -p rate:=500.0
+  sim_arm --ros-args -p command_mode:=position -p tip_link:=tool0   # driven by the servo
+"""
+
+_SERVO_ABOUT = """\
+The servo node of the ROS 2 package kinematics_service: jogs the arm with twist, pose and joint
+velocity commands (moveit_servo's topics), sending joint commands to ros2_control's controllers
+(or the simulated arm) every period, through singularities, within the joint limits.
+
+robot description: as kinematics_node's (-p robot_description_file:=FILE, the
+robot_description parameter, or the robot_description topic), with base_link and tip_link.
+
+topics (relative names; ~ = the node's name):
+  ~/delta_twist_cmds        geometry_msgs/TwistStamped   tip twist in header.frame_id's axes
+  ~/delta_joint_cmds        control_msgs/JointJog        joint velocities (where installed)
+  ~/delta_joint_state_cmds  sensor_msgs/JointState       joint velocities (name, velocity)
+  ~/pose_target_cmds        geometry_msgs/PoseStamped    a pose of the tip to reach
+  joint_states              sensor_msgs/JointState       subscribed: the measured joints
+  command_out_topic         std_msgs/Float64MultiArray or trajectory_msgs/JointTrajectory
+  ~/status                  diagnostic_msgs/DiagnosticStatus
+
+services: ~/pause_servo (std_srvs/SetBool), ~/unpause_servo (std_srvs/Trigger)
+"""
+
+_SERVO_EXAMPLES = """\
+examples:
+  servo --ros-args -p robot_description_file:=ur5e.urdf -p tip_link:=tool0 -p period_s:=0.001
+  ros2 topic pub -r 100 /servo/delta_twist_cmds geometry_msgs/msg/TwistStamped \\
+      "{header: {frame_id: base_link}, twist: {linear: {x: 0.05}}}"
 """
 
 _ROS_SETUP = (
@@ -147,7 +201,9 @@ def parameter_lines(specs: Sequence[ParameterSpec], width: int = 96) -> list[str
     for spec in specs:
         kind = _ROS_TYPES.get(type(spec.default), type(spec.default).__name__)
         default = repr(spec.default) if isinstance(spec.default, str) else str(spec.default)
-        if isinstance(spec.default, bool):
+        if isinstance(spec.default, tuple):
+            default = str(list(spec.default))
+        elif isinstance(spec.default, bool):
             default = str(spec.default).lower()
         lines.append(f"  {spec.name} ({kind}, default {default})")
         lines += textwrap.wrap(
@@ -157,13 +213,17 @@ def parameter_lines(specs: Sequence[ParameterSpec], width: int = 96) -> list[str
 
 
 def usage(executable: str) -> str:
-    """The --help text of `executable` ("kinematics_node" or "sim_arm")."""
+    """The --help text of `executable` ("kinematics_node", "sim_arm" or "servo")."""
     if executable == "kinematics_node":
         about, specs, examples = _NODE_ABOUT, PARAMETERS, _NODE_EXAMPLES
     elif executable == "sim_arm":
         about, specs, examples = _SIM_ARM_ABOUT, SIM_ARM_PARAMETERS, _SIM_ARM_EXAMPLES
+    elif executable == "servo":
+        about, specs, examples = _SERVO_ABOUT, SERVO_PARAMETERS, _SERVO_EXAMPLES
     else:
-        raise ValueError(f"unknown executable {executable!r}; expected kinematics_node or sim_arm")
+        raise ValueError(
+            f"unknown executable {executable!r}; expected kinematics_node, sim_arm or servo"
+        )
     head = f"usage: {executable} [-h] [--ros-args [-p NAME:=VALUE | --params-file FILE | -r FROM:=TO] ...]"
     params = "parameters (--ros-args -p NAME:=VALUE, or a --params-file):"
     return "\n".join([head, "", about, params, *parameter_lines(specs), "", examples.rstrip("\n")])
@@ -226,4 +286,6 @@ _ROS_PACKAGES = (
     "trajectory_msgs",
     "builtin_interfaces",
     "tf2_ros",
+    "std_srvs",
+    "control_msgs",
 )

@@ -14,18 +14,28 @@ Parameters (`executables.SIM_ARM_PARAMETERS`, which `sim_arm --help` lists):
     command_timeout (double, 0.5): how long a velocity command is held [s].
     demo (bool, true): move in the built-in demo motion until the first command.
     demo_resume_after (double, 0.0): restart the demo after this many idle seconds; ≤ 0: never.
+    command_mode (str, "demo"): "demo" as above; "position", "velocity", "trajectory": no demo,
+        the arm holds still until commanded on `command_topic` the way ros2_control's
+        forward_command_controller (positions or velocities) or joint_trajectory_controller
+        takes commands (how the servo node drives it).
+    command_topic (str, ""): empty = that controller's topic (`CONTROLLER_TOPICS`).
+    initial_positions (double[], []): where the arm starts; empty = the middle of its limits.
 
 Topics (relative names): publishes ``joint_states`` (sensor_msgs/JointState); subscribes
 ``joint_trajectory`` (trajectory_msgs/JointTrajectory) and ``joint_velocity_commands``
-(std_msgs/Float64MultiArray, one value per published joint name, in that order). Malformed
-commands are refused with a logged warning; the node keeps running.
+(std_msgs/Float64MultiArray, one value per published joint name, in that order), in every mode,
+and `command_topic` in the command modes. Malformed commands are refused with a logged warning;
+the node keeps running.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.exceptions import ParameterException
+from rclpy.exceptions import ParameterException, ParameterUninitializedException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from trajectory_msgs.msg import JointTrajectory
@@ -35,9 +45,17 @@ from kinematics_node.core.exceptions import KinematicsError
 from kinematics_node.ros.executables import SIM_ARM_PARAMETERS
 from kinematics_node.ros.spin import spin_until_shutdown
 from kinematics_node.service.description_file import read_description_file
+from kinematics_node.service.servo_parameters import CONTROLLER_TOPICS
 from kinematics_node.sim.arm import ArmSimulator
 from kinematics_node.sim.robots import default_chain_links, robot_path
-from msg_adapters.joint_commands import apply_trajectory_msg, apply_velocity_msg, fill_joint_state
+from msg_adapters.joint_commands import (
+    apply_position_msg,
+    apply_trajectory_msg,
+    apply_velocity_msg,
+    fill_joint_state,
+)
+
+COMMAND_MODES = ("demo", *CONTROLLER_TOPICS)
 
 
 class SimArmNode(Node):
@@ -55,10 +73,16 @@ class SimArmNode(Node):
         rate = p["rate"]
         if not rate > 0:
             raise KinematicsError(f"parameter rate must be > 0 Hz, got {rate}")
+        mode = p["command_mode"]
+        if mode not in COMMAND_MODES:
+            raise KinematicsError(
+                f"parameter command_mode must be one of {list(COMMAND_MODES)}, got {mode!r}"
+            )
         options = {
             "command_timeout": p["command_timeout"],
-            "demo": p["demo"],
-            "demo_resume_after": p["demo_resume_after"],
+            "demo": p["demo"] and mode == "demo",
+            "demo_resume_after": p["demo_resume_after"] if mode == "demo" else 0.0,
+            "q0": list(p["initial_positions"]) or None,
         }
         if p["tip_link"]:
             base = p["base_link"] or None
@@ -74,15 +98,34 @@ class SimArmNode(Node):
         self.create_subscription(
             Float64MultiArray, "joint_velocity_commands", self._on_velocity, 10
         )
+        self._command_topic = ""
+        if mode != "demo":
+            self._command_topic = p["command_topic"] or CONTROLLER_TOPICS[mode]
+            kind = JointTrajectory if mode == "trajectory" else Float64MultiArray
+            self._apply = {
+                "position": apply_position_msg,
+                "velocity": apply_velocity_msg,
+                "trajectory": lambda sim, msg, topic: apply_trajectory_msg(sim, msg),
+            }[mode]
+            self.create_subscription(kind, self._command_topic, self._on_command, 10)
         self.create_timer(1.0 / rate, self._on_timer)
+        commanded = f"; {mode} commands on {self._command_topic}" if mode != "demo" else ""
         self.get_logger().info(
             f"simulating {self.sim.dof} joints {list(self.sim.joint_names)} at {rate:g} Hz"
+            + commanded
         )
 
     def _declare_parameters(self) -> dict:
         values = {}
         for spec in SIM_ARM_PARAMETERS:
             descriptor = ParameterDescriptor(description=spec.description)
+            if isinstance(spec.default, tuple):  # a double array, unset by default
+                self.declare_parameter(spec.name, Parameter.Type.DOUBLE_ARRAY, descriptor)
+                try:
+                    values[spec.name] = tuple(self.get_parameter(spec.name).value)
+                except ParameterUninitializedException:
+                    values[spec.name] = spec.default
+                continue
             self.declare_parameter(spec.name, spec.default, descriptor)
             values[spec.name] = self.get_parameter(spec.name).value
         return values
@@ -109,6 +152,16 @@ class SimArmNode(Node):
             apply_velocity_msg(self.sim, msg)
         except (KinematicsError, ValueError) as exc:
             self.get_logger().warning(f"refused joint_velocity_commands: {exc}")
+
+    def _on_command(self, msg: Any) -> None:
+        """A command on command_topic (streamed, e.g. at the servo's 1 kHz: nothing is logged
+        per message, and refusals at most every 5 s)."""
+        try:
+            self._apply(self.sim, msg, self._command_topic)
+        except (KinematicsError, ValueError) as exc:
+            self.get_logger().warning(
+                f"refused a command on {self._command_topic}: {exc}", throttle_duration_sec=5.0
+            )
 
 
 def main(args: list[str] | None = None) -> int:

@@ -11,6 +11,8 @@ feasible reference is tracked exactly at the sample instants t_k = k Δt. Modes:
 
 * ``"velocity"``: q_ref = q_k + q̇_cmd Δt; a command is held for `command_timeout` seconds of
   simulated time, then the arm stops (mode ``"hold"``).
+* ``"position"``: q_ref = q_cmd, the last commanded positions, held until the next command (as
+  ros2_control's forward position controller holds its last command).
 * ``"trajectory"``: time-parameterised waypoints, cubic Hermite between them (given waypoint
   velocities, or shape-preserving monotone tangents when none are given; zero velocity at the last
   waypoint). The first segment starts from the current state; after the last waypoint the arm holds.
@@ -40,7 +42,7 @@ from ..core.model import middle_of_limits, readonly
 from ..core.urdf import RobotDescription
 
 FloatArray = NDArray[np.float64]
-MODES = ("demo", "velocity", "trajectory", "hold")
+MODES = ("demo", "velocity", "position", "trajectory", "hold")
 
 
 class SimState(NamedTuple):
@@ -201,6 +203,7 @@ class ArmSimulator:
         self._qdot = np.zeros(n)
         self._hold = self._q.copy()
         self._v_cmd = np.zeros(n)
+        self._q_cmd = self._q.copy()
         self._k_cmd = 0  # step at which the last command arrived
         self._traj: _Hermite | None = None
         self._k_traj = 0
@@ -240,7 +243,7 @@ class ArmSimulator:
 
     @property
     def mode(self) -> str:
-        """One of "demo", "velocity", "trajectory", "hold"."""
+        """One of `MODES`: "demo", "velocity", "position", "trajectory", "hold"."""
         return self._mode
 
     @property
@@ -260,6 +263,21 @@ class ArmSimulator:
         self._v_cmd = v.copy()
         self._k_cmd = self._k
         self._mode = "velocity"
+
+    def command_position(self, q: ArrayLike) -> None:
+        """Move to joint positions `q` (order `joint_names`) and hold them until the next command.
+
+        The arm moves there as fast as its velocity limits allow (a position streamed at the
+        servo's rate is reached in one step when it is feasible); positions outside the limits
+        are clamped while integrating.
+
+        Raises:
+            InvalidInputError: wrong length or non-finite values.
+        """
+        p = _vector(q, self.dof, "position command")
+        self._q_cmd = p.copy()
+        self._k_cmd = self._k
+        self._mode = "position"
 
     def command_trajectory(
         self,
@@ -389,6 +407,8 @@ class ArmSimulator:
             else:
                 self.stop()
                 target = self._hold
+        elif self._mode == "position":
+            target = self._q_cmd
         elif self._mode == "trajectory":
             if self._traj is None:  # cannot happen: the mode is only set with a trajectory
                 raise RuntimeError("trajectory mode without a trajectory")

@@ -22,11 +22,16 @@ from kinematics_node.ros import executables
 from kinematics_node.ros.env import executable, local_ros_env
 from kinematics_node.ros.executables import SIM_ARM_PARAMETERS, usage
 from kinematics_node.service.parameters import PARAMETERS
+from kinematics_node.service.servo_parameters import SERVO_PARAMETERS
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPTS = ROOT / "scripts"
 ENV_SH = ROOT / "build" / "ros" / "env.sh"
-SPECS = {"kinematics_node": PARAMETERS, "sim_arm": SIM_ARM_PARAMETERS}
+SPECS = {
+    "kinematics_node": PARAMETERS,
+    "sim_arm": SIM_ARM_PARAMETERS,
+    "servo": SERVO_PARAMETERS,
+}
 
 
 def _run_script(script: str, *args: str) -> subprocess.CompletedProcess[str]:
@@ -41,7 +46,8 @@ def _run_script(script: str, *args: str) -> subprocess.CompletedProcess[str]:
 
 
 @pytest.mark.parametrize(
-    ("script", "uses_our_interfaces"), [("kinematics_node", True), ("sim_arm", False)]
+    ("script", "uses_our_interfaces"),
+    [("kinematics_node", True), ("sim_arm", False), ("servo", False)],
 )
 def test_without_rclpy_the_executable_says_what_is_needed(script, uses_our_interfaces):
     out = _run_script(script)
@@ -55,7 +61,7 @@ def test_without_rclpy_the_executable_says_what_is_needed(script, uses_our_inter
     assert "build/ros/env.sh" in out.stderr and "install/setup.bash" in out.stderr
 
 
-@pytest.mark.parametrize("script", ["kinematics_node", "sim_arm"])
+@pytest.mark.parametrize("script", ["kinematics_node", "sim_arm", "servo"])
 @pytest.mark.parametrize("flag", ["--help", "-h"])
 def test_help_prints_the_usage_and_starts_nothing(script, flag):
     """rclpy is hidden: a node or the sim arm could not even start, yet help works."""
@@ -72,7 +78,7 @@ def test_help_prints_the_usage_and_starts_nothing(script, flag):
         assert all(topic in text for topic in ("ee_pose", "ee_twist", "compute_ik"))
 
 
-@pytest.mark.parametrize("script", ["kinematics_node", "sim_arm"])
+@pytest.mark.parametrize("script", ["kinematics_node", "sim_arm", "servo"])
 def test_help_into_a_closed_pipe_ends_quietly(script):
     """`kinematics_node --help | head -3`: the reader goes away first; no traceback."""
     code = (
@@ -90,7 +96,9 @@ def test_help_into_a_closed_pipe_ends_quietly(script):
 def test_the_usage_lists_exactly_the_declared_parameters():
     for script, specs in SPECS.items():
         listed = re.findall(
-            r"^  (\S+) \((?:bool|integer|double|string), default ", usage(script), re.MULTILINE
+            r"^  (\S+) \((?:bool|integer|double|string|double\[\]), default ",
+            usage(script),
+            re.MULTILINE,
         )
         assert listed == [spec.name for spec in specs], script
 
@@ -152,6 +160,7 @@ def _installed_paths() -> dict[str, Path]:
     return {
         "kinematics_node": node,
         "sim_arm": _installed("sim_arm"),
+        "servo": _installed("servo"),
         "kinematics": prefix / "bin" / "kinematics",
     }
 
@@ -166,7 +175,7 @@ def foreign_python3(tmp_path: Path) -> str:
     return f"{fake.parent}:/usr/bin:/bin"
 
 
-@pytest.mark.parametrize("name", ["kinematics_node", "sim_arm", "kinematics"])
+@pytest.mark.parametrize("name", ["kinematics_node", "sim_arm", "servo", "kinematics"])
 def test_the_installed_executable_runs_under_the_build_python_whatever_the_path(
     name, foreign_python3
 ):

@@ -1,0 +1,306 @@
+"""rclpy wiring of the servo node (executable `servo`); its behaviour is `ServoService`
+(`service/servo.py`), tested without ROS.
+
+Topics (relative names: namespaces and remaps apply; ``~/`` = under the node's name, as
+moveit_servo's, so joystick and teleop configurations written for it carry over):
+  sub  ~/delta_twist_cmds        geometry_msgs/TwistStamped  twist of the tip (ω, v) in the axes of
+                                 header.frame_id (a robot link; empty = base_link), about the tip
+  sub  ~/delta_joint_cmds        control_msgs/JointJog       joint velocities (where control_msgs
+                                 is installed: a ROS 2 installation; it is not on PyPI)
+  sub  ~/delta_joint_state_cmds  sensor_msgs/JointState      joint velocities by name (`velocity`),
+                                 the same jog without control_msgs
+  sub  ~/pose_target_cmds        geometry_msgs/PoseStamped   a pose of the tip to reach
+  sub  joint_states              sensor_msgs/JointState      the measured joint positions
+  sub  robot_description         std_msgs/String             (transient local), while the
+                                 description parameters are empty
+  pub  command_out_topic         std_msgs/Float64MultiArray (positions or velocities) or
+                                 trajectory_msgs/JointTrajectory, by `command_out_type`
+  pub  ~/status                  diagnostic_msgs/DiagnosticStatus: level, message and the details
+                                 (code, code_name, condition_number, joints_at_limit, ...; the
+                                 loop's own figures: cycles, late_cycles, step_us_max)
+Services: ~/pause_servo (std_srvs/SetBool: true pauses, false resumes, as moveit_servo's since
+Iron), ~/unpause_servo (std_srvs/Trigger, as moveit_servo's on Humble).
+
+Commands are taken best effort (a best-effort subscription matches reliable and best-effort
+publishers alike), depth 10; only the newest matters.
+
+One thread runs everything (`spin`: our LeanExecutor): a timer at the servo's period (up to
+1 kHz, 2 kHz at the most) steps the servo and publishes; the command and joint_states callbacks
+only store what they receive. Why a process of its own and not inside the kinematics node: one
+Python process runs one callback at a time (the GIL); the kinematics node's pose path carries
+joint_states at up to 1 kHz and its IK answers, and in its process the servo's cycles would queue
+behind them. Measured (benchmarks/servo_process_benchmark.py, on this 2-core machine shared with
+other work): see the README's Servo section for the figures.
+"""
+
+from __future__ import annotations
+
+import gc
+import math
+import time
+from typing import Any
+
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped, TwistStamped
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.exceptions import ParameterException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, String
+from std_srvs.srv import SetBool, Trigger
+from trajectory_msgs.msg import JointTrajectory
+
+from msg_adapters import MessageTypes
+from msg_adapters.servo_messages import ServoMessageTypes
+
+from ..core.exceptions import InvalidInputError, KinematicsError
+from ..service.parameters import ParameterSpec
+from ..service.servo import ServoService
+from ..service.servo_parameters import SERVO_PARAMETERS, SERVO_SPECS
+from .spin import spin_until_shutdown
+
+try:  # Jazzy and later
+    from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+except ImportError:  # pragma: no cover - Humble
+    from rclpy.qos_event import PublisherEventCallbacks, SubscriptionEventCallbacks
+
+try:  # not on PyPI: present on a full ROS 2 installation
+    from control_msgs.msg import JointJog
+except ImportError:  # pragma: no cover - depends on the installation
+    JointJog = None
+
+#: Commands: best effort (matches reliable and best-effort publishers), the newest 10.
+COMMAND_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
+    durability=DurabilityPolicy.VOLATILE,
+)
+#: joint_states: as the kinematics node takes them (best effort, room for 100 ms at 1 kHz).
+JOINT_STATES_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST,
+    depth=100,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
+    durability=DurabilityPolicy.VOLATILE,
+)
+#: Joint commands: reliable (as ros2_control's controllers subscribe), the newest 10.
+COMMAND_OUT_DEPTH = 10
+#: The default QoS-event handlers add two waitables per entity that the executor sets up again
+#: on every turn: not on the 1 kHz entities (see ros/kinematics.py, which measured it).
+NO_PUBLISHER_EVENTS = PublisherEventCallbacks(use_default_callbacks=False)
+NO_SUBSCRIPTION_EVENTS = SubscriptionEventCallbacks(use_default_callbacks=False)
+#: Seconds between two log lines about the same problem.
+WARN_PERIOD = 5.0
+#: A cycle whose timer callback starts more than this many periods after the previous one is late.
+LATE_FACTOR = 1.5
+
+
+class ServoNode(Node):
+    """Parameters, topics, services and the control timer around one `ServoService`."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("servo", **kwargs)
+        for spec in SERVO_PARAMETERS:
+            self.declare_parameter(spec.name, spec.default, _descriptor(spec))
+        values = {spec.name: self.get_parameter(spec.name).value for spec in SERVO_PARAMETERS}
+        self._logic = ServoService(
+            MessageTypes.from_rclpy(),
+            ServoMessageTypes.from_rclpy(),
+            values,
+            node_name=self.get_fully_qualified_name(),
+        )
+        self._log_events()
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self._warned: dict[str, float] = {}
+        self._cycles = 0
+        self._late = 0
+        self._step_max = 0.0  # [s], since the last status
+        self._last_cycle = -math.inf
+
+        group = ReentrantCallbackGroup()
+        out_type = (
+            JointTrajectory if self._logic.command_out_type == "trajectory" else (Float64MultiArray)
+        )
+        self._command_pub = self.create_publisher(
+            out_type,
+            self._logic.command_out_topic,
+            COMMAND_OUT_DEPTH,
+            event_callbacks=NO_PUBLISHER_EVENTS,
+        )
+        self._status_pub = self.create_publisher(
+            DiagnosticStatus, "~/status", 10, event_callbacks=NO_PUBLISHER_EVENTS
+        )
+        self._subscribe(JointState, "joint_states", self._on_joint_state, JOINT_STATES_QOS, group)
+        self._subscribe(TwistStamped, "~/delta_twist_cmds", self._on_twist, COMMAND_QOS, group)
+        self._subscribe(PoseStamped, "~/pose_target_cmds", self._on_pose, COMMAND_QOS, group)
+        self._subscribe(
+            JointState, "~/delta_joint_state_cmds", self._on_joint_state_jog, COMMAND_QOS, group
+        )
+        if JointJog is not None:
+            self._subscribe(JointJog, "~/delta_joint_cmds", self._on_joint_jog, COMMAND_QOS, group)
+        else:
+            self.get_logger().info(
+                "control_msgs is not installed: ~/delta_joint_cmds (control_msgs/JointJog) is not "
+                "offered; jog with ~/delta_joint_state_cmds (sensor_msgs/JointState: name, "
+                "velocity) instead"
+            )
+        latched = QoSProfile(
+            depth=1,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+            reliability=ReliabilityPolicy.RELIABLE,
+        )
+        self.create_subscription(
+            String, "robot_description", self._on_description, latched, callback_group=group
+        )
+        self.create_service(SetBool, "~/pause_servo", self._pause, callback_group=group)
+        self.create_service(Trigger, "~/unpause_servo", self._unpause, callback_group=group)
+        self._group = group
+        self._timer = self.create_timer(self._logic.period_s, self._on_timer, callback_group=group)
+        self.get_logger().info(
+            f"servo every {self._logic.period_s * 1e3:g} ms; joint commands "
+            f"({self._logic.command_out_type}) on {self._logic.command_out_topic}"
+        )
+        _freeze_heap()
+
+    def _subscribe(self, msg_type: Any, topic: str, callback: Any, qos: Any, group: Any) -> None:
+        self.create_subscription(
+            msg_type,
+            topic,
+            callback,
+            qos,
+            callback_group=group,
+            event_callbacks=NO_SUBSCRIPTION_EVENTS,
+        )
+
+    def _now(self) -> float:
+        return float(self.get_clock().now().nanoseconds) * 1e-9
+
+    # -------------------------------------------------------------- callbacks
+    def _on_timer(self) -> None:
+        start = time.perf_counter()
+        if start - self._last_cycle > LATE_FACTOR * self._logic.period_s:
+            self._late += self._cycles > 0
+        self._last_cycle = start
+        self._cycles += 1
+        cycle = self._logic.step(self._now())
+        if cycle.command is not None:
+            self._command_pub.publish(cycle.command)
+        if cycle.status is not None:
+            self._publish_status(cycle.status)
+        self._log_events()
+        self._step_max = max(self._step_max, time.perf_counter() - start)
+
+    def _publish_status(self, status: Any) -> None:
+        status.values += [
+            KeyValue(key="cycles", value=str(self._cycles)),
+            KeyValue(key="late_cycles", value=str(self._late)),
+            KeyValue(key="step_us_max", value=f"{self._step_max * 1e6:.0f}"),
+        ]
+        self._step_max = 0.0
+        self._status_pub.publish(status)
+
+    def _answer(self, status: Any | None) -> None:
+        if status is not None:
+            self._publish_status(status)
+
+    def _on_twist(self, msg: TwistStamped) -> None:
+        self._answer(self._logic.on_twist(msg, self._now()))
+
+    def _on_pose(self, msg: PoseStamped) -> None:
+        self._answer(self._logic.on_pose(msg, self._now()))
+
+    def _on_joint_jog(self, msg: Any) -> None:
+        self._answer(self._logic.on_joint_jog(msg, self._now()))
+
+    def _on_joint_state_jog(self, msg: JointState) -> None:
+        self._answer(self._logic.on_joint_state_jog(msg, self._now()))
+
+    def _on_joint_state(self, msg: JointState) -> None:
+        problem = self._logic.on_joint_state(msg)
+        if problem is not None:
+            self._warn_throttled(problem)
+
+    def _on_description(self, msg: String) -> None:
+        try:
+            self._logic.on_description_message(msg.data)
+        except Exception as exc:  # noqa: BLE001 - a description must never take the node down
+            self.get_logger().error(f"robot_description topic: internal error: {exc!r}")
+        self._log_events()
+
+    def _pause(self, request: Any, response: Any) -> Any:
+        response.message = self._logic.set_paused(bool(request.data))
+        response.success = True
+        self.get_logger().info(response.message)
+        return response
+
+    def _unpause(self, request: Any, response: Any) -> Any:
+        response.message = self._logic.set_paused(False)
+        response.success = True
+        self.get_logger().info(response.message)
+        return response
+
+    def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
+        changes = {p.name: p.value for p in params if p.name in SERVO_SPECS}
+        period = self._logic.period_s
+        try:
+            self._logic.configure(changes)
+        except KinematicsError as exc:
+            return SetParametersResult(successful=False, reason=str(exc))
+        except Exception as exc:  # noqa: BLE001 - refused, never raised into rclpy
+            return SetParametersResult(successful=False, reason=f"internal error: {exc!r}")
+        finally:
+            self._log_events()
+        if self._logic.period_s != period:
+            self.destroy_timer(self._timer)
+            self._timer = self.create_timer(
+                self._logic.period_s, self._on_timer, callback_group=self._group
+            )
+        return SetParametersResult(successful=True)
+
+    # -------------------------------------------------------------- logs
+    def _log_events(self) -> None:
+        logger = self.get_logger()
+        for level, text in self._logic.take_log():
+            # one call site per severity: rclpy refuses a call site whose severity changes
+            if level == "error":
+                logger.error(text)
+            elif level == "warn":
+                logger.warn(text)
+            else:
+                logger.info(text)
+
+    def _warn_throttled(self, problem: str) -> None:
+        now = time.monotonic()
+        if now - self._warned.get(problem, -math.inf) < WARN_PERIOD:
+            return
+        if len(self._warned) > 256:
+            self._warned.clear()
+        self._warned[problem] = now
+        self.get_logger().warn(f"{problem} (repeats are not logged for {WARN_PERIOD:g} s)")
+
+
+def _descriptor(spec: ParameterSpec) -> ParameterDescriptor:
+    text = spec.description
+    if spec.choices:
+        text += f" One of: {', '.join(spec.choices)}."
+    return ParameterDescriptor(description=text)
+
+
+def _freeze_heap() -> None:
+    """Exempt what is allocated so far from the cyclic garbage collector (whose full passes
+    would stall the 1 kHz loop for tens of ms; see ros/kinematics.py)."""
+    gc.collect()
+    gc.freeze()
+
+
+def main(args: list[str] | None = None) -> int:
+    """Entry point of the `servo` executable: 0 after SIGINT/SIGTERM, 2 when a start-up
+    parameter is invalid (one line on stderr saying which); see `spin`."""
+    return spin_until_shutdown(ServoNode, "servo", (InvalidInputError, ParameterException), args)
+
+
+if __name__ == "__main__":
+    main()
