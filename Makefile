@@ -8,8 +8,9 @@
 # `make test ROS_DISTRO=kilted` (on make's command line), or KINEMATICS_ROS_DISTRO=kilted in the
 # environment, picks a distribution, and PYTHON defaults to its Python. (ROS_DISTRO in the
 # environment is not taken: a sourced ROS 2 sets it, for its own installation, not this one.)
-# .venv and build/ros hold the distribution of your `python3`; another one gets .venv-<distro>
-# and build/ros-<distro>, so that both live side by side.
+# .venv and build/ros hold the distribution of your `python3` (where its Python has none: the one
+# asked for); another one gets .venv-<distro> and build/ros-<distro>, so that both live side by
+# side.
 ROS_FROM_PYPI = tools/ros-from-pypi
 ifeq ($(origin ROS_DISTRO),command line)
   ASKED_DISTRO := $(ROS_DISTRO)
@@ -26,7 +27,8 @@ ifneq ($(ASKED_DISTRO),)
 endif
 PYTHON    ?= python3
 DISTRO    := $(or $(ASKED_DISTRO),$(shell $(ROS_FROM_PYPI) --distro $(PYTHON)))
-ifeq ($(DISTRO),$(shell $(ROS_FROM_PYPI) --distro python3))
+HOME_DISTRO := $(shell $(ROS_FROM_PYPI) --distro python3)
+ifeq ($(DISTRO),$(or $(HOME_DISTRO),$(ASKED_DISTRO)))
   VENV      ?= .venv
   ROS_BUILD ?= build/ros
 else
