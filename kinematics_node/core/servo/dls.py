@@ -57,7 +57,7 @@ class DLSSolution(NamedTuple):
 def apply(solution: DLSSolution, y: FloatArray) -> FloatArray:
     """The same damped inverse applied to another task vector y (m,): Σ gᵢ vᵢ uᵢᵀ y, e.g. the
     task acceleration, whose image is the joint acceleration to feed forward."""
-    return solution.row_basis.T @ (solution.gains * (solution.left.T @ y))
+    return solution.row_basis.T.dot(solution.gains * solution.left.T.dot(y))
 
 
 def variable_damping(sigma: FloatArray, threshold: float, max_damping: float) -> FloatArray:
@@ -70,7 +70,7 @@ def svd(J: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Thin SVD (U (m, k), σ (k,), Vᵀ (k, n)), k = min(m, n), of a small matrix: LAPACK's dgesdd
     called directly (a few µs on a 6×7 matrix, half the time of `numpy.linalg.svd`'s wrapper),
     numpy's as the fallback."""
-    U, s, Vt, info = _dgesdd(J, compute_uv=1, full_matrices=0)
+    U, s, Vt, info = _dgesdd(J, 1, 0)  # compute_uv, not full_matrices
     if info != 0:
         U, s, Vt = np.linalg.svd(J, full_matrices=False)
     return U, s, Vt
@@ -84,16 +84,19 @@ def solve(J: FloatArray, x: FloatArray, threshold: float, max_damping: float) ->
         x: (m,) task velocity, in the same row order and units as J.
         threshold: ε; singular values below it are damped.
         max_damping: λ_max, the damping at σ = 0.
+
+    (`A.dot(b)` rather than `A @ b` here: the same BLAS call and the same result, with half the
+    call overhead on these small arrays.)
     """
     U, s, Vk = svd(J)
-    ux = U.T @ x  # uᵢᵀ x
+    ux = U.T.dot(x)  # uᵢᵀ x
     if s[-1] >= threshold:  # the common case: nothing to damp
         gains = 1.0 / s
-        return DLSSolution(Vk.T @ (ux * gains), np.zeros(J.shape[1]), Vk, s, U, gains)
+        return DLSSolution(Vk.T.dot(ux * gains), np.zeros(J.shape[1]), Vk, s, U, gains)
     lam2 = variable_damping(s, threshold, max_damping)
     small = lam2 > 0.0
     gains = s / (s * s + lam2)  # σ > 0 where λ = 0, and λ > 0 where σ = 0
     coeff = ux * gains
-    damped = Vk[small].T @ coeff[small]
-    undamped = Vk[~small].T @ coeff[~small]
+    damped = Vk[small].T.dot(coeff[small])
+    undamped = Vk[~small].T.dot(coeff[~small])
     return DLSSolution(undamped, damped, Vk, s, U, gains)

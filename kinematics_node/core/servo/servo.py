@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import chain as _concat
 from typing import Any
 
 import numpy as np
@@ -86,6 +87,13 @@ class ServoOutput:
 
 def _finite_reals(values: Any, count: int | None) -> tuple[float, ...] | None:
     """The values as floats if they are `count` finite real numbers (any count if None)."""
+    if (
+        (type(values) is tuple or type(values) is list)
+        and (count is None or len(values) == count)
+        and all(type(x) is float for x in values)
+        and math.isfinite(sum(values))  # else one of them is not (or the sum overflows: below)
+    ):
+        return tuple(values)
     try:
         items = list(values)
     except TypeError:
@@ -183,8 +191,18 @@ class Servo:
         self._upper: list[float] = lim.upper.tolist()
         self._v_high: list[float] = lim.velocity.tolist()
         self._v_low: list[float] = (-lim.velocity).tolist()
-        self._plan_a: list[float] = self._plan_acceleration.tolist() * 2  # for (up, down)
-        self._plan_j: list[float] = self._plan_jerk.tolist() * 2
+        self._plan_a: list[float] = self._plan_acceleration.tolist()
+        self._plan_j: list[float] = self._plan_jerk.tolist()
+        # A side of a joint whose bound is farther than both `_free` and `_free_at_rest` + 2 dt ×
+        # its speed never limits it: `_velocity_box` skips it (see there).
+        dt2 = 2.0 * cfg.period_s
+        full = braking_distance(lim.velocity, self._plan_acceleration, self._plan_jerk)
+        full = full * (1.0 + 1e-9) + 1e-12
+        c = dt2 * np.sqrt(2.0 * self._plan_acceleration)
+        self._free_at_rest: list[float] = full.tolist()
+        self._free: list[float] = (
+            (0.5 * (c + np.sqrt(c * c + 4.0 * full))) ** 2 * (1.0 + 1e-9) + 1e-12
+        ).tolist()
         bounded = np.isfinite(lim.lower) & np.isfinite(lim.upper)
         lower_b = np.where(bounded, lim.lower, 0.0)
         upper_b = np.where(bounded, lim.upper, 0.0)
@@ -211,6 +229,7 @@ class Servo:
         self._fk_pose = model.kernel.fk_pose
         self._to_internal = model.to_internal
         self._G = model.G
+        self._n_internal = model.kernel.n
         # Active command, in the form the steps use.
         self._mode: str | None = None
         self._winding_down = False  # a twist command timed out: its twist is ramping to zero
@@ -239,6 +258,10 @@ class Servo:
         self._stop: tuple[StatusCode, str] = (StatusCode.IDLE, "waiting for a command")
         self._paused = False
         self._measured: FloatArray | None = q0.copy()
+        self._accepted = {  # what `submit` answers to an accepted command (immutable: shared)
+            kind: ServoStatus(StatusCode.OK, f"{kind.__name__} accepted", dropped_axes=dropped)
+            for kind in (TwistCommand, JointJogCommand, PoseCommand)
+        }
 
     # ------------------------------------------------------------------ state
     @property
@@ -316,9 +339,7 @@ class Servo:
             if not self._paused:
                 self._end(code, message)
             return ServoStatus(code, message, dropped_axes=self.dropped_axes)
-        return ServoStatus(
-            StatusCode.OK, f"{type(command).__name__} accepted", dropped_axes=self.dropped_axes
-        )
+        return self._accepted[type(command)]
 
     @staticmethod
     def _check_time(value: Any, name: str) -> tuple[StatusCode, str] | None:
@@ -583,26 +604,60 @@ class Servo:
     # ------------------------------------------------------------------ velocity bounds
     def _velocity_box(self) -> tuple[list[float], list[float], list[bool] | None]:
         """(lo, hi, position-limited joints or None when none is): the joint velocities allowed
-        this period."""
+        this period.
+
+        A joint may move toward a bound at d no faster than it can still stop within d less the
+        distance covered before a stop could begin (the speed asked now is held for a period: at
+        the current speed or the one asked, whichever is higher), braking at half its
+        acceleration and jerk: min(v_max, s(d − 2 dt max(|v|, s(d)))), s = `braking_speed`.
+        That is v_max itself wherever d − 2 dt max(|v|, √(2 A d)) ≥ D, the braking distance from
+        v_max (s(d) ≤ √(2 A d), the stop without a jerk limit, and s grows with d): for
+        d ≥ `_free` (where d − 2 dt √(2 A d) ≥ D) and d ≥ `_free_at_rest` + 2 dt |v|. Only
+        the other sides are computed.
+        """
         integ = self._integrator
         q = integ.q_list
         v_low, v_high = self._v_low, self._v_high
         if all(a < x < b for x, a, b in zip(q, self._slow_low, self._slow_high, strict=True)):
             return v_low, v_high, None
-        d_up = [u - x for x, u in zip(q, self._upper, strict=True)]
-        d_lo = [x - lw for x, lw in zip(q, self._lower, strict=True)]
-        # The speed asked now is held for a period before a stop could begin: keep the distance
-        # covered meanwhile (at the current speed or the one asked, whichever is higher) in hand.
-        # (Unbounded sides keep an infinite distance, and no braking speed.)
-        n, dt2 = self._n, 2.0 * self.config.period_s
-        reach = braking_speeds(d_up + d_lo, self._plan_a, self._plan_j)
+        dt2 = 2.0 * self.config.period_s
+        free, free_at_rest = self._free, self._free_at_rest
+        sides: list[int] = []  # k for the upper bound of joint k, -1 - k for its lower bound
+        dists: list[float] = []
+        speeds: list[float] = []
+        for k, (x, lw, up, vk) in enumerate(
+            zip(q, self._lower, self._upper, integ.v_list, strict=True)
+        ):
+            speed = abs(vk)
+            near = free_at_rest[k] + dt2 * speed * (1.0 + 1e-9)
+            d = up - x
+            if d < free[k] or d < near:
+                sides.append(k)
+                dists.append(d)
+                speeds.append(speed)
+            d = x - lw
+            if d < free[k] or d < near:
+                sides.append(-1 - k)
+                dists.append(d)
+                speeds.append(speed)
+        if not sides:
+            return v_low, v_high, None
+        joints = [k if k >= 0 else -1 - k for k in sides]
+        A = [self._plan_a[k] for k in joints]
+        J = [self._plan_j[k] for k in joints]
+        reach = braking_speeds(dists, A, J)
         left = [
-            d if d == math.inf else d - dt2 * (s if s > abs(v) else abs(v))
-            for d, s, v in zip(d_up + d_lo, reach, integ.v_list * 2, strict=True)
+            d if d == math.inf else d - dt2 * (s if s > v else v)
+            for d, s, v in zip(dists, reach, speeds, strict=True)
         ]
-        allowed = braking_speeds(left, self._plan_a, self._plan_j)
-        hi = [s if s < vm else vm for s, vm in zip(allowed[:n], v_high, strict=True)]
-        lo = [-(s if s < vm else vm) for s, vm in zip(allowed[n:], v_high, strict=True)]
+        hi, lo = list(v_high), list(v_low)
+        for k, s in zip(sides, braking_speeds(left, A, J), strict=True):
+            if k >= 0:
+                vm = v_high[k]
+                hi[k] = s if s < vm else vm
+            else:
+                vm = v_high[-1 - k]
+                lo[-1 - k] = -(s if s < vm else vm)
         limited = [h < vm or lw > -vm for h, lw, vm in zip(hi, lo, v_high, strict=True)]
         if not any(limited):
             return v_low, v_high, None
@@ -643,7 +698,13 @@ class Servo:
         cfg = self.config
         q = self._integrator.q_list
         t, cols = self._fk_world(q if self._to_internal is None else self._to_internal(q))
-        J = np.array(cols).T  # (6, n): rows (ω, v) of the tip origin, base axes
+        # (6, n): rows (ω, v) of the tip origin, base axes (from the n columns, flattened first:
+        # faster than from the tuples)
+        J = (
+            np.fromiter(_concat.from_iterable(cols), np.float64, 6 * self._n_internal)
+            .reshape(-1, 6)
+            .T
+        )
         if self._G is not None:
             J = J @ self._G
         p = (t[9], t[10], t[11])
@@ -838,7 +899,7 @@ class Servo:
         grad = np.array(grad_list)
         if active is not None:
             grad = grad[active]
-        motion = grad - rows.T @ (rows @ grad)
+        motion = grad - rows.T.dot(rows.dot(grad))
         if active is not None:
             out = np.zeros(self._n)
             out[active] = motion
@@ -868,8 +929,10 @@ class Servo:
         if s_last >= eps:
             self._anchor = self._integrator.q  # the last well-conditioned configuration
         undamped, damped, rows = sol.undamped, sol.damped, sol.row_basis
+        exact = s_last >= eps  # no damped part (zeros)
         if s_last < lam and s.shape[0] == Jt.shape[0]:
             damped = damped + self._escape(x, sol, details)
+            exact = False
         fixed: FloatArray | float = 0.0
         active = None  # all joints
         at_limit = self._no_joint
@@ -887,11 +950,12 @@ class Servo:
                 )
                 if saturated is not None:
                     fixed, undamped, damped, rows, active = saturated
+                    exact = False
                 # else: the other joints cannot take over the task exactly; the uniform scaling
                 # below slows the whole arm along its path instead, to a stop at the limit.
         details["at_limit"] = at_limit
         null = self._null_motion(active, rows)
-        total = undamped + damped + null + fixed
+        total = undamped + null if exact else undamped + damped + null + fixed
         total_list = total.tolist()
         if all(a <= t <= b for t, a, b in zip(total_list, lo, hi, strict=True)):
             task_acc = details.get("task_acceleration")
@@ -900,7 +964,7 @@ class Servo:
                 # as the arm moves, fed forward to the smoothing; J̇ from the last period's J.
                 prev = self._last_jacobian
                 if prev is not None:
-                    task_acc = task_acc - (Jt - prev) @ total / cfg.period_s
+                    task_acc = task_acc - (Jt - prev).dot(total) / cfg.period_s
                 details["target_acceleration"] = dls.apply(sol, task_acc).tolist()
             return total_list
         # Fit into the box: the whole undamped part first (uniform scaling keeps its direction),

@@ -265,9 +265,11 @@ class JerkLimitedIntegrator:
         braking from rest acceleration, goes no further than s|a|/J + s²/(2A) + sA/(2J) with
         s = |v| + a²/(2J) (a feasible stop, so the time-optimal one stops sooner; the last two
         terms bound `braking_distance(s)` by the AM-GM inequality)."""
+        near_low, near_high = self._near_low, self._near_high
+        if all(a < x < b for x, a, b in zip(q, near_low, near_high, strict=True)):
+            return q, q  # the common case: no joint near a bound
         lo: list[float] | None = None
         hi = q
-        near_low, near_high = self._near_low, self._near_high
         for k, qk in enumerate(q):
             if near_low[k] < qk < near_high[k]:
                 continue
