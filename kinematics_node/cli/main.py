@@ -626,6 +626,9 @@ solution is found (the best configuration is still printed).""",
     "demo": """examples:
   kinematics demo
   kinematics demo --robot panda --duration 5 --out panda.svg""",
+    "servo-demo": """examples:
+  kinematics servo-demo
+  kinematics servo-demo --rate 500 --out servo.svg --no-ros""",
 }
 
 
@@ -793,6 +796,27 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument(
         "--no-ros", action="store_true", help="run in this process even where ROS 2 is available"
     )
+    servo_demo = sub.add_parser(
+        "servo-demo",
+        help="the servo drives the UR5e's tool around a square through a wrist singularity",
+        description="The servo drives the UR5e's tool around a 0.2 m square through a wrist\n"
+        "singularity, then spins it in place; prints the tracking error, the time stopped, the\n"
+        "peak joint velocity, acceleration and jerk against their limits, and draws a picture.\n"
+        "With ROS 2 (make demo builds it from PyPI): the simulated arm, the kinematics node and\n"
+        "the servo node as processes, the twists sent over DDS. Without ROS 2 (or with\n"
+        "--no-ros): the core servo and the simulated arm in this process. Needs matplotlib and\n"
+        "ruckig.",
+        epilog=EXAMPLES["servo-demo"],
+    )
+    servo_demo.add_argument(
+        "--out", default="servo_demo.png", help="picture file (.png, .svg, .pdf, ...)"
+    )
+    servo_demo.add_argument(
+        "--rate", type=positive, default=100.0, help="servo and simulated arm rate [Hz], 10 to 2000"
+    )
+    servo_demo.add_argument(
+        "--no-ros", action="store_true", help="run in this process even where ROS 2 is available"
+    )
     ros_commands.add_parser(sub)  # `kinematics ros pose|ik`: ROS is imported only when it runs
     return parser
 
@@ -823,6 +847,35 @@ def _demo(args: argparse.Namespace) -> int:
     from ..ros import live_demo
 
     return live_demo.main(args.robot, path, args.duration, args.rate)
+
+
+def _servo_demo(args: argparse.Namespace) -> int:
+    if not 10.0 <= args.rate <= 2000.0:
+        raise CliError(f"--rate {args.rate:g}: the servo runs at 10 to 2000 Hz")
+    from ..core.servo import ruckig_available
+    from ..ros import servo_live_demo
+    from ..sim import demo, servo_demo
+
+    # Everything the user can get wrong, before anything starts (and before saying which demo)
+    if not ruckig_available():
+        raise CliError(
+            "the servo needs ruckig: pip install 'kinematics_service[servo]' (or run `make "
+            "demo`, which installs it)"
+        )
+    try:
+        demo.check_matplotlib()
+        path = demo.check_picture_path(args.out)
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+    reason = None if args.no_ros else servo_live_demo.unavailable_reason()
+    if reason is not None:
+        print(
+            f"ROS 2 is not available ({reason}); running the servo demo in this process instead",
+            file=sys.stderr,
+        )
+    if args.no_ros or reason is not None:
+        return servo_demo.main(path, args.rate)
+    return servo_live_demo.main(path, args.rate)
 
 
 def _emit(results: Output, as_json: bool, many: bool) -> None:
@@ -862,6 +915,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if args.command == "demo":
             return _demo(args)
+        if args.command == "servo-demo":
+            return _servo_demo(args)
         if args.command == "ros":
             return ros_commands.run(args)
         # overflow in extreme but finite inputs shows in the results (checked finite), not as

@@ -1,0 +1,561 @@
+"""The servo node at 1 kHz with the simulated arm, side by side with a bare rclpy echo node, in one
+run (issue 23, "What must hold": the node's speed).
+
+    make ros && . build/ros/env.sh
+    python -W ignore benchmarks/servo_node_benchmark.py [--seconds 30] [--json out.json]
+
+Every process is real rclpy over Fast DDS on loopback, in a ROS_DOMAIN_ID of the run's own.
+Phases, one after the other:
+
+* echo: a bare rclpy node (rclpy's SingleThreadedExecutor; the floor a node on rclpy's stock
+  executor pays) that answers each TwistStamped on /servo/delta_twist_cmds at once with a
+  Float64MultiArray on /forward_position_controller/commands carrying the twist's stamp; same QoS
+  as the servo node (commands in best effort, depth 10; joint commands out reliable, depth 10);
+* servo, command to joint command: the `sim_arm` (UR5e, joint_states at 1 kHz, taking position
+  commands as ros2_control's forward_position_controller) and the `servo` node (period 1 ms,
+  command timeout 10 ms), both as built by `make ros`; a sender process sends one small twist
+  (1 mm/s, alternately ±x) every `TRIAL_SPACING_S`, each stamped with its send time; between two
+  the command times out and the arm comes to rest (the servo's joint commands stop changing). The
+  latency of a twist is the arrival of the first joint command that differs from the one held
+  before it, minus the twist's send time (`response_latencies`); the echo gets the same twists
+  (`echo_latencies`). Split into: until the node published it (DDS's source timestamp) and from
+  there to the receiver;
+* servo, 1 kHz streaming: the same two nodes (command timeout 0.1 s, the default), a twist every
+  10 ms (a joystick's rate) moving the tool back and forth at 5 cm/s: the servo publishes every
+  period. A cycle is on time when its joint command is published (source timestamp) within the
+  period that starts at its scheduled time (`on_time`: the schedule is the node's 1 ms grid, its
+  phase read from the publication times); the node's own count of late cycles (its ~/status:
+  a timer callback starting more than 1.5 periods after the previous) is reported beside it.
+
+A receiver process (on our LeanExecutor, as in node_benchmark.py, so that the harness itself stays
+light on a 2-core machine) records every joint command with its source timestamp and arrival.
+All clocks are CLOCK_REALTIME on one machine. The first second of each phase is warm-up. CPU of
+the nodes [% of one core] from /proc. Last, the issue's targets with their figures and whether
+each is met (`target_checks`). Run it on a quiet machine: every figure is shared-CPU sensitive.
+"""
+
+from __future__ import annotations
+
+import argparse
+import bisect
+import json
+import math
+import os
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+import node_benchmark as nb  # noqa: E402  (the harness pieces: rclpy set-up, /proc readers)
+
+from kinematics_node.ros.env import (  # noqa: E402
+    clean_dead_shared_memory,
+    executable,
+    local_ros_env,
+    unavailable_reason,
+)
+
+ROBOT = ROOT / "config" / "robots" / "ur5e.urdf"
+HOME = (0.3, -1.3, 1.6, -1.9, 1.2, 0.4)  # [rad] well inside the limits, away from singularities
+TWIST_TOPIC = "/servo/delta_twist_cmds"
+COMMAND_TOPIC = "/forward_position_controller/commands"
+STATUS_TOPIC = "/servo/status"
+PERIOD_S = 0.001
+TRIAL_SPACING_S = 0.06  # the arm is at rest ~37 ms after a one-shot twist with a 10 ms timeout
+TRIAL_SPEED_M_S = 0.001
+STREAM_RATE_HZ = 100.0
+STREAM_SPEED_M_S = 0.05
+WARM_UP_S = 1.0
+
+
+# ============================================================================ pure helpers
+def echo_latencies(
+    sends_ns: Sequence[int], outputs: Sequence[tuple[Sequence[float], int, int]]
+) -> tuple[list[tuple[int, int, int]], int]:
+    """(send, source, arrival) [ns] of each twist the echo answered (its answer carries the
+    twist's stamp as [sec, nanosec]), and how many it did not answer."""
+    answers: dict[int, tuple[int, int]] = {}
+    for data, source, arrival in outputs:
+        if len(data) >= 2:
+            answers.setdefault(int(data[0]) * 1_000_000_000 + int(data[1]), (source, arrival))
+    found = [(s, *answers[s]) for s in sends_ns if s in answers]
+    return found, len(sends_ns) - len(found)
+
+
+def response_latencies(
+    sends_ns: Sequence[int],
+    outputs: Sequence[tuple[Sequence[float], int, int]],
+    period_ns: int,
+) -> tuple[list[tuple[int, int, int]], dict[str, int]]:
+    """(send, source, arrival) [ns] of the servo's first response to each twist in `sends_ns`
+    (sorted), from its joint commands `outputs` (data, source timestamp, arrival) in order of
+    publication.
+
+    The response to a twist sent at s is the first joint command published after s that
+    differs from the last one published before s (the arm at rest holds one position: every
+    hold command is the same, and the first step of a new motion moves it). A twist sent while
+    the arm was still moving (the two commands before s differ, the last within 2 periods of s)
+    is not counted ("moving"); one with no changed command before the next twist is
+    "unanswered". Returns the responses and those two counts."""
+    out = sorted(outputs, key=lambda o: o[1])
+    sources = [o[1] for o in out]
+    found: list[tuple[int, int, int]] = []
+    counts = {"moving": 0, "unanswered": 0}
+    for i, s in enumerate(sends_ns):
+        end = sends_ns[i + 1] if i + 1 < len(sends_ns) else math.inf
+        k = bisect.bisect_left(sources, s)  # out[k:] were published after the send
+        if k == 0:
+            counts["unanswered"] += 1
+            continue
+        held = list(out[k - 1][0])
+        if k >= 2 and list(out[k - 2][0]) != held and s - sources[k - 1] < 2 * period_ns:
+            counts["moving"] += 1
+            continue
+        for data, source, arrival in out[k:]:
+            if source >= end:
+                counts["unanswered"] += 1
+                break
+            if list(data) != held:
+                found.append((s, source, arrival))
+                break
+        else:
+            counts["unanswered"] += 1
+    return found, counts
+
+
+def on_time(publish_ns: Sequence[int], period_ns: int, bins: int = 50) -> dict[str, float]:
+    """How many cycles of a periodic publisher were on time, from its publication times.
+
+    The schedule is a grid t_k = t_0 + k·period whose phase is not visible from outside; a
+    publication belongs to the slot [t_k, t_k + period) it falls in, and a slot with at least one
+    publication is a cycle on time (a late cycle leaves its own slot empty and doubles up in a
+    later one). The grid's phase is put where publications are rarest (the emptiest of `bins`
+    phase bins of the period, its start): right before the cluster of on-time publications, so a
+    publication is on time when it comes less than one period after the start of that cluster.
+    Returns the slots, those on time, their fraction, and the phase's bin occupancy (the share of
+    publications in the emptiest bin: near 0 when the grid is well defined)."""
+    times = sorted(publish_ns)
+    if len(times) < 2:
+        return {"slots": 0, "on_time": 0, "fraction": math.nan, "phase_bin_share": math.nan}
+    origin = times[0]
+    width = period_ns / bins
+    counts = [0] * bins
+    for t in times:
+        counts[int(((t - origin) % period_ns) // width)] += 1
+    emptiest = min(range(bins), key=lambda b: (counts[b], b))
+    t0 = origin + emptiest * width - period_ns  # a grid line at or before the first publication
+    slots = {int((t - t0) // period_ns) for t in times}
+    first, last = min(slots), max(slots)
+    total = last - first + 1
+    return {
+        "slots": total,
+        "on_time": len(slots),
+        "fraction": len(slots) / total,
+        "phase_bin_share": counts[emptiest] / len(times),
+    }
+
+
+def summarize_latency(found: Sequence[tuple[int, int, int]]) -> dict[str, float]:
+    """Median and p99 [ms] of send → arrival, with the part until the node published (send →
+    source timestamp) and after it (source → arrival), and the count."""
+    total = [(a - s) * 1e-6 for s, _, a in found]
+    inside = [(o - s) * 1e-6 for s, o, _ in found]
+    after = [(a - o) * 1e-6 for _, o, a in found]
+    return {
+        "count": len(found),
+        "median_ms": statistics.median(total) if total else math.nan,
+        "p99_ms": nb._percentile(total, 0.99),
+        "max_ms": max(total, default=math.nan),
+        "to_publish_median_ms": statistics.median(inside) if inside else math.nan,
+        "to_publish_p99_ms": nb._percentile(inside, 0.99),
+        "transport_median_ms": statistics.median(after) if after else math.nan,
+    }
+
+
+def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bool]]:
+    """Issue 23's node targets for the phases in `results`: (target, measured, met?)."""
+    checks: list[tuple[str, str, bool]] = []
+    stream = results.get("servo, 1 kHz streaming")
+    if stream is not None:
+        f = stream["on_time"]["fraction"]
+        checks.append(
+            (
+                "servo at 1 kHz with the sim arm: ≥ 99.9 % of cycles on time",
+                f"{100 * f:.2f} % ({stream['on_time']['slots'] - stream['on_time']['on_time']} "
+                f"of {stream['on_time']['slots']} late)",
+                f >= 0.999,
+            )
+        )
+    servo = results.get("servo, command to joint command")
+    echo = results.get("echo")
+    if servo is not None:
+        median = servo["latency"]["median_ms"]
+        if echo is not None:
+            ratio = median / echo["latency"]["median_ms"]
+            checks.append(
+                (
+                    "command in → joint command out: median ≤ 2× the bare echo's",
+                    f"{ratio:.2f}× ({median:.2f} vs {echo['latency']['median_ms']:.2f} ms)",
+                    ratio <= 2.0,
+                )
+            )
+        p99 = servo["latency"]["p99_ms"]
+        checks.append(("command in → joint command out: p99 ≤ 5 ms", f"{p99:.2f} ms", p99 <= 5.0))
+    return checks
+
+
+# ============================================================================ child roles
+def role_echo() -> None:
+    """The bare echo: TwistStamped in, Float64MultiArray [sec, nanosec of its stamp] out, at once
+    (rclpy's SingleThreadedExecutor; QoS as the servo node's)."""
+    rclpy = nb._init_rclpy(freeze=False)
+    from geometry_msgs.msg import TwistStamped
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import Float64MultiArray
+
+    node = rclpy.create_node("echo_node")
+    pub = node.create_publisher(Float64MultiArray, COMMAND_TOPIC, 10)
+    qos = QoSProfile(
+        history=HistoryPolicy.KEEP_LAST,
+        depth=10,
+        reliability=ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.VOLATILE,
+    )
+
+    def echo(msg: TwistStamped) -> None:
+        out = Float64MultiArray()
+        out.data = [float(msg.header.stamp.sec), float(msg.header.stamp.nanosec)]
+        pub.publish(out)
+
+    node.create_subscription(TwistStamped, TWIST_TOPIC, echo, qos)
+    nb._spin_until_sigint(node)
+
+
+def role_sender(mode: str, seconds: float, out: str) -> None:
+    """Twists on /servo/delta_twist_cmds, each stamped with its send time, for `seconds`:
+    `mode` "trials": one every TRIAL_SPACING_S; "stream": at STREAM_RATE_HZ, the tool moving back
+    and forth along x at STREAM_SPEED_M_S (reversing every 2 s). Writes the send times [ns]."""
+    rclpy = nb._init_rclpy()
+    from geometry_msgs.msg import TwistStamped
+
+    node = rclpy.create_node("bench_twist_sender")
+    pub = node.create_publisher(TwistStamped, TWIST_TOPIC, 10)
+    while pub.get_subscription_count() == 0:
+        time.sleep(0.01)
+    time.sleep(0.5)
+    spacing = TRIAL_SPACING_S if mode == "trials" else 1.0 / STREAM_RATE_HZ
+    msg = TwistStamped()
+    msg.header.frame_id = "base_link"
+    stamps: list[int] = []
+    start = time.monotonic()
+    next_at = start
+    k = 0
+    nb._no_collections()
+    while time.monotonic() - start < seconds:
+        now = time.monotonic()
+        if now < next_at:
+            time.sleep(next_at - now)
+        if mode == "trials":
+            msg.twist.linear.x = TRIAL_SPEED_M_S * (1.0 if k % 2 == 0 else -1.0)
+        else:
+            sign = 1.0 if int((next_at - start) // 2.0) % 2 == 0 else -1.0
+            msg.twist.linear.x = STREAM_SPEED_M_S * sign
+        ns = time.time_ns()
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(ns, 1_000_000_000)
+        pub.publish(msg)
+        stamps.append(ns)
+        k += 1
+        next_at += spacing
+    Path(out).write_text(json.dumps({"stamps": stamps}))
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+def role_receiver(out: str, status: bool) -> None:
+    """Records (data, source timestamp, arrival) of every joint command, and with `status` the
+    servo's last ~/status values, until SIGINT; writes `<out>.ready` once matched."""
+    stopping: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: stopping.append(signum))
+    rclpy = nb._init_rclpy(rclpy_signals=False)
+    from diagnostic_msgs.msg import DiagnosticStatus
+    from rclpy.qos import QoSProfile
+    from std_msgs.msg import Float64MultiArray
+
+    from kinematics_node.ros.executor import LeanExecutor
+
+    node = rclpy.create_node("bench_command_receiver")
+    got: list[tuple[list[float], int, int]] = []
+    last_status: dict[str, str] = {}
+
+    def record(msg: Any, info: Any) -> None:
+        got.append((list(msg.data), info["source_timestamp"], time.time_ns()))
+
+    def on_status(msg: Any) -> None:
+        last_status.update({kv.key: kv.value for kv in msg.values})
+
+    subs = [
+        node.create_subscription(Float64MultiArray, COMMAND_TOPIC, record, QoSProfile(depth=1000))
+    ]
+    if status:
+        subs.append(node.create_subscription(DiagnosticStatus, STATUS_TOPIC, on_status, 100))
+    executor = LeanExecutor()
+    executor.add_node(node)
+    nb._no_collections()
+    stalls = nb._StallWatch()
+    ready = False
+    while not stopping:
+        executor.spin_once(timeout_sec=0.05)
+        if not ready and all(sub.get_publisher_count() > 0 for sub in subs):
+            Path(out + ".ready").touch()
+            ready = True
+    Path(out).write_text(
+        json.dumps({"outputs": got, "status": last_status, "worst_stall": stalls.worst})
+    )
+    executor.shutdown()
+    node.destroy_node()
+    rclpy.shutdown()
+
+
+# ============================================================================ orchestration
+def _child(args: list[str], env: dict[str, str]) -> subprocess.Popen:
+    python = os.environ.get("KINEMATICS_ROS_PYTHON") or sys.executable
+    return subprocess.Popen(
+        [python, "-X", "faulthandler", "-W", "ignore", __file__, *args], env=env
+    )
+
+
+def _node(name: str, params: dict[str, Any], env: dict[str, str], directory: Path) -> Any:
+    argv = executable(name)
+    assert argv is not None  # checked by unavailable_reason
+    path = directory / f"{name}.yaml"
+    path.write_text(json.dumps({name: {"ros__parameters": params}}))  # JSON is YAML
+    log = directory / f"{name}.log"
+    with log.open("wb") as handle:
+        return subprocess.Popen(
+            [*argv, "--ros-args", "--params-file", str(path)],
+            env=env,
+            stdout=handle,
+            stderr=subprocess.STDOUT,
+        )
+
+
+def _stop(processes: list[Any]) -> None:
+    for p in processes:
+        p.send_signal(signal.SIGINT)
+    for p in processes:
+        try:
+            p.wait(10)
+        except subprocess.TimeoutExpired:
+            p.kill()
+
+
+def run_phase(kind: str, seconds: float, env: dict[str, str], directory: Path) -> dict[str, Any]:
+    """One phase: `kind` "echo", "trials" (the servo, command to joint command) or "stream"."""
+    description = ROBOT.read_text(encoding="utf-8")
+    if kind == "echo":
+        system = [_child(["--role", "echo"], env)]
+        measured = {"echo": system[0]}
+    else:
+        timeout = 0.01 if kind == "trials" else 0.1
+        sim = _node(
+            "sim_arm",
+            {
+                "robot_description": description,
+                "tip_link": "tool0",
+                "rate": 1.0 / PERIOD_S,
+                "command_mode": "position",
+                "initial_positions": list(HOME),
+            },
+            env,
+            directory,
+        )
+        servo = _node(
+            "servo",
+            {
+                "robot_description": description,
+                "tip_link": "tool0",
+                "period_s": PERIOD_S,
+                "command_timeout_s": timeout,
+            },
+            env,
+            directory,
+        )
+        system = [sim, servo]
+        measured = {"servo": servo, "sim_arm": sim}
+    try:
+        time.sleep(4.0)  # start-up (URDF parse, discovery) is not what this measures
+        for p in system:
+            if p.poll() is not None:
+                raise nb.HarnessFailure(f"a node of phase {kind} exited at start-up")
+        recv_out, send_out = directory / f"{kind}-recv.json", directory / f"{kind}-send.json"
+        ready = Path(str(recv_out) + ".ready")
+        for path in (recv_out, send_out, ready):
+            path.unlink(missing_ok=True)
+        status = [] if kind == "echo" else ["--status"]
+        receiver = _child(["--role", "receiver", "--out", str(recv_out), *status], env)
+        deadline = time.monotonic() + 20.0
+        while not ready.exists():
+            if time.monotonic() > deadline or receiver.poll() is not None:
+                receiver.kill()
+                raise nb.HarnessFailure("the receiver did not match the node's publishers in 20 s")
+            time.sleep(0.05)
+        mode = "stream" if kind == "stream" else "trials"
+        sender = _child(
+            ["--role", "sender", "--mode", mode, "--seconds", str(seconds), "--out", str(send_out)],
+            env,
+        )
+        time.sleep(0.5)
+        cpu0 = {name: nb._cpu_seconds(p.pid) for name, p in measured.items()}
+        wall0 = time.monotonic()
+        sender.wait()
+        wall1 = time.monotonic()
+        cpu1 = {name: nb._cpu_seconds(p.pid) for name, p in measured.items()}
+        time.sleep(0.5)
+        receiver.send_signal(signal.SIGINT)
+        receiver.wait(30)
+        for role, process, out in (("sender", sender, send_out), ("receiver", receiver, recv_out)):
+            if process.returncode != 0 or not out.exists():
+                raise nb.HarnessFailure(f"the {role} failed (exit code {process.returncode})")
+    finally:
+        _stop(system)
+    sends = json.loads(send_out.read_text())["stamps"]
+    got = json.loads(recv_out.read_text())
+    outputs = [(data, source, arrival) for data, source, arrival in got["outputs"]]
+    first = sends[0] + int(WARM_UP_S * 1e9) if sends else 0
+    counted = [s for s in sends if s >= first]
+    result: dict[str, Any] = {
+        "twists_sent": len(counted),
+        "cpu_percent": {
+            name: 100.0 * (cpu1[name] - cpu0[name]) / (wall1 - wall0) for name in measured
+        },
+        "receiver_worst_stall_ms": float(got.get("worst_stall", math.nan)) * 1e3,
+        "node_status": got.get("status", {}),
+    }
+    if kind == "echo":
+        found, unanswered = echo_latencies(counted, outputs)
+        result["latency"] = summarize_latency(found)
+        result["unanswered"] = unanswered
+    elif kind == "trials":
+        found, counts = response_latencies(counted, outputs, int(PERIOD_S * 1e9))
+        result["latency"] = summarize_latency(found)
+        result.update(counts)
+    else:
+        window = [src for _, src, _ in outputs if first <= src <= counted[-1]]
+        result["on_time"] = on_time(window, int(PERIOD_S * 1e9))
+        result["joint_commands"] = len(window)
+    return result
+
+
+PHASES = (
+    ("echo", "echo"),
+    ("servo, command to joint command", "trials"),
+    ("servo, 1 kHz streaming", "stream"),
+)
+
+
+def report(results: dict[str, dict[str, Any]]) -> None:
+    print(
+        "| phase | twists | latency median / p99 / max [ms] | to publish median / p99 [ms] | CPU [% core] |"
+    )
+    print("|---|---|---|---|---|")
+    for label, r in results.items():
+        lat = r.get("latency")
+        cpu = ", ".join(f"{k} {v:.0f}" for k, v in r["cpu_percent"].items())
+        if lat is None:
+            cells = "—", "—"
+        else:
+            cells = (
+                f"{lat['median_ms']:.2f} / {lat['p99_ms']:.2f} / {lat['max_ms']:.2f} "
+                f"({lat['count']} answered)",
+                f"{lat['to_publish_median_ms']:.2f} / {lat['to_publish_p99_ms']:.2f}",
+            )
+        print(f"| {label} | {r['twists_sent']} | {cells[0]} | {cells[1]} | {cpu} |")
+    print()
+    for label, r in results.items():
+        if "moving" in r:
+            print(
+                f"{label}: {r['unanswered']} twists unanswered, {r['moving']} sent while the arm "
+                "still moved (not counted)"
+            )
+        if "on_time" in r:
+            o = r["on_time"]
+            print(
+                f"{label}: {r['joint_commands']} joint commands; {o['on_time']} of {o['slots']} "
+                f"1 ms cycles on time ({100 * o['fraction']:.2f} %; the emptiest phase bin holds "
+                f"{100 * o['phase_bin_share']:.3f} % of the commands)"
+            )
+        status = r.get("node_status") or {}
+        if "cycles" in status:
+            print(
+                f"{label}: the node's own count (~/status): {status['cycles']} cycles, "
+                f"{status.get('late_cycles', '?')} late (> 1.5 periods after the previous), "
+                f"slowest step since its last status {status.get('step_us_max', '?')} µs"
+            )
+        print(
+            f"{label}: the receiver's own process stalled up to {r['receiver_worst_stall_ms']:.0f} ms"
+        )
+    checks = target_checks(results)
+    if checks:
+        print()
+        print("| issue 23's target | measured | met |")
+        print("|---|---|---|")
+        for target, measured, met in checks:
+            print(f"| {target} | {measured} | {'yes' if met else '**no**'} |")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--role", default="main", help=argparse.SUPPRESS)
+    parser.add_argument("--mode", default="trials", help=argparse.SUPPRESS)
+    parser.add_argument("--out", help=argparse.SUPPRESS)
+    parser.add_argument("--status", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--seconds", type=float, default=30.0, help="length of each phase [s]")
+    parser.add_argument("--only", default="", help="run only the phases whose label contains this")
+    parser.add_argument("--json", help="write every figure to this file")
+    args = parser.parse_args()
+    if args.role == "echo":
+        return role_echo()
+    if args.role == "sender":
+        return role_sender(args.mode, args.seconds, args.out)
+    if args.role == "receiver":
+        return role_receiver(args.out, args.status)
+
+    reason = unavailable_reason() or next(
+        (f"the {n} executable is not built" for n in ("sim_arm", "servo") if not executable(n)),
+        None,
+    )
+    if reason:
+        sys.exit(f"servo_node_benchmark: cannot run the nodes here: {reason}")
+    env = local_ros_env()
+    env["PYTHONWARNINGS"] = "ignore"
+    print(clean_dead_shared_memory(), file=sys.stderr)
+    results: dict[str, dict[str, Any]] = {}
+    with tempfile.TemporaryDirectory(prefix="servo_node_bench_") as tmp:
+        directory = Path(tmp)
+        for label, kind in PHASES:
+            if args.only not in label:
+                continue
+            for attempt in (1, 2):  # a harness process that crashes gets one more chance
+                try:
+                    results[label] = run_phase(kind, args.seconds, env, directory)
+                    break
+                except nb.HarnessFailure as exc:
+                    if attempt == 2:
+                        raise
+                    print(f"  {label}: {exc}; measuring the phase again", file=sys.stderr)
+            print(f"  measured: {label}", file=sys.stderr)
+    report(results)
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,266 @@
+"""`kinematics servo-demo` with ROS 2: the simulated arm, the kinematics node and the servo node as
+real processes, the square and the spin sent as TwistStamped over DDS.
+
+Starts the package's `sim_arm` (UR5e, taking position commands as ros2_control's
+forward_position_controller does, starting at the square's first corner), `kinematics_node`
+(publishing ee_pose) and `servo` (period 1/rate), with DDS discovery kept on loopback in a domain
+of the demo's own. This process sends the script's twists (`servo_demo.SquarePlan`) on
+/servo/delta_twist_cmds, as a joystick would, and records joint_states, ee_pose, the servo's joint
+commands and its ~/status; the figures and the picture come from what arrived
+(`servo_demo.figures`, `servo_demo.plot`). `kinematics_node.sim.servo_demo` is the in-process
+version where ROS 2 is not available.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from ..core.servo import ServoConfig, ServoLimits
+from ..sim import servo_demo
+from ..sim.robots import default_chain_links, load_robot, robot_path
+from .env import executable, keep_discovery_local, local_ros_env
+from .env import unavailable_reason as node_unavailable_reason
+
+PROCESSES = ("sim_arm", "kinematics_node", "servo")
+COMMAND_TOPIC = "/forward_position_controller/commands"  # the servo's and the arm's default
+TWIST_TOPIC = "/servo/delta_twist_cmds"
+STATUS_TOPIC = "/servo/status"
+MAX_TWIST_RATE = 100.0  # [Hz] the twists are sent at the servo's rate, at most this (a joystick's)
+READY_TIMEOUT_S = 60.0
+
+
+def unavailable_reason() -> str | None:
+    """Why the demo cannot run on the real nodes from this process (None when it can)."""
+    reason = node_unavailable_reason()
+    if reason is not None:
+        return reason
+    for name in PROCESSES:
+        if executable(name) is None:
+            return f"the {name} executable is not found: run `make ros`, then . build/ros/env.sh"
+    return None
+
+
+def _start(name: str, params: dict[str, Any], directory: Path, env: dict[str, str]) -> Any:
+    """Start the package's executable `name` with `params`; its output goes to <name>.log."""
+    argv = executable(name)
+    assert argv is not None  # the caller checked `unavailable_reason()`
+    path = directory / f"{name}.yaml"
+    path.write_text(json.dumps({name: {"ros__parameters": params}}))  # (JSON is YAML too)
+    with (directory / f"{name}.log").open("wb") as log:  # (the child keeps its own descriptor)
+        return subprocess.Popen(
+            [*argv, "--ros-args", "--params-file", str(path)], env=env, stdout=log, stderr=log
+        )
+
+
+def run_live(rate: float, stream: TextIO) -> servo_demo.ServoDemoRun:
+    """Run the processes and the script with the servo at `rate` [Hz]; returns what arrived."""
+    domain = keep_discovery_local()
+    env = local_ros_env(domain)
+    chain = load_robot(servo_demo.ROBOT)
+    base, tip = default_chain_links(servo_demo.ROBOT)
+    plan = servo_demo.plan_square(chain)
+    config = servo_demo.servo_config(rate)
+    description = robot_path(servo_demo.ROBOT).read_text(encoding="utf-8")
+    robot = {"robot_description": description, "base_link": base, "tip_link": tip}
+    with tempfile.TemporaryDirectory(prefix="kinematics_servo_demo_") as tmp:
+        directory = Path(tmp)
+        print(
+            f"starting sim_arm ({servo_demo.ROBOT}, {rate:g} Hz, position commands), "
+            f"kinematics_node and servo (every {1e3 / rate:g} ms) in ROS domain {domain} "
+            "(discovery on loopback)",
+            file=stream,
+        )
+        params: dict[str, dict[str, Any]] = {
+            "sim_arm": {
+                "robot": servo_demo.ROBOT,
+                "tip_link": tip,
+                "rate": float(rate),
+                "command_mode": "position",
+                "initial_positions": [float(v) for v in plan.q_start],
+            },
+            "kinematics_node": robot,
+            "servo": {**robot, "period_s": config.period_s},
+        }
+        processes = [_start(name, params[name], directory, env) for name in PROCESSES]
+        try:
+            run = _drive_and_record(chain, plan, config, stream)
+        finally:
+            for p in processes:
+                p.send_signal(signal.SIGINT)
+            for p in processes:
+                try:
+                    p.wait(10)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+        codes = [p.returncode for p in processes]
+        notes = [f"the three processes stopped on SIGINT with exit codes {codes}"]
+        for name, code in zip(PROCESSES, codes, strict=True):
+            if code != 0:  # say why, before the log goes with the temporary directory
+                tail = (directory / f"{name}.log").read_text(errors="replace").splitlines()[-15:]
+                notes.extend([f"{name} exited with {code}; the end of its log:", *tail])
+    return dataclasses.replace(run, notes=run.notes + tuple(notes))
+
+
+def _stamp(msg: Any) -> float:
+    return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+
+def _drive_and_record(
+    chain: Any, plan: servo_demo.SquarePlan, config: ServoConfig, stream: TextIO
+) -> servo_demo.ServoDemoRun:
+    period_s = config.period_s
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticStatus
+    from geometry_msgs.msg import PoseStamped, TwistStamped
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.qos import QoSProfile
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+
+    from msg_adapters import matrix_from_pose
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node("kinematics_servo_demo", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    qos = QoSProfile(depth=1000)
+    lock = threading.Lock()
+    poses: list[tuple[float, Any]] = []
+    states: dict[float, list[float]] = {}
+    commands: list[tuple[float, list[float]]] = []  # (arrival [s, wall clock], positions)
+    statuses: list[tuple[float, dict[str, str]]] = []
+    node.create_subscription(PoseStamped, "ee_pose", lambda m: poses.append((_stamp(m), m)), qos)
+
+    def on_joint_state(m: Any) -> None:
+        by_name = dict(zip(m.name, m.position, strict=False))
+        if all(j in by_name for j in chain.joint_names):
+            states[_stamp(m)] = [by_name[j] for j in chain.joint_names]
+
+    def on_status(m: Any) -> None:
+        statuses.append((time.time(), {kv.key: kv.value for kv in m.values}))
+
+    def on_command(m: Any) -> None:
+        commands.append((time.time(), list(m.data)))
+
+    node.create_subscription(JointState, "joint_states", on_joint_state, qos)
+    node.create_subscription(Float64MultiArray, COMMAND_TOPIC, on_command, qos)
+    node.create_subscription(DiagnosticStatus, STATUS_TOPIC, on_status, qos)
+    twist_pub = node.create_publisher(TwistStamped, TWIST_TOPIC, 10)
+    sent: list[tuple[float, np.ndarray]] = []
+    start: list[float] = []  # wall time of the first twist [s]
+
+    def send() -> None:
+        if not start:
+            return
+        now_ns = time.time_ns()
+        t = now_ns * 1e-9 - start[0]
+        twist = plan.twist(t)
+        if twist is None:
+            return
+        msg = TwistStamped()
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now_ns, 1_000_000_000)
+        msg.header.frame_id = chain.base_link
+        msg.twist.angular.x, msg.twist.angular.y, msg.twist.angular.z = (
+            float(v) for v in twist[:3]
+        )
+        msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z = (float(v) for v in twist[3:])
+        twist_pub.publish(msg)
+        with lock:
+            sent.append((t, twist))
+
+    send_period = max(period_s, 1.0 / MAX_TWIST_RATE)
+    node.create_timer(send_period, send)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    try:
+        t0 = time.monotonic()
+        ready = False
+        while not ready:
+            if time.monotonic() - t0 > READY_TIMEOUT_S:
+                raise RuntimeError(
+                    f"the nodes were not ready within {READY_TIMEOUT_S:g} s (ee_pose: "
+                    f"{len(poses)} arrived, servo status: {statuses[-1][1] if statuses else 'none'})"
+                )
+            time.sleep(0.05)
+            codes = [s.get("code_name") for _, s in statuses]
+            ready = bool(poses) and any(c not in (None, "NOT_READY") for c in codes)
+        q_now = np.array(states[max(states)])
+        print(
+            f"nodes ready after {time.monotonic() - t0:.1f} s (the arm at the first corner to "
+            f"{np.abs(q_now - plan.q_start).max():.1e} rad); sending the script's twists on "
+            f"{TWIST_TOPIC} at {1.0 / send_period:g} Hz for {plan.commands_s:g} s",
+            file=stream,
+        )
+        start.append(time.time())
+        time.sleep(plan.duration_s + 0.2)
+    finally:
+        executor.shutdown(timeout_sec=2.0)
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+
+    t_start = start[0]
+    # from the last sample before the first twist (the arm at rest where the script starts)
+    matched = [(s, m) for s, m in poses if s >= t_start - 2 * period_s and s in states]
+    if len(matched) < 10:
+        raise RuntimeError(f"only {len(matched)} ee_pose with their joint_states arrived")
+    t_tool = np.array([s for s, _ in matched]) - t_start
+    q_tool = np.array([states[s] for s, _ in matched])
+    T_tool = np.array([matrix_from_pose(m.pose) for _, m in matched])
+    q_cmd = np.array([q for arrival, q in commands if arrival >= t_start])
+    if len(q_cmd) < 10:
+        raise RuntimeError(f"only {len(q_cmd)} joint commands from the servo arrived")
+    fk_gap = float(np.abs(T_tool[:, :3, 3] - chain.fk(q_tool)[:, :3, 3]).max())
+    seen = [s.get("code_name", "?") for arrival, s in statuses if arrival >= t_start]
+    sequence = [c for i, c in enumerate(seen) if i == 0 or c != seen[i - 1]]
+    last = statuses[-1][1] if statuses else {}
+    late = last.get("late_cycles", "?")
+    cycles = last.get("cycles", "?")
+    notes = (
+        f"received over DDS: {len(matched)} ee_pose (every one equals the core's FK of its "
+        f"joint_states to {fk_gap:.1e} m), {len(q_cmd)} joint commands from the servo",
+        f"servo status along the way: {' → '.join(sequence) or 'none received'}; its loop: "
+        f"{cycles} cycles, {late} late (> 1.5 periods after the previous)",
+    )
+    with lock:
+        t_twist = np.array([t for t, _ in sent])
+        twists = np.array([w for _, w in sent]).reshape(-1, 6)
+    return servo_demo.ServoDemoRun(
+        chain=chain,
+        limits=ServoLimits.from_chain(chain, config),
+        plan=plan,
+        period_s=period_s,
+        q_command=q_cmd,
+        t_tool=t_tool,
+        q_tool=q_tool,
+        p_tool=T_tool[:, :3, 3],
+        R_tool=T_tool[:, :3, :3],
+        t_twist=t_twist,
+        twist=twists,
+        status_counts={},
+        where=f"the servo node at {1.0 / period_s:g} Hz over DDS, the simulated arm and the "
+        "kinematics node as processes",
+        notes=notes,
+    )
+
+
+def main(out: Path, rate: float, stream: TextIO | None = None) -> int:
+    """The live demo: summary on `stream`, picture at `out` (already checked by the caller)."""
+    stream = sys.stdout if stream is None else stream
+    run = run_live(rate, stream)
+    fig = servo_demo.figures(run)
+    print(servo_demo.summary(run, fig), file=stream)
+    servo_demo.plot(run, fig, out)
+    print(f"picture (from the messages that arrived) written to {out.resolve()}", file=stream)
+    return 0

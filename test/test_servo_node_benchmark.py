@@ -1,0 +1,166 @@
+"""The servo node benchmark's measuring functions (`benchmarks/servo_node_benchmark.py`), on
+hand-built message records: which joint command answers which twist, which cycles are on time,
+and the verdict on issue 23's node targets."""
+
+from __future__ import annotations
+
+import copy
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+_PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "servo_node_benchmark.py"
+sys.path.insert(0, str(_PATH.parent))  # it imports node_benchmark beside it
+_spec = importlib.util.spec_from_file_location("servo_node_benchmark", _PATH)
+assert _spec is not None and _spec.loader is not None
+bench = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(bench)
+
+MS = 1_000_000  # ns
+PERIOD = 1 * MS
+
+
+def _servo_stream(start, cycles, moves_from, q0=(0.1, 0.2), delay=300_000, transport=200_000):
+    """A 1 kHz joint command stream: held at q0, moving from cycle `moves_from` on (None: never).
+    Records (data, source, arrival) [ns]; each published `delay` after its cycle's start."""
+    out = []
+    q = list(q0)
+    for k in range(cycles):
+        if moves_from is not None and k >= moves_from:
+            q = [q[0] + 1e-8 * (k - moves_from + 1), q[1]]
+        source = start + k * PERIOD + delay
+        out.append((list(q), source, source + transport))
+    return out
+
+
+def test_the_first_changed_command_answers_a_twist_at_rest():
+    t0 = 10_000 * MS
+    outputs = _servo_stream(t0, 40, moves_from=23)
+    send = t0 + 21 * PERIOD + 500_000  # received before cycle 22; taken at cycle 23 (say)
+    found, counts = bench.response_latencies([send], outputs, PERIOD)
+    assert counts == {"moving": 0, "unanswered": 0}
+    assert found == [(send, outputs[23][1], outputs[23][2])]
+
+
+def test_a_command_published_before_the_send_is_never_the_answer():
+    t0 = 10_000 * MS
+    outputs = _servo_stream(t0, 40, moves_from=23)
+    # it arrives after the send, but the node published it before: not an answer
+    send = outputs[23][1] + 1
+    found, counts = bench.response_latencies([send], outputs, PERIOD)
+    assert found == [] and counts["moving"] == 1  # the arm was already moving at the send
+
+
+def test_no_change_before_the_next_twist_is_unanswered():
+    t0 = 10_000 * MS
+    outputs = _servo_stream(t0, 100, moves_from=80)
+    sends = [t0 + 10 * PERIOD, t0 + 70 * PERIOD]
+    found, counts = bench.response_latencies(sends, outputs, PERIOD)
+    # the first twist got no changed command before the second was sent; the second's is cycle 80
+    assert counts["unanswered"] == 1 and len(found) == 1 and found[0][1] == outputs[80][1]
+
+
+def test_a_silent_node_at_rest_answers_with_its_first_moving_command():
+    """After its hold messages the node sends nothing; the first command after the twist moves."""
+    t0 = 10_000 * MS
+    held = _servo_stream(t0, 4, moves_from=None)
+    moving = _servo_stream(t0, 60, moves_from=50)[50:]
+    send = t0 + 48 * PERIOD
+    found, counts = bench.response_latencies([send], held + moving, PERIOD)
+    assert counts == {"moving": 0, "unanswered": 0} and found[0][1] == moving[0][1]
+
+
+def test_echo_answers_are_matched_by_the_stamp_they_carry():
+    sends = [5_000_000_123, 5_060_000_456, 5_120_000_789]
+    outputs = [
+        ([5.0, 123.0], 5_000_400_000, 5_000_600_000),
+        ([5.0, 120_000_789.0], 5_120_300_000, 5_120_500_000),
+        ([7.0, 0.0], 7_000_000_000, 7_000_000_100),  # answers nothing sent
+    ]
+    found, unanswered = bench.echo_latencies(sends, outputs)
+    assert unanswered == 1
+    assert found == [
+        (5_000_000_123, 5_000_400_000, 5_000_600_000),
+        (5_120_000_789, 5_120_300_000, 5_120_500_000),
+    ]
+
+
+@pytest.mark.parametrize("offset", [0.05, 0.5, 0.97])
+def test_a_steady_publisher_is_on_time_whatever_its_phase(offset):
+    rng = np.random.default_rng(23)
+    t0 = 1_700_000_000 * 10**9 + 12_345
+    jitter = rng.uniform(0.0, 0.4, 5000)  # up to 0.4 periods after the cycle's start
+    times = [t0 + int((k + offset + j) * PERIOD) for k, j in enumerate(jitter)]
+    result = bench.on_time(times, PERIOD)
+    assert result["slots"] == 5000 and result["on_time"] == 5000 and result["fraction"] == 1.0
+    assert result["phase_bin_share"] == 0.0
+
+
+def test_late_and_skipped_cycles_are_counted_late():
+    rng = np.random.default_rng(24)
+    offsets = list(rng.uniform(0.1, 0.3, 5000))
+    offsets[1000] = 1.6  # published in the next cycle's period: cycle 1000 was late
+    offsets[3000] = 1.05
+    times = [int((k + o) * PERIOD) for k, o in enumerate(offsets) if k != 4000]  # 4000 skipped
+    result = bench.on_time(times, PERIOD)
+    assert result["slots"] == 5000
+    assert result["on_time"] == 5000 - 3
+    assert result["fraction"] == pytest.approx(0.9994)
+
+
+def test_a_long_stall_leaves_every_cycle_it_covers_late():
+    times = [k * PERIOD + 200_000 for k in range(2000)]
+    # a 30 ms stall: cycles 500..529 are published together at its end, after cycle 530's start
+    times = [t if not 500 <= k < 530 else 530 * PERIOD + 250_000 + k for k, t in enumerate(times)]
+    result = bench.on_time(times, PERIOD)
+    assert result["slots"] == 2000 and result["on_time"] == 2000 - 30
+
+
+def test_latency_summary_splits_node_and_transport():
+    found = [(0, 400_000 + k, 600_000 + 2 * k) for k in range(101)]
+    s = bench.summarize_latency(found)
+    assert s["count"] == 101
+    assert s["median_ms"] == pytest.approx(0.6001)
+    assert s["to_publish_median_ms"] == pytest.approx(0.40005)
+    assert s["transport_median_ms"] == pytest.approx(0.20005)
+
+
+RESULTS = {
+    "echo": {"latency": {"median_ms": 0.5, "p99_ms": 1.5}},
+    "servo, command to joint command": {"latency": {"median_ms": 0.9, "p99_ms": 3.0}},
+    "servo, 1 kHz streaming": {"on_time": {"fraction": 0.9995, "slots": 20000, "on_time": 19990}},
+}
+
+
+def _verdicts(results):
+    return {target: met for target, _, met in bench.target_checks(results)}
+
+
+def test_every_node_target_is_judged_and_met_when_within():
+    verdicts = _verdicts(RESULTS)
+    assert len(verdicts) == 3 and all(verdicts.values()), verdicts
+
+
+@pytest.mark.parametrize(
+    ("phase", "path", "value", "target"),
+    [
+        ("servo, 1 kHz streaming", ("on_time", "fraction"), 0.9989, "99.9 %"),
+        ("servo, command to joint command", ("latency", "median_ms"), 1.01, "2× the bare echo"),
+        ("servo, command to joint command", ("latency", "p99_ms"), 5.01, "p99 ≤ 5 ms"),
+        ("echo", ("latency", "median_ms"), 0.44, "2× the bare echo"),
+    ],
+)
+def test_a_figure_past_its_target_fails_that_target_only(phase, path, value, target):
+    results = copy.deepcopy(RESULTS)
+    results[phase][path[0]][path[1]] = value
+    failed = [t for t, met in _verdicts(results).items() if not met]
+    assert len(failed) == 1 and target in failed[0], failed
+
+
+def test_without_the_echo_the_ratio_is_not_judged():
+    results = {k: v for k, v in RESULTS.items() if k != "echo"}
+    verdicts = _verdicts(results)
+    assert not any("echo" in t for t in verdicts) and len(verdicts) == 2
