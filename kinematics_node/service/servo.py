@@ -433,21 +433,18 @@ class ServoService:
         return None if T is None else T[:3, :3]
 
     def _fixed_pose(self, frame: str) -> FloatArray | None:
-        """T_base_frame of a link fixed to the base that is not a link of the chain; None for a
-        link of the chain, or a name the core should refuse (it lists the chain's links)."""
+        """T_base_frame of a link fixed to the base that is not a link of the chain (below the
+        base, or above it: a `world` link); None for a link of the chain, or a name the core
+        should refuse (it lists the chain's links)."""
         chain, model = self._chain, self._model
         if chain is None or model is None or frame in chain.link_names:
             return None
         cache = self._fixed_frames
         if frame not in cache:
-            try:
-                source = model.link_pose_source(frame)
-            except KinematicsError:
-                source = None
-            cache[frame] = source if isinstance(source, np.ndarray) else None
             if len(cache) > 64:  # names from a bad sender: do not grow without bound
                 cache.clear()
-        return cache.get(frame)
+            cache[frame] = _fixed_to_base(model, frame)
+        return cache[frame]
 
     # ------------------------------------------------------------------ pause
     def set_paused(self, paused: bool) -> str:
@@ -547,3 +544,27 @@ class ServoService:
         return diagnostic_status(
             self._types, LEVELS.get(code, 2), f"{self._node_name}: servo", message, robot, values
         )
+
+
+def _fixed_to_base(model: RobotModel, link: str) -> FloatArray | None:
+    """T_base_link (4×4) of a robot link joined to the base by fixed joints only, below or above
+    it; None when it moves with some joint, or is not a link of the robot."""
+    try:
+        source = model.link_pose_source(link)  # below the base
+    except KinematicsError:
+        source = None
+    if isinstance(source, np.ndarray):
+        return source
+    if link not in model.link_names:
+        return None
+    path = model.tree.path(link, model.base_link)  # the base below `link`: a `world` link
+    if not path or any(joint.kind != "fixed" for joint in path):
+        return None
+    T_link_base = np.eye(4)
+    for joint in path:
+        T_link_base = T_link_base @ joint.origin
+    R, p = T_link_base[:3, :3], T_link_base[:3, 3]
+    T = np.eye(4)
+    T[:3, :3] = R.T
+    T[:3, 3] = -R.T @ p
+    return T

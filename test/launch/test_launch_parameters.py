@@ -148,3 +148,57 @@ def test_sim_arm_launch_gives_the_node_the_bundled_file(monkeypatch, robot):
     (rsp_params,) = rsp.kwargs["parameters"]
     text = rsp_params["robot_description"].parts[0]  # robot_state_publisher takes the XML
     assert text == (ROOT / "config" / "robots" / f"{robot}.urdf").read_text(encoding="utf-8")
+
+
+def _node_parameters(nodes: list[_Action], executable: str) -> tuple[dict[str, Any], list[str]]:
+    """(the merged parameter dicts, the parameter files) of the one node running `executable`."""
+    (node,) = [n for n in nodes if n.kwargs.get("executable") == executable]
+    merged: dict[str, Any] = {}
+    files = []
+    for entry in node.kwargs["parameters"]:
+        if isinstance(entry, dict):
+            merged.update(entry)
+        else:
+            files.append(entry)
+    return merged, files
+
+
+@pytest.mark.parametrize("robot", ["ur5e", "panda", "iiwa14", "scara", "planar3r"])
+@pytest.mark.parametrize("out_type", ["position", "trajectory"])
+def test_servo_launch_drives_one_chain_with_sim_arm_kinematics_node_and_servo(
+    monkeypatch, robot, out_type
+):
+    """servo.launch.py: the sim arm takes what the servo sends (same form, same chain: a
+    Float64MultiArray fits), every parameter is declared and valid, and the arm starts
+    well-conditioned at its `READY` positions."""
+    import numpy as np
+
+    from kinematics_node.ros.executables import SIM_ARM_PARAMETERS
+    from kinematics_node.service.servo_parameters import SERVO_SPECS, validate_servo_parameters
+    from kinematics_node.sim.robots import load_robot
+
+    module = _load(monkeypatch, "servo.launch.py")
+    monkeypatch.setattr(module, "get_package_share_directory", lambda package: str(ROOT))
+    arguments = _arguments(module)
+    assert {"robot", "base_link", "tip_link", "command_out_type", "period", "rviz"} <= set(
+        arguments
+    )
+    nodes = module._nodes({**arguments, "robot": robot, "command_out_type": out_type})
+    kinematics = _kinematics_parameters(nodes)
+    _check_declared(kinematics)
+    servo, files = _node_parameters(nodes, "servo")
+    assert set(servo) <= set(SERVO_SPECS) and validate_servo_parameters(servo) is None
+    assert files == [os.path.join(str(ROOT), "config", "servo.yaml")] and os.path.isfile(files[0])
+    assert servo["period_s"] == float(arguments["period"]) <= 0.001  # 1 kHz by default
+    sim, _ = _node_parameters(nodes, "sim_arm")
+    assert set(sim) <= {spec.name for spec in SIM_ARM_PARAMETERS}
+    assert sim["command_mode"] == servo["command_out_type"] == out_type
+    for key in ("robot_description_file", "base_link", "tip_link"):
+        assert kinematics[key] == servo[key]
+    assert (sim["base_link"], sim["tip_link"]) == (servo["base_link"], servo["tip_link"])
+    chain = load_robot(robot)
+    q = np.array(sim["initial_positions"])
+    assert q.shape == (chain.dof,) and chain.within_limits(q, tolerance=-0.1)
+    if chain.dof >= 6:  # every direction can be jogged at once: no singular value near 0
+        sigma = np.linalg.svd(chain.jacobian(q, "world"), compute_uv=False)
+        assert sigma[-1] > 0.1

@@ -1,0 +1,367 @@
+"""ServoService (the servo node's logic) on a real UR5 description (example-robot-data) with real
+message classes (rosbags), no rclpy: commands in, joint commands and status out.
+
+Oracles: the chain's FK of the published joint positions (the tool must move as commanded), the
+URDF's own fixed transforms (frames fixed to the base), and the properties the issue asks for:
+bad input refused with a status, nothing non-finite published, a smooth stop on timeout."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from servo_testing import (
+    Q_UR5,
+    Loop,
+    all_finite,
+    joint_state,
+    make_service,
+    pose_msg,
+    twist_msg,
+    values,
+)
+
+from kinematics_node.core import SerialChain
+from kinematics_node.core.exceptions import InvalidInputError, KinematicsError
+from kinematics_node.core.servo import StatusCode
+from kinematics_node.core.so3 import quaternion_from_rows
+from kinematics_node.service.servo import NOT_READY, code_name
+
+pytest.importorskip("ruckig", reason="the servo's smoothing needs ruckig (extra 'servo')")
+
+UR5 = {"base_link": "base_link", "tip_link": "tool0"}
+
+
+@pytest.fixture
+def ur5_text(ur5_path) -> str:
+    return ur5_path.read_text(encoding="utf-8")
+
+
+@pytest.fixture
+def service(ros, ur5_text):
+    return make_service(ros, ur5_text, **UR5)
+
+
+@pytest.fixture
+def loop(ros, service):
+    return Loop(ros, service)
+
+
+def tool_positions(chain: SerialChain, qs: np.ndarray) -> np.ndarray:
+    return chain.fk(qs)[:, :3, 3]
+
+
+# ---------------------------------------------------------------------------- before it is ready
+def test_without_a_description_commands_are_refused_saying_what_is_missing(ros):
+    service = make_service(ros, "")  # the topic, which has sent nothing
+    answer = service.on_twist(twist_msg(ros, linear=(0.1, 0, 0)), 1.0)
+    assert values(answer)["code"] == str(NOT_READY) and answer.level == 1
+    assert "TwistCommand refused" in answer.message
+    assert "robot_description" in answer.message  # how to give one
+    cycle = service.step(1.0)
+    assert cycle.command is None and cycle.status.message.startswith("no robot description")
+
+
+def test_until_joint_states_name_every_joint_commands_are_refused_naming_the_missing(ros, service):
+    names = service.chain.joint_names
+    assert service.on_joint_state(joint_state(ros, names[:4], Q_UR5[:4])) is None
+    answer = service.on_twist(twist_msg(ros, linear=(0.1, 0, 0)), 1.0)
+    assert "wrist_2_joint" in answer.message and "wrist_3_joint" in answer.message
+    assert "shoulder_pan_joint" not in answer.message
+    assert service.step(1.0).command is None
+    # the rest arrives (with a joint of another chain): the servo starts where the arm is
+    service.on_joint_state(joint_state(ros, [*names[4:], "gripper"], [*Q_UR5[4:], 0.3]))
+    assert service.servo is not None
+    assert np.allclose(service.servo.positions, Q_UR5)
+
+
+def test_the_robot_description_topic_gives_the_robot(ros, ur5_text):
+    service = make_service(ros, "", **UR5)
+    assert service.chain is None and service.takes_description_topic
+    service.on_description_message(ur5_text)
+    assert service.chain is not None and service.chain.tip_link == "tool0"
+    assert any("loaded 'ur5'" in text for _, text in service.take_log())
+
+
+def test_bad_joint_states_are_reported_and_not_used(ros, service):
+    names = service.chain.joint_names
+    problem = service.on_joint_state(joint_state(ros, names, [0.1] * 5))
+    assert "6 names but 5 positions" in problem
+    q = Q_UR5.copy()
+    q[2] = math.nan
+    problem = service.on_joint_state(joint_state(ros, names, q))
+    assert "'elbow_joint'" in problem and "nan" in problem
+    assert service.servo is None  # nothing was taken
+
+
+# ---------------------------------------------------------------------------- following commands
+def test_a_twist_in_the_base_moves_the_tool_along_it_at_its_speed(ros, loop):
+    chain = loop.service.chain
+    v = np.array([0.03, -0.04, 0.02])  # 0.054 m/s
+    loop.run(1.5, lambda now: loop.service.on_twist(twist_msg(ros, linear=v), now))
+    p = tool_positions(chain, loop.positions())
+    period = loop.service.period_s
+    velocity = (p[-1] - p[-51]) / (50 * period)  # the last 0.5 s: the ramp is over
+    assert np.allclose(velocity, v, atol=1e-3), velocity
+    # the orientation was held (no rotation commanded)
+    R0, R1 = chain.fk(Q_UR5)[:3, :3], chain.fk(loop.positions()[-1])[:3, :3]
+    assert np.abs(R1 - R0).max() < 1e-3
+    assert all_finite(loop.commands())
+
+
+def test_empty_frame_id_is_the_base(ros, loop):
+    v = np.array([0.0, 0.0, 0.05])
+    loop.run(1.0, lambda now: loop.service.on_twist(twist_msg(ros, linear=v, frame=""), now))
+    p = tool_positions(loop.service.chain, loop.positions())
+    assert (p[-1] - p[0])[2] > 0.03 and np.abs((p[-1] - p[0])[:2]).max() < 1e-3
+
+
+def test_a_twist_in_the_tool_frame_moves_along_the_tools_axes(ros, loop):
+    chain = loop.service.chain
+    R_base_tool = chain.fk(Q_UR5)[:3, :3]
+    loop.run(
+        1.0, lambda now: loop.service.on_twist(twist_msg(ros, (0, 0, 0.04), frame="tool0"), now)
+    )
+    p = tool_positions(chain, loop.positions())
+    moved = p[-1] - p[0]
+    assert np.linalg.norm(moved) > 0.02
+    assert np.allclose(moved / np.linalg.norm(moved), R_base_tool[:, 2], atol=2e-3)
+
+
+@pytest.mark.parametrize(("frame", "rz"), [("base", math.pi), ("world", 0.0)])
+def test_a_link_fixed_to_the_base_outside_the_chain_is_a_frame_too(ros, loop, frame, rz):
+    """UR's `base` is base_link turned by π about z (below it, in the URDF); `world` is the root
+    above base_link (identity): both are fixed to the base, neither is in the chain."""
+    assert frame not in loop.service.chain.link_names
+    loop.run(1.0, lambda now: loop.service.on_twist(twist_msg(ros, (0.04, 0, 0), frame=frame), now))
+    moved = np.diff(tool_positions(loop.service.chain, loop.positions())[[0, -1]], axis=0)[0]
+    expected = np.array([math.cos(rz), math.sin(rz), 0.0])
+    assert np.allclose(moved / np.linalg.norm(moved), expected, atol=2e-3)
+
+
+def test_a_pose_target_is_reached(ros, loop):
+    chain = loop.service.chain
+    T0 = chain.fk(Q_UR5)
+    goal = T0[:3, 3] + np.array([0.05, 0.03, -0.04])
+    c, s = math.cos(0.3), math.sin(0.3)
+    R_goal = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]) @ T0[:3, :3]  # turned 0.3 rad about z
+    target = pose_msg(ros, goal, quaternion_from_rows(R_goal.ravel().tolist()))
+    loop.run(4.0, lambda now: loop.service.on_pose(target, now))
+    T = chain.fk(loop.positions()[-1])
+    assert np.linalg.norm(T[:3, 3] - goal) < 1e-4
+    angle = np.arccos(np.clip((np.trace(R_goal.T @ T[:3, :3]) - 1) / 2, -1, 1))
+    assert angle < 1e-3
+    status = loop.statuses()[-1]
+    assert values(status)["target_reached"] == "true", status.message
+
+
+def test_a_joint_state_jog_moves_only_the_named_joint(ros, loop):
+    jog = joint_state(ros, ["elbow_joint"], [], [0.3])
+    loop.run(1.0, lambda now: loop.service.on_joint_state_jog(jog, now))
+    moved = loop.positions()[-1] - Q_UR5
+    assert moved[2] > 0.1
+    assert np.abs(np.delete(moved, 2)).max() < 1e-9
+
+
+# ---------------------------------------------------------------------------- refusals
+@pytest.mark.parametrize(
+    ("make", "words"),
+    [
+        (lambda ros: twist_msg(ros, linear=(math.nan, 0, 0)), ["linear", "finite"]),
+        (lambda ros: twist_msg(ros, angular=(0, math.inf, 0)), ["angular", "finite"]),
+        (lambda ros: twist_msg(ros, linear=(50.0, 0, 0)), ["unit error"]),  # 50 m/s: mm/s?
+        (lambda ros: twist_msg(ros, (0.1, 0, 0), frame="camera"), ["'camera'", "'tool0'"]),
+        (lambda ros: twist_msg(ros, (0.1, 0, 0), t=50.0), ["older than", "timeout"]),
+    ],
+    ids=["nan", "inf", "huge", "unknown-frame", "stale"],
+)
+def test_a_bad_twist_is_refused_with_a_status_and_the_arm_stops(ros, loop, make, words):
+    service = loop.service
+    loop.run(0.5, lambda now: service.on_twist(twist_msg(ros, linear=(0.05, 0, 0)), now))
+    assert np.abs(service.servo.velocities).max() > 0.01  # moving
+    answer = service.on_twist(make(ros), loop.now)
+    assert answer is not None and answer.level == 1
+    assert values(answer)["code_name"] in ("COMMAND_REFUSED", "COMMAND_STALE")
+    for word in words:
+        assert word in answer.message, answer.message
+    loop.run(1.0)  # no more commands: it stops smoothly, and says why on the way
+    assert not service.servo.velocities.any()
+    assert all_finite(loop.commands())
+    assert any(word in s.message for s in loop.statuses() for word in words[:1])
+
+
+def test_wrong_joint_names_are_refused_naming_the_joint(ros, loop):
+    answer = loop.service.on_joint_state_jog(joint_state(ros, ["elbow"], [], [0.2]), loop.now)
+    assert "'elbow'" in answer.message and "'elbow_joint'" in answer.message
+    answer = loop.service.on_joint_state_jog(
+        joint_state(ros, ["elbow_joint", "wrist_1_joint"], [], [0.2]), loop.now
+    )
+    assert "velocities must be 2 finite numbers" in answer.message
+
+
+@pytest.mark.parametrize(
+    ("quaternion", "position"),
+    [
+        ((0, 0, 0, 0), (0.3, 0.1, 0.4)),
+        ((0, 0, 0, 1), (math.nan, 0.1, 0.4)),
+        ((0, 0, 0, 1), (3, 0, 0)),
+    ],
+    ids=["zero-quaternion", "nan-position", "out-of-reach"],
+)
+def test_a_bad_pose_target_is_refused(ros, loop, quaternion, position):
+    answer = loop.service.on_pose(pose_msg(ros, position, quaternion), loop.now)
+    assert answer is not None and values(answer)["code_name"] == "COMMAND_REFUSED"
+    assert "PoseCommand refused" in answer.message
+    loop.run(0.2)
+    assert all_finite(loop.commands())
+
+
+def test_while_paused_commands_are_refused_and_resume_accepts_them(ros, loop):
+    service = loop.service
+    loop.run(0.5, lambda now: service.on_twist(twist_msg(ros, linear=(0.05, 0, 0)), now))
+    assert "paused" in service.set_paused(True)
+    answers = loop.run(1.0, lambda now: service.on_twist(twist_msg(ros, linear=(0.05, 0, 0)), now))
+    assert answers and all("paused" in a.message for a in answers)
+    assert not service.servo.velocities.any()  # stopped
+    assert any(values(s)["code_name"] == "PAUSED" for s in loop.statuses())
+    assert service.set_paused(False).startswith("resumed")
+    q_paused = loop.positions()[-1]
+    loop.run(0.5, lambda now: service.on_twist(twist_msg(ros, linear=(0.05, 0, 0)), now))
+    assert np.abs(loop.positions()[-1] - q_paused).max() > 1e-3
+    assert service.set_paused(False) == "was not paused; nothing to resume"
+
+
+# ---------------------------------------------------------------------------- stopping and output
+def test_after_the_timeout_the_arm_stops_smoothly_and_then_stays_quiet(ros, ur5_text):
+    service = make_service(ros, ur5_text, **UR5, period_s=0.002, halt_messages=3)
+    loop = Loop(ros, service)
+    loop.run(0.6, lambda now: service.on_twist(twist_msg(ros, linear=(0.05, 0, 0)), now))
+    last = loop.now
+    speeds = []
+    for _ in range(400):  # 0.8 s without commands
+        loop.run(service.period_s)
+        speeds.append(np.abs(service.servo.velocities).max())
+    timeout = service.config.command_timeout_s
+    k = round(timeout / service.period_s)  # the first period past the timeout
+    assert speeds[k + 1] < speeds[k - 2]  # the stop has begun within one period after it
+    assert speeds[-1] == 0.0
+    stops = [values(s)["code_name"] for s in loop.statuses() if s.message]
+    assert "TIMEOUT_STOP" in stops
+    # at rest: the hold command is sent halt_messages times, then nothing
+    tail = loop.cycles[-100:]
+    assert all(c.command is None for c in tail)
+    first_idle = next(i for i, c in enumerate(loop.cycles) if c.command is None)
+    assert first_idle > round((last - 100.0) / service.period_s)
+    held = loop.cycles[first_idle - 3 : first_idle]
+    assert all(np.array_equal(c.command.data, held[0].command.data) for c in held)
+
+
+def test_halt_messages_zero_publishes_every_period(ros, ur5_text):
+    service = make_service(ros, ur5_text, **UR5, halt_messages=0)
+    loop = Loop(ros, service)
+    loop.run(0.5)
+    assert all(c.command is not None for c in loop.cycles)
+
+
+def test_velocity_output_is_the_servos_joint_velocities(ros, ur5_text):
+    service = make_service(ros, ur5_text, **UR5, command_out_type="velocity")
+    loop = Loop(ros, service)
+    assert service.command_out_topic == "/forward_velocity_controller/commands"
+    loop.run(0.5, lambda now: service.on_twist(twist_msg(ros, linear=(0.05, 0, 0)), now))
+    assert np.allclose(loop.commands()[-1].data, service.servo.velocities)
+
+
+def test_trajectory_output_is_one_point_one_period_ahead(ros, ur5_text):
+    service = make_service(ros, ur5_text, **UR5, command_out_type="trajectory", period_s=0.004)
+    loop = Loop(ros, service)
+    assert service.command_out_topic == "/joint_trajectory_controller/joint_trajectory"
+    loop.run(0.3, lambda now: service.on_twist(twist_msg(ros, linear=(0.05, 0, 0)), now))
+    msg = loop.commands()[-1]
+    assert list(msg.joint_names) == list(service.chain.joint_names)
+    (point,) = msg.points
+    assert (point.time_from_start.sec, point.time_from_start.nanosec) == (0, 4_000_000)
+    assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (0, 0)  # start at once
+    assert np.allclose(point.positions, service.servo.positions)
+    assert np.allclose(point.velocities, service.servo.velocities)
+    assert np.allclose(point.accelerations, service.servo.accelerations)
+    assert all_finite(loop.commands())
+
+
+def test_the_status_is_published_on_change_and_every_status_period(ros, ur5_text):
+    service = make_service(ros, ur5_text, **UR5, status_period=0.25)
+    loop = Loop(ros, service)
+    loop.run(1.0)  # idle: the heartbeat only
+    idle = [i for i, c in enumerate(loop.cycles) if c.status is not None]
+    assert len(idle) == 4 and all(b - a == 25 for a, b in zip(idle[:-1], idle[1:], strict=True))
+    assert values(loop.cycles[idle[0]].status)["code_name"] == "IDLE"
+    loop.run(0.1, lambda now: service.on_twist(twist_msg(ros, linear=(0.05, 0, 0)), now))
+    assert loop.cycles[100].status is not None  # the change, at once
+    assert values(loop.cycles[100].status)["code_name"] == "OK"
+    assert loop.cycles[100].status.level == 0
+
+
+def test_status_levels_and_names_cover_every_code():
+    for code in (*StatusCode, NOT_READY):
+        assert code_name(code)  # no KeyError
+    assert code_name(NOT_READY) == "NOT_READY"
+
+
+# ---------------------------------------------------------------------------- parameters
+def test_settings_change_only_at_rest(ros, ur5_text):
+    service = make_service(ros, ur5_text, **UR5)
+    loop = Loop(ros, service)
+    loop.run(0.3, lambda now: service.on_twist(twist_msg(ros, linear=(0.05, 0, 0)), now))
+    with pytest.raises(InvalidInputError, match="moving.*pause_servo"):
+        service.configure({"max_linear_speed_m_s": 0.2})
+    assert service.config.max_linear_speed_m_s == 0.5  # nothing changed
+    service.set_paused(True)
+    loop.run(0.5)
+    service.configure({"max_linear_speed_m_s": 0.02, "period_s": 0.005})
+    assert service.config.max_linear_speed_m_s == 0.02 and service.period_s == 0.005
+    assert service.servo.config.period_s == 0.005 and service.servo.paused
+    service.set_paused(False)
+    loop.run(1.0, lambda now: service.on_twist(twist_msg(ros, linear=(0.05, 0, 0)), now))
+    p = tool_positions(service.chain, loop.positions()[-21:])
+    speed = np.linalg.norm(p[-1] - p[0]) / (20 * 0.005)
+    assert speed == pytest.approx(0.02, rel=0.05)  # scaled down to the new maximum
+
+
+@pytest.mark.parametrize(
+    ("changes", "words"),
+    [
+        ({"command_out_type": "velocity"}, ["read at start-up"]),
+        ({"period_s": 0.0}, ["'period_s'", "0.0005"]),
+        ({"period_s": 1}, ["'period_s'"]),  # an int for a float: accepted, then out of range
+        ({"velocity_limits": "elbow_joint:=-1"}, ["'velocity_limits'", "elbow_joint:=-1"]),
+        ({"velocity_limits": "elbow:=1.0"}, ["'elbow'"]),  # not a joint of the chain
+        ({"task_axes": "wz vq"}, ["'task_axes'"]),
+        ({"task_axes_frame": "world"}, ["'task_axes_frame'", "base", "tip"]),
+        ({"status_period": -1.0}, ["'status_period'"]),
+        ({"no_such": 1}, ["unknown parameter 'no_such'"]),
+    ],
+)
+def test_bad_parameter_values_are_refused_saying_why(ros, service, changes, words):
+    service.on_joint_state(joint_state(ros, service.chain.joint_names, Q_UR5))
+    before = service.params
+    with pytest.raises(KinematicsError) as info:
+        service.configure(changes)
+    for word in words:
+        assert word in str(info.value), str(info.value)
+    assert service.params == before
+
+
+def test_an_invalid_start_up_parameter_raises(ros, ur5_text):
+    with pytest.raises(InvalidInputError, match="command_out_type"):
+        make_service(ros, ur5_text, command_out_type="effort")
+
+
+def test_a_new_tip_rebuilds_the_servo_from_the_next_joint_states(ros, service):
+    service.on_joint_state(joint_state(ros, service.chain.joint_names, Q_UR5))
+    assert service.servo is not None
+    service.configure({"tip_link": "wrist_3_link"})
+    assert service.chain.tip_link == "wrist_3_link" and service.servo is None
+    service.on_joint_state(joint_state(ros, service.chain.joint_names, Q_UR5))
+    assert service.servo is not None and service.servo.chain.tip_link == "wrist_3_link"
+    with pytest.raises(KinematicsError, match="'nowhere'"):
+        service.configure({"tip_link": "nowhere"})

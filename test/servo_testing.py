@@ -1,0 +1,137 @@
+"""Helpers of the servo node's tests: a `ServoService` on a real UR5 description with real message
+classes (rosbags), command messages, and an arm that follows what the service publishes."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from kinematics_node.service.servo import ServoCycle, ServoService
+from msg_adapters.servo_messages import ServoMessageTypes
+
+#: A well-conditioned UR5 configuration (σ_min of the world Jacobian ≈ 0.2).
+Q_UR5 = np.array([0.0, -1.57, 1.57, -1.57, -1.57, 0.0])
+
+
+def make_service(ros: Any, description: str, **params: Any) -> ServoService:
+    return ServoService(
+        ros.types,
+        ServoMessageTypes.from_typestore(ros.store),
+        {"robot_description": description, **params},
+    )
+
+
+def stamp(ros: Any, t: float) -> Any:
+    sec = math.floor(t)
+    return ros.new("builtin_interfaces/msg/Time", sec=sec, nanosec=round((t - sec) * 1e9))
+
+
+def header(ros: Any, t: float = 0.0, frame: str = "") -> Any:
+    return ros.new("std_msgs/msg/Header", stamp=stamp(ros, t), frame_id=frame)
+
+
+def vector3(ros: Any, xyz: Any) -> Any:
+    x, y, z = (float(v) for v in xyz)
+    return ros.new("geometry_msgs/msg/Vector3", x=x, y=y, z=z)
+
+
+def twist_msg(ros: Any, linear=(0, 0, 0), angular=(0, 0, 0), frame="", t=0.0) -> Any:
+    return ros.new(
+        "geometry_msgs/msg/TwistStamped",
+        header=header(ros, t, frame),
+        twist=ros.new(
+            "geometry_msgs/msg/Twist", linear=vector3(ros, linear), angular=vector3(ros, angular)
+        ),
+    )
+
+
+def pose_msg(ros: Any, position, quaternion_xyzw, frame="", t=0.0) -> Any:
+    x, y, z, w = (float(v) for v in quaternion_xyzw)
+    return ros.new(
+        "geometry_msgs/msg/PoseStamped",
+        header=header(ros, t, frame),
+        pose=ros.new(
+            "geometry_msgs/msg/Pose",
+            position=ros.new(
+                "geometry_msgs/msg/Point", **dict(zip("xyz", map(float, position), strict=True))
+            ),
+            orientation=ros.new("geometry_msgs/msg/Quaternion", x=x, y=y, z=z, w=w),
+        ),
+    )
+
+
+def joint_state(ros: Any, names, positions=(), velocities=(), t=0.0) -> Any:
+    return ros.new(
+        "sensor_msgs/msg/JointState",
+        header=header(ros, t),
+        name=list(names),
+        position=np.asarray(positions, dtype=float),
+        velocity=np.asarray(velocities, dtype=float),
+    )
+
+
+class Loop:
+    """Runs a service period by period with an arm that reaches every commanded position (the
+    published Float64MultiArray) before the next period, and records what was published."""
+
+    def __init__(self, ros: Any, service: ServoService, q0: Any = Q_UR5, now: float = 100.0):
+        self.ros = ros
+        self.service = service
+        self.now = now
+        assert service.chain is not None
+        self.names = service.chain.joint_names
+        self.q = np.array(q0, dtype=float)
+        self.cycles: list[ServoCycle] = []
+        self.times: list[float] = []
+        self.feed()
+
+    def feed(self) -> None:
+        assert self.service.on_joint_state(joint_state(self.ros, self.names, self.q)) is None
+
+    def run(self, seconds: float, command: Callable[[float], Any] | None = None) -> list[Any]:
+        """Step for `seconds`; `command(now)` (if given) is called before each step (it may
+        submit a command). Returns the statuses that `command` got back (refusals)."""
+        answers = []
+        period = self.service.period_s
+        for _ in range(round(seconds / period)):
+            if command is not None:
+                answer = command(self.now)
+                if answer is not None:
+                    answers.append(answer)
+            cycle = self.service.step(self.now)
+            self.cycles.append(cycle)
+            self.times.append(self.now)
+            if cycle.command is not None and self.service.command_out_type == "position":
+                self.q = np.array(cycle.command.data, dtype=float)
+                self.feed()
+            self.now += period
+        return answers
+
+    def commands(self) -> list[Any]:
+        return [c.command for c in self.cycles if c.command is not None]
+
+    def statuses(self) -> list[Any]:
+        return [c.status for c in self.cycles if c.status is not None]
+
+    def positions(self) -> np.ndarray:
+        """(K, n) the positions published so far (position output)."""
+        return np.array([list(m.data) for m in self.commands()])
+
+
+def values(status: Any) -> dict[str, str]:
+    return {kv.key: kv.value for kv in status.values}
+
+
+def all_finite(messages: list[Any]) -> bool:
+    """Every number of every joint command (Float64MultiArray or JointTrajectory) is finite."""
+    for m in messages:
+        if hasattr(m, "data"):
+            numbers = list(m.data)
+        else:
+            numbers = [x for p in m.points for x in (*p.positions, *p.velocities, *p.accelerations)]
+        if not all(math.isfinite(x) for x in numbers):
+            return False
+    return True
