@@ -93,7 +93,14 @@ def solve(J: FloatArray, x: FloatArray, threshold: float, max_damping: float) ->
     if s[-1] >= threshold:  # the common case: nothing to damp
         gains = 1.0 / s
         return DLSSolution(Vk.T.dot(ux * gains), np.zeros(J.shape[1]), Vk, s, U, gains)
-    lam2 = variable_damping(s, threshold, max_damping)
+    # `variable_damping` on floats (the same arithmetic, without the array calls)
+    lam_max2 = max_damping * max_damping
+    lam2 = np.array(
+        [
+            (1.0 - r * r) * lam_max2 if r < 1.0 else 0.0
+            for r in (sigma / threshold for sigma in s.tolist())
+        ]
+    )
     small = lam2 > 0.0
     gains = s / (s * s + lam2)  # σ > 0 where λ = 0, and λ > 0 where σ = 0
     coeff = ux * gains

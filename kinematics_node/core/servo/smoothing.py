@@ -150,32 +150,43 @@ class JerkLimitedIntegrator:
         * position: see the module docstring; a joint that would pass it brakes to a stop.
         """
         n = self._n
-        hij = self._half_inv_jerk
         v_high, v_low = self._v_high, self._v_low
-        target = [
-            lo if x < lo else hi if x > hi else x
-            for x, lo, hi in zip(target_velocity, v_low, v_high, strict=True)
-        ]
         if target_acceleration is None:
+            target = [
+                lo if x < lo else hi if x > hi else x
+                for x, lo, hi in zip(target_velocity, v_low, v_high, strict=True)
+            ]
             acc = self._zero_list
         else:
-            # Within the limit, and none where the velocity limit would be passed before the
-            # acceleration could return to zero (Ruckig could not reach such a target state).
-            acc = [
-                lo if x < lo else hi if x > hi else x
-                for x, lo, hi in zip(
-                    target_acceleration, self._acc_low, self._acc_high, strict=True
-                )
-            ]
-            acc = [
-                0.0 if abs(t + x * abs(x) * h) >= vm else x
-                for t, x, h, vm in zip(target, acc, hij, v_high, strict=True)
-            ]
+            # The acceleration within the limit, and none where the velocity limit would be
+            # passed before it could return to zero (Ruckig could not reach such a target state).
+            target, acc = [], []
+            for x, y, lo, hi, a_lo, a_hi, h in zip(
+                target_velocity,
+                target_acceleration,
+                v_low,
+                v_high,
+                self._acc_low,
+                self._acc_high,
+                self._half_inv_jerk,
+                strict=True,
+            ):
+                x = lo if x < lo else hi if x > hi else x
+                y = a_lo if y < a_lo else a_hi if y > a_hi else y
+                target.append(x)
+                acc.append(0.0 if abs(x + y * abs(y) * h) >= hi else y)
         braking: list[bool] | None = None
         alone: list[bool] | None = None
         q, v, a = self._advance(target, acc, alone)
         checked: tuple[list[float], list[float], list[bool] | None] | None = None
-        for _ in range(n + 1):
+        if all(
+            lo < x < hi for x, lo, hi in zip(q, self._near_low, self._near_high, strict=True)
+        ) and all(
+            abs(vk + ak * abs(ak) * h) <= tol
+            for vk, ak, h, tol in zip(v, a, self._half_inv_jerk, self._v_tolerated, strict=True)
+        ):
+            checked = (q, q, None)  # the common case: both guards pass (see `_check`)
+        for _ in range(0 if checked is not None else n + 1):
             checked, bad = self._check(q, v, a, alone, braking)
             if bad is None:
                 break
