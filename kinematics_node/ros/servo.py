@@ -17,7 +17,8 @@ moveit_servo's, so joystick and teleop configurations written for it carry over)
                                  trajectory_msgs/JointTrajectory, by `command_out_type`
   pub  ~/status                  diagnostic_msgs/DiagnosticStatus: level, message and the details
                                  (code, code_name, condition_number, joints_at_limit, ...; the
-                                 loop's own figures: cycles, late_cycles, step_us_max)
+                                 loop's own figures: cycles, late_cycles, lost_periods,
+                                 step_us_max)
 Services: ~/pause_servo (std_srvs/SetBool: true pauses, false resumes, as moveit_servo's since
 Iron), ~/unpause_servo (std_srvs/Trigger, as moveit_servo's on Humble).
 
@@ -94,8 +95,6 @@ NO_PUBLISHER_EVENTS = PublisherEventCallbacks(use_default_callbacks=False)
 NO_SUBSCRIPTION_EVENTS = SubscriptionEventCallbacks(use_default_callbacks=False)
 #: Seconds between two log lines about the same problem.
 WARN_PERIOD = 5.0
-#: A cycle whose timer callback starts more than this many periods after the previous one is late.
-LATE_FACTOR = 1.5
 
 
 class ServoNode(Node):
@@ -115,10 +114,7 @@ class ServoNode(Node):
         self._log_events()
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self._warned: dict[str, float] = {}
-        self._cycles = 0
-        self._late = 0
         self._step_max = 0.0  # [s], since the last status
-        self._last_cycle = -math.inf
 
         group = ReentrantCallbackGroup()
         out_type = (
@@ -181,10 +177,6 @@ class ServoNode(Node):
     # -------------------------------------------------------------- callbacks
     def _on_timer(self) -> None:
         start = time.perf_counter()
-        if start - self._last_cycle > LATE_FACTOR * self._logic.period_s:
-            self._late += self._cycles > 0
-        self._last_cycle = start
-        self._cycles += 1
         cycle = self._logic.step(self._now())
         if cycle.command is not None:
             self._command_pub.publish(cycle.command)
@@ -194,11 +186,8 @@ class ServoNode(Node):
         self._step_max = max(self._step_max, time.perf_counter() - start)
 
     def _publish_status(self, status: Any) -> None:
-        status.values += [
-            KeyValue(key="cycles", value=str(self._cycles)),
-            KeyValue(key="late_cycles", value=str(self._late)),
-            KeyValue(key="step_us_max", value=f"{self._step_max * 1e6:.0f}"),
-        ]
+        # the longest timer callback since the last status (step, messages, publishing) [µs]
+        status.values += [KeyValue(key="step_us_max", value=f"{self._step_max * 1e6:.0f}")]
         self._step_max = 0.0
         self._status_pub.publish(status)
 

@@ -93,6 +93,10 @@ LEVELS: dict[int, int] = {
     StatusCode.NOT_FOLLOWING: 2,
     StatusCode.STATE_REFUSED: 2,
 }
+#: Periods a late step makes up at most (`ServoService.step`): at 1 kHz, a delay of up to 5 ms
+#: costs no motion; a longer one (the machine stalled) is not made up beyond it, so the arm is
+#: not thrown forward after a stall, and the extra work does not feed an overload.
+MAX_CATCH_UP = 4
 #: Codes under which the servo follows a command (otherwise it has none, or stops).
 _FOLLOWING = frozenset({StatusCode.OK, StatusCode.NEAR_SINGULARITY, StatusCode.AT_JOINT_LIMIT})
 
@@ -157,6 +161,10 @@ class ServoService:
         self._paused = False
         self._last_code: int = StatusCode.IDLE  # of the last step
         self._idle_cycles = 0
+        self._last_step: float | None = None  # `now` of the last step
+        self._cycles = 0
+        self._late_cycles = 0
+        self._lost_periods = 0
         self._last_key: tuple[Any, ...] | None = None
         self._last_status_time = -math.inf
         self._sync_model()
@@ -466,11 +474,28 @@ class ServoService:
     # ------------------------------------------------------------------ the period
     def step(self, now: float) -> ServoCycle:
         """One period at time `now` [s]: the joint command to publish (None while there is no
-        servo, or at rest after `halt_messages` holding commands) and the status when due."""
+        servo, or at rest after `halt_messages` holding commands) and the status when due.
+
+        A call that comes late (1.5 periods or more after the previous one: the process was
+        held up, and the node's timer skips the ticks it missed) first makes up the periods
+        missed, up to `MAX_CATCH_UP` of them, so that the arm keeps to the commanded speed in
+        real time; the status counts such cycles (late_cycles) and the periods not made up
+        (lost_periods)."""
+        self._cycles += 1
         servo = self._servo
         if servo is None:
+            self._last_step = None
             reason = self._not_ready_reason()
             return ServoCycle(None, self._status_due(NOT_READY, reason, None, now))
+        period = self._config.period_s
+        last, self._last_step = self._last_step, now
+        if last is not None and now - last >= 1.5 * period:
+            self._late_cycles += 1
+            missed = round((now - last) / period) - 1
+            extra = min(missed, MAX_CATCH_UP) if self._idle_cycles == 0 else 0
+            self._lost_periods += missed - extra
+            for k in range(extra, 0, -1):
+                servo.step(now - k * period, self._measured)
         out = servo.step(now, self._measured)
         status = out.status
         code = int(status.code)
@@ -539,7 +564,12 @@ class ServoService:
                 ("target_reached", str(status.target_reached).lower()),
                 ("velocity_scaled", str(status.velocity_scaled).lower()),
             ]
-        values.append(("paused", str(self._paused).lower()))
+        values += [
+            ("paused", str(self._paused).lower()),
+            ("cycles", str(self._cycles)),
+            ("late_cycles", str(self._late_cycles)),
+            ("lost_periods", str(self._lost_periods)),
+        ]
         robot = self._model.robot_name if self._model is not None else ""
         return diagnostic_status(
             self._types, LEVELS.get(code, 2), f"{self._node_name}: servo", message, robot, values

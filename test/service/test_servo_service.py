@@ -26,7 +26,7 @@ from kinematics_node.core import SerialChain
 from kinematics_node.core.exceptions import InvalidInputError, KinematicsError
 from kinematics_node.core.servo import StatusCode
 from kinematics_node.core.so3 import quaternion_from_rows
-from kinematics_node.service.servo import NOT_READY, code_name
+from kinematics_node.service.servo import MAX_CATCH_UP, NOT_READY, code_name
 
 pytest.importorskip("ruckig", reason="the servo's smoothing needs ruckig (extra 'servo')")
 
@@ -365,3 +365,30 @@ def test_a_new_tip_rebuilds_the_servo_from_the_next_joint_states(ros, service):
     assert service.servo is not None and service.servo.chain.tip_link == "wrist_3_link"
     with pytest.raises(KinematicsError, match="'nowhere'"):
         service.configure({"tip_link": "nowhere"})
+
+
+def test_a_late_cycle_makes_up_the_periods_missed(ros, ur5_text):
+    """Stepped every third period (the node's timer skipped two ticks each time), the servo
+    ends where a punctual one does: the arm keeps to the commanded speed in real time."""
+    twist = twist_msg(ros, linear=(0.05, 0.0, 0.0))
+    punctual = make_service(ros, ur5_text, **UR5, halt_messages=0)
+    late = make_service(ros, ur5_text, **UR5, halt_messages=0)
+    for service in (punctual, late):
+        service.on_joint_state(joint_state(ros, service.chain.joint_names, Q_UR5))
+    period = punctual.period_s
+    for k in range(61):  # both end at k = 60
+        now = 100.0 + k * period
+        punctual.on_twist(twist, now)
+        punctual.step(now)
+        if k % 3 == 0:
+            late.on_twist(twist, now)
+            late.step(now)
+    assert np.abs(punctual.servo.velocities).max() > 0.01  # moving
+    assert np.allclose(late.servo.positions, punctual.servo.positions, atol=1e-12)
+    # a longer stall is made up for MAX_CATCH_UP periods only, and counted
+    before = late.servo.positions.copy()
+    cycle = late.step(100.0 + 70 * period)
+    v = values(late.status_message(0, "", None))
+    assert v["late_cycles"] == "21" and v["lost_periods"] == str(10 - 1 - MAX_CATCH_UP)
+    assert cycle.command is not None
+    assert np.abs(late.servo.positions - before).max() > 0

@@ -1,0 +1,242 @@
+"""The servo node live, over real DDS: the built `sim_arm` (position command mode), the kinematics
+node and the servo as processes of their own, as servo.launch.py starts them, driven from this
+process by TwistStamped commands, checked on the kinematics node's ee_pose.
+
+What it shows: ee_pose follows the commanded twist (direction and speed); the command timeout
+stops the arm; pause and resume work (services); a NaN command is refused with a status; and
+no joint command on the wire is ever non-finite. The servo runs at 1 kHz.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import signal
+import subprocess
+import tempfile
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import PoseStamped, TwistStamped
+from live_node import DOMAIN_ID, UR5E, Client, wait_until
+from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import SetBool, Trigger
+
+from kinematics_node.ros.env import executable, local_ros_env
+
+pytest.importorskip("ruckig", reason="the servo's smoothing needs ruckig (extra 'servo')")
+
+#: The UR5e's ready positions of launch/servo.launch.py (well-conditioned).
+READY = [0.0, -1.57, 1.57, -1.57, -1.57, 0.0]
+CHAIN = {"robot_description_file": str(UR5E), "base_link": "base_link", "tip_link": "tool0"}
+COMMANDS = "/forward_position_controller/commands"
+
+
+class Process:
+    """One of the package's executables in a process of its own, parameters from a file."""
+
+    def __init__(self, name: str, params: dict[str, Any], directory: Path) -> None:
+        argv = executable(name)
+        assert argv is not None, f"{name} is not built: make ros"
+        path = directory / f"{name}.yaml"
+        path.write_text(json.dumps({name: {"ros__parameters": params}}))  # JSON is YAML
+        self.log_path = directory / f"{name}.log"
+        self._log = self.log_path.open("wb")
+        self.name = name
+        self.process = subprocess.Popen(
+            [*argv, "--ros-args", "--params-file", str(path)],
+            env=local_ros_env(DOMAIN_ID),
+            stdout=self._log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
+
+    def log(self) -> str:
+        return self.log_path.read_text(errors="replace")
+
+    def stop(self) -> int | None:
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGINT)
+            try:
+                self.process.wait(10)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+        self._log.close()
+        return self.process.returncode
+
+
+class Rig:
+    """The three processes and what this process sees of them."""
+
+    def __init__(self, client: Client, directory: Path) -> None:
+        self.client = client
+        self.processes = [
+            Process(
+                "sim_arm",
+                {
+                    "robot": "ur5e",
+                    "tip_link": "tool0",
+                    "rate": 200.0,
+                    "command_mode": "position",
+                    "initial_positions": READY,
+                },
+                directory,
+            ),
+            Process("kinematics_node", dict(CHAIN), directory),
+            Process("servo", {**CHAIN, "period_s": 0.001, "status_period": 0.05}, directory),
+        ]
+        self.poses: list[Any] = client.collect(PoseStamped, "ee_pose")
+        self.statuses: list[Any] = client.collect(DiagnosticStatus, "/servo/status")
+        self.commands: list[Any] = client.collect(Float64MultiArray, COMMANDS, sensor=True)
+        self.twist_pub = client.publisher(TwistStamped, "/servo/delta_twist_cmds")
+
+    def logs(self) -> str:
+        return "\n".join(f"--- {p.name}\n{p.log()[-3000:]}" for p in self.processes)
+
+    def stop(self) -> list[int | None]:
+        return [p.stop() for p in self.processes]
+
+    # ------------------------------------------------------------------ commands
+    def twist(self, linear=(0.0, 0.0, 0.0), angular=(0.0, 0.0, 0.0), frame="base_link") -> Any:
+        msg = TwistStamped()
+        msg.header.stamp = self.client.node.get_clock().now().to_msg()
+        msg.header.frame_id = frame
+        msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z = map(float, linear)
+        msg.twist.angular.x, msg.twist.angular.y, msg.twist.angular.z = map(float, angular)
+        return msg
+
+    def stream(self, seconds: float, linear=(0.0, 0.0, 0.0), rate: float = 100.0) -> tuple:
+        """Publish a twist at `rate` for `seconds`, as a joystick does; (start, end) [s] on the
+        ROS clock (the stamps of ee_pose)."""
+        start = self.now()
+        while self.now() - start < seconds:
+            self.twist_pub.publish(self.twist(linear))
+            time.sleep(1.0 / rate)
+        return start, self.now()
+
+    def now(self) -> float:
+        return self.client.node.get_clock().now().nanoseconds * 1e-9
+
+    # ------------------------------------------------------------------ observations
+    def positions(self, start: float, end: float) -> tuple[np.ndarray, np.ndarray]:
+        """(times, (K, 3) tool positions) of the ee_pose messages stamped in [start, end]."""
+        rows = [
+            (stamp(m), m.pose.position.x, m.pose.position.y, m.pose.position.z)
+            for m in list(self.poses)
+        ]
+        picked = np.array([r for r in rows if start <= r[0] <= end])
+        assert len(picked) >= 3, f"no ee_pose in [{start:.3f}, {end:.3f}]\n{self.logs()}"
+        return picked[:, 0], picked[:, 1:]
+
+    def last_position(self) -> np.ndarray:
+        m = self.poses[-1]
+        return np.array([m.pose.position.x, m.pose.position.y, m.pose.position.z])
+
+    def status_since(self, count: int) -> list[Any]:
+        return list(self.statuses)[count:]
+
+
+def stamp(msg: Any) -> float:
+    return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+
+def code_name(status: Any) -> str:
+    return {kv.key: kv.value for kv in status.values}.get("code_name", "")
+
+
+@pytest.fixture(scope="module")
+def rig(client: Client) -> Iterator[Rig]:
+    with tempfile.TemporaryDirectory(prefix="kinematics_servo_live_") as tmp:
+        rig = Rig(client, Path(tmp))
+        try:
+            wait_until(
+                lambda: any(code_name(s) == "IDLE" for s in rig.statuses) and len(rig.poses) > 5,
+                30.0,
+                "the servo ready (status IDLE) and ee_pose flowing",
+            )
+        except AssertionError:
+            rig.stop()
+            raise AssertionError(f"the rig did not come up:\n{rig.logs()}") from None
+        yield rig
+        codes = rig.stop()
+        assert codes == [0, 0, 0], f"exit codes {codes}\n{rig.logs()}"
+        # nothing non-finite ever went out to the arm, whatever came in
+        assert rig.commands, "no joint command was seen"
+        bad = [m for m in rig.commands if not all(math.isfinite(x) for x in m.data)]
+        assert not bad, f"{len(bad)} non-finite joint commands"
+        assert all(len(m.data) == 6 for m in rig.commands)
+
+
+def test_ee_pose_follows_the_commanded_twist_and_the_timeout_stops_it(rig):
+    v = np.array([0.04, -0.03, 0.02])  # 0.054 m/s in base_link
+    start, end = rig.stream(1.6, linear=v)
+    time.sleep(0.8)  # the timeout (0.1 s) and the stop
+    # after the ramp (0.4 s) the tool moves at the commanded velocity
+    t, p = rig.positions(start + 0.7, end)
+    fit = np.polyfit(t - t[0], p, 1)[0]  # m/s, per axis
+    assert np.dot(fit, v) / (np.linalg.norm(fit) * np.linalg.norm(v)) > 0.99, fit
+    assert np.linalg.norm(fit) == pytest.approx(np.linalg.norm(v), rel=0.15), fit
+    # the timeout stops the arm: still from 0.5 s after the last command on
+    t_rest, p_rest = rig.positions(end + 0.5, end + 0.8)
+    assert np.abs(p_rest - p_rest[0]).max() < 5e-4, p_rest
+    names = [code_name(s) for s in rig.statuses]
+    assert "OK" in names and "TIMEOUT_STOP" in names
+
+
+def test_pause_and_resume(rig):
+    answer = rig.client.call(SetBool, "/servo/pause_servo", SetBool.Request(data=True))
+    assert answer.success and "paused" in answer.message
+    seen = len(rig.statuses)
+    before = rig.last_position()
+    rig.stream(0.5, linear=(0.0, 0.0, 0.05))
+    time.sleep(0.2)
+    assert np.linalg.norm(rig.last_position() - before) < 1e-4  # it did not move
+    refusals = [s.message for s in rig.status_since(seen)]
+    assert any("paused" in m for m in refusals), refusals
+    answer = rig.client.call(Trigger, "/servo/unpause_servo", Trigger.Request())
+    assert answer.success and answer.message.startswith("resumed")
+    rig.stream(0.8, linear=(0.0, 0.0, 0.05))
+    time.sleep(0.3)
+    assert rig.last_position()[2] - before[2] > 0.01
+
+
+def test_a_nan_command_is_refused_with_a_status_and_the_arm_stops(rig):
+    seen = len(rig.statuses)
+    stop = threading.Event()
+
+    def moving() -> None:
+        while not stop.is_set():
+            rig.twist_pub.publish(rig.twist((0.0, 0.04, 0.0)))
+            time.sleep(0.01)
+
+    thread = threading.Thread(target=moving)
+    thread.start()
+    time.sleep(0.6)
+    stop.set()
+    thread.join()
+    rig.twist_pub.publish(rig.twist((math.nan, 0.0, 0.0)))  # right after the last good one
+    wait_until(
+        lambda: any("finite" in s.message for s in rig.status_since(seen)),
+        5.0,
+        "a status refusing the NaN twist",
+    )
+    refusal = next(s for s in rig.status_since(seen) if "finite" in s.message)
+    assert code_name(refusal) == "COMMAND_REFUSED" and refusal.level == DiagnosticStatus.WARN
+    time.sleep(0.6)
+    t, p = rig.positions(rig.now() - 0.25, rig.now())
+    assert np.abs(p - p[-1]).max() < 5e-4  # stopped
+
+
+def test_a_bad_parameter_is_refused_at_run_time_saying_why(rig):
+    (result,) = rig.client.set_parameters("servo", period_s=5.0)
+    assert not result.successful
+    assert "'period_s'" in result.reason and "0.1" in result.reason
+    (result,) = rig.client.set_parameters("servo", command_out_type="velocity")
+    assert not result.successful and "start-up" in result.reason
