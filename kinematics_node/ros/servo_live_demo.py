@@ -136,10 +136,10 @@ def _drive_and_record(
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     qos = QoSProfile(depth=1000)
-    lock = threading.Lock()
     poses: list[tuple[float, Any]] = []
     states: dict[float, list[float]] = {}
-    commands: list[tuple[float, list[float]]] = []  # (arrival [s, wall clock], positions)
+    # (arrival [s], positions, publication sequence number, publication time [s])
+    commands: list[tuple[float, list[float], int, float]] = []
     statuses: list[tuple[float, dict[str, str]]] = []
     node.create_subscription(PoseStamped, "ee_pose", lambda m: poses.append((_stamp(m), m)), qos)
 
@@ -151,37 +151,34 @@ def _drive_and_record(
     def on_status(m: Any) -> None:
         statuses.append((time.time(), {kv.key: kv.value for kv in m.values}))
 
-    def on_command(m: Any) -> None:
-        commands.append((time.time(), list(m.data)))
+    def on_command(m: Any, info: Any) -> None:  # (two parameters: rclpy passes MessageInfo)
+        commands.append(
+            (
+                time.time(),
+                list(m.data),
+                info["publication_sequence_number"],
+                info["source_timestamp"] * 1e-9,
+            )
+        )
 
     node.create_subscription(JointState, "joint_states", on_joint_state, qos)
-    node.create_subscription(Float64MultiArray, COMMAND_TOPIC, on_command, qos)
+    # (rclpy passes MessageInfo to a callback of two parameters; its stubs know one)
+    node.create_subscription(Float64MultiArray, COMMAND_TOPIC, on_command, qos)  # type: ignore[arg-type]
     node.create_subscription(DiagnosticStatus, STATUS_TOPIC, on_status, qos)
     twist_pub = node.create_publisher(TwistStamped, TWIST_TOPIC, 10)
     sent: list[tuple[float, np.ndarray]] = []
-    start: list[float] = []  # wall time of the first twist [s]
+    msg = TwistStamped()
+    msg.header.frame_id = chain.base_link
 
-    def send() -> None:
-        if not start:
-            return
-        now_ns = time.time_ns()
-        t = now_ns * 1e-9 - start[0]
-        twist = plan.twist(t)
-        if twist is None:
-            return
-        msg = TwistStamped()
+    def send(now_ns: int, twist: np.ndarray) -> None:
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now_ns, 1_000_000_000)
-        msg.header.frame_id = chain.base_link
         msg.twist.angular.x, msg.twist.angular.y, msg.twist.angular.z = (
             float(v) for v in twist[:3]
         )
         msg.twist.linear.x, msg.twist.linear.y, msg.twist.linear.z = (float(v) for v in twist[3:])
         twist_pub.publish(msg)
-        with lock:
-            sent.append((t, twist))
 
     send_period = max(period_s, 1.0 / MAX_TWIST_RATE)
-    node.create_timer(send_period, send)
     spinner = threading.Thread(target=executor.spin, daemon=True)
     spinner.start()
     try:
@@ -203,14 +200,26 @@ def _drive_and_record(
             f"{TWIST_TOPIC} at {1.0 / send_period:g} Hz for {plan.commands_s:g} s",
             file=stream,
         )
-        start.append(time.time())
-        time.sleep(plan.duration_s + 0.2)
+        # sent from this thread on a schedule of its own (the executor's thread takes the
+        # messages), each twist the script's at its send time
+        start = time.time()
+        next_at = time.monotonic()
+        while True:
+            now_ns = time.time_ns()
+            twist = plan.twist(now_ns * 1e-9 - start)
+            if twist is None:
+                break
+            send(now_ns, twist)
+            sent.append((now_ns * 1e-9 - start, twist))
+            next_at = max(next_at + send_period, time.monotonic())
+            time.sleep(max(0.0, next_at - time.monotonic()))
+        time.sleep(plan.settle_s + 0.2)
     finally:
         executor.shutdown(timeout_sec=2.0)
         node.destroy_node()
         rclpy.try_shutdown(context=context)
 
-    t_start = start[0]
+    t_start = start
     # from the last sample before the first twist (the arm at rest where the script starts)
     matched = [(s, m) for s, m in poses if s >= t_start - 2 * period_s and s in states]
     if len(matched) < 10:
@@ -218,24 +227,28 @@ def _drive_and_record(
     t_tool = np.array([s for s, _ in matched]) - t_start
     q_tool = np.array([states[s] for s, _ in matched])
     T_tool = np.array([matrix_from_pose(m.pose) for _, m in matched])
-    q_cmd = np.array([q for arrival, q in commands if arrival >= t_start])
+    kept = [c for c in commands if c[0] >= t_start]
+    q_cmd = np.array([c[1] for c in kept])
+    sequence = np.array([c[2] for c in kept], dtype=np.int64)
+    published = np.array([c[3] for c in kept]) - t_start
+    lost = int((np.diff(sequence) - 1).clip(0).sum()) if len(sequence) else 0
     if len(q_cmd) < 10:
         raise RuntimeError(f"only {len(q_cmd)} joint commands from the servo arrived")
     fk_gap = float(np.abs(T_tool[:, :3, 3] - chain.fk(q_tool)[:, :3, 3]).max())
     seen = [s.get("code_name", "?") for arrival, s in statuses if arrival >= t_start]
-    sequence = [c for i, c in enumerate(seen) if i == 0 or c != seen[i - 1]]
+    codes_seen = [c for i, c in enumerate(seen) if i == 0 or c != seen[i - 1]]
     last = statuses[-1][1] if statuses else {}
     late = last.get("late_cycles", "?")
     cycles = last.get("cycles", "?")
     notes = (
         f"received over DDS: {len(matched)} ee_pose (every one equals the core's FK of its "
-        f"joint_states to {fk_gap:.1e} m), {len(q_cmd)} joint commands from the servo",
-        f"servo status along the way: {' → '.join(sequence) or 'none received'}; its loop: "
+        f"joint_states to {fk_gap:.1e} m), {len(q_cmd)} joint commands from the servo "
+        f"({lost} lost on the way, by their sequence numbers)",
+        f"servo status along the way: {' → '.join(codes_seen) or 'none received'}; its loop: "
         f"{cycles} cycles, {late} late (> 1.5 periods after the previous)",
     )
-    with lock:
-        t_twist = np.array([t for t, _ in sent])
-        twists = np.array([w for _, w in sent]).reshape(-1, 6)
+    t_twist = np.array([t for t, _ in sent])
+    twists = np.array([w for _, w in sent]).reshape(-1, 6)
     return servo_demo.ServoDemoRun(
         chain=chain,
         limits=ServoLimits.from_chain(chain, config),
@@ -252,6 +265,8 @@ def _drive_and_record(
         where=f"the servo node at {1.0 / period_s:g} Hz over DDS, the simulated arm and the "
         "kinematics node as processes",
         notes=notes,
+        command_sequence=sequence,
+        command_time=published,
     )
 
 

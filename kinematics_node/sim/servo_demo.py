@@ -45,9 +45,11 @@ SPIN_S = 1.5  # [s] each way
 SETTLE_S = 1.0  # [s] after the last command
 
 #: A command asks for motion when it asks at least this tool speed [m/s] or turn rate [rad/s];
-#: the tool is still when it moves slower than STILL_* (finite differences of its pose).
+#: the tool stops when it moves slower than STILL_* over STOP_WINDOW_S [s] or longer (a single
+#: step of the arm without a new joint command is not a stop: `ServoDemoFigures.held_steps`).
 MOVING_M_S, MOVING_RAD_S = 0.005, 0.05
 STILL_M_S, STILL_RAD_S = 0.001, 0.01
+STOP_WINDOW_S = 0.05
 #: moveit_servo's documented defaults: it slows from this condition number and halts at that one.
 MOVEIT_SLOWDOWN, MOVEIT_HALT = 17.0, 30.0
 
@@ -163,6 +165,11 @@ class ServoDemoRun:
         status_counts: {servo status code: cycles} (empty where the status was not received).
         where: how it ran, one phrase.
         notes: extra lines for the summary (live: transport figures, the processes' exit).
+        command_sequence, command_time: (K,) the joint commands' publication sequence numbers
+            and times [s] where known (live: DDS's); a command lost in transport, or one
+            published more than 1.5 periods after the one before (a late cycle), is a gap in
+            the stream, and the derivatives that would span it are left out
+            (`command_derivatives`).
     """
 
     chain: SerialChain
@@ -179,6 +186,8 @@ class ServoDemoRun:
     status_counts: Mapping[str, int]
     where: str
     notes: tuple[str, ...] = ()
+    command_sequence: NDArray[np.int64] | None = None
+    command_time: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -204,13 +213,18 @@ class ServoDemoFigures:
         end_error_mm, end_error_mrad: the tool after the run vs where the commands put it (the
             first corner, the square's orientation).
         time_asked_s: time the commands asked for motion (`MOVING_*`); time_stopped_s: of that,
-            the time the tool was still (`STILL_*`).
+            the time the tool stood still (`STILL_*`) for `STOP_WINDOW_S` or longer.
+        held_steps, held_s: measured intervals, and their time, in which the commands asked for
+            motion and the arm's joint positions did not change at all (its step found no new
+            joint command: over DDS the servo's and the arm's loops are not synchronised).
         condition_max: the largest condition number σ_max/σ_min of the Jacobian (tool origin,
             base axes) at the measured positions; time_beyond_halt_s: time it was ≥ 30, where
             moveit_servo's documented scheme halts; singular_crossings: how often the wrist_2
             joint changed sign (passed the singularity).
         velocity, acceleration, jerk: peaks of the servo's joint commands (finite differences
-            of its positions over its period; the servo starts at rest).
+            of its positions over its period; the servo starts at rest); command_gaps: how many
+            commands did not follow the one before by one period (`command_gaps`; the
+            derivatives across them are left out).
     """
 
     path_error_max_mm: float
@@ -221,6 +235,9 @@ class ServoDemoFigures:
     end_error_mrad: float
     time_asked_s: float
     time_stopped_s: float
+    held_steps: int
+    held_s: float
+    command_gaps: int
     condition_max: float
     time_beyond_halt_s: float
     singular_crossings: int
@@ -242,19 +259,66 @@ def distance_to_polyline(points: FloatArray, corners: FloatArray) -> FloatArray:
 
 def _peak(values: FloatArray, limit: FloatArray, names: tuple[str, ...]) -> Peak:
     ratio = np.abs(values) / limit
-    k, j = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    k, j = np.unravel_index(int(np.nanargmax(ratio)), ratio.shape)
     return Peak(float(ratio[k, j]), names[j], float(abs(values[k, j])), float(limit[j]))
 
 
-def command_derivatives(q: FloatArray, period_s: float) -> tuple[FloatArray, ...]:
+def command_gaps(
+    period_s: float, sequence: NDArray[np.int64] | None, times: FloatArray | None
+) -> NDArray[np.bool_] | None:
+    """(K,) True where a joint command does not follow the one before it by one period: a
+    missing publication `sequence` number, or a publication time more than 1.5 periods after
+    the previous (a late cycle: the node may have stepped the servo more than once before it
+    published). None when neither is known."""
+    gap = None
+    if sequence is not None:
+        gap = np.r_[False, np.diff(np.asarray(sequence)) != 1]
+    if times is not None:
+        late = np.r_[False, np.diff(np.asarray(times)) > 1.5 * period_s]
+        gap = late if gap is None else gap | late
+    return gap
+
+
+def command_derivatives(
+    q: FloatArray, period_s: float, gaps: NDArray[np.bool_] | None = None
+) -> tuple[FloatArray, ...]:
     """(velocity, acceleration, jerk), each (K, n), of the joint commands `q` (K, n), one per
-    period, by backward finite differences; before the first command the arm was at rest there."""
+    period, by backward finite differences; before the first command the arm was at rest there.
+    Rows whose differences would span a gap (`command_gaps`, (K,): True where a command does
+    not follow the one before by one period) are NaN: velocity the row of the gap,
+    acceleration two rows, jerk three."""
     padded = np.vstack((q[:1], q[:1], q[:1], q))
     v = np.diff(padded, axis=0) / period_s
     a = np.diff(v, axis=0) / period_s
     j = np.diff(a, axis=0) / period_s
     k = len(q)
-    return v[-k:], a[-k:], j[-k:]
+    v, a, j = v[-k:], a[-k:], j[-k:]
+    if gaps is not None and k > 1:
+        gap = np.asarray(gaps, dtype=bool)
+        for values, rows in ((v, 1), (a, 2), (j, 3)):
+            spans = gap.copy()
+            for shift in range(1, rows):
+                spans[shift:] |= gap[:-shift]
+            values[spans] = np.nan
+    return v, a, j
+
+
+def stopped_intervals(t: FloatArray, p: FloatArray, R: FloatArray) -> NDArray[np.bool_]:
+    """(M − 1,) which intervals [t_i, t_i+1] of the tool's samples lie in a stop: a window of at
+    least `STOP_WINDOW_S` over which the tool moved less than `STILL_M_S` × its length and turned
+    less than `STILL_RAD_S` × its length (every interval of every such window counts)."""
+    n = len(t)
+    end = np.minimum(np.searchsorted(t, t + STOP_WINDOW_S - 1e-9, side="left"), n - 1)
+    span = t[end] - t
+    moved = np.linalg.norm(p[end] - p, axis=1)
+    turned = np.linalg.norm(so3.log(np.swapaxes(R, -1, -2) @ R[end]), axis=-1)
+    still = (
+        (span >= STOP_WINDOW_S - 1e-9) & (moved < STILL_M_S * span) & (turned < STILL_RAD_S * span)
+    )
+    out = np.zeros(max(n - 1, 0), dtype=bool)
+    for i in np.flatnonzero(still):
+        out[i : end[i]] = True
+    return out
 
 
 def figures(run: ServoDemoRun) -> ServoDemoFigures:
@@ -274,14 +338,14 @@ def figures(run: ServoDemoRun) -> ServoDemoFigures:
         np.linalg.norm(sent[:, :3], axis=1) >= MOVING_RAD_S
     )
     dt = np.diff(t)
-    speed = np.linalg.norm(np.diff(p, axis=0), axis=1) / dt
-    turn = np.linalg.norm(so3.log(np.swapaxes(R[1:], -1, -2) @ R[:-1]), axis=-1) / dt
-    still = (speed < STILL_M_S) & (turn < STILL_RAD_S)
+    stopped = stopped_intervals(t, p, R) & asked
+    held = asked & np.all(run.q_tool[1:] == run.q_tool[:-1], axis=1)
     kappa = condition_number(run.chain.jacobian(run.q_tool), "full")
     beyond = kappa[:-1] >= MOVEIT_HALT
     wrist = run.q_tool[:, SINGULAR_JOINT]
     crossings = int(np.count_nonzero(np.diff(np.sign(wrist[wrist != 0.0]))))
-    v, a, j = command_derivatives(run.q_command, run.period_s)
+    gaps = command_gaps(run.period_s, run.command_sequence, run.command_time)
+    v, a, j = command_derivatives(run.q_command, run.period_s, gaps)
     names, lim = run.chain.joint_names, run.limits
     return ServoDemoFigures(
         path_error_max_mm=float(dist.max()) * 1e3,
@@ -291,7 +355,10 @@ def figures(run: ServoDemoRun) -> ServoDemoFigures:
         end_error_mm=float(np.linalg.norm(p[-1] - plan.corners[0])) * 1e3,
         end_error_mrad=end_angle * 1e3,
         time_asked_s=float(dt[asked].sum()),
-        time_stopped_s=float(dt[asked & still].sum()),
+        time_stopped_s=float(dt[stopped].sum()),
+        held_steps=int(held.sum()),
+        command_gaps=0 if gaps is None else int(gaps.sum()),
+        held_s=float(dt[held].sum()),
         condition_max=float(kappa.max()),
         time_beyond_halt_s=float(dt[beyond].sum()),
         singular_crossings=crossings,
@@ -343,8 +410,7 @@ def run_offline(rate: float = 100.0) -> ServoDemoRun:
         out = servo.step(now, sim.q)
         codes[out.status.code.name] += 1
         q_cmd[k] = out.positions
-        # a one-step trajectory: the arm is at the command at the end of its step
-        sim.command_trajectory([dt], [out.positions])
+        sim.command_position(out.positions)  # as the servo node drives it
         state = sim.step()
         t_tool.append(state.time)
         q_tool.append(state.q)
@@ -395,11 +461,19 @@ def summary(run: ServoDemoRun, fig: ServoDemoFigures) -> str:
         f"end: {fig.end_error_mm:.2f} mm and {fig.end_error_mrad:.2f} mrad from where the "
         "commands put the tool",
         f"time stopped while commanded to move: {fig.time_stopped_s:.2f} s of "
-        f"{fig.time_asked_s:.2f} s",
+        f"{fig.time_asked_s:.2f} s (a stop: the tool still for {1e3 * STOP_WINDOW_S:.0f} ms or "
+        f"more); the arm's step found no new joint command {fig.held_steps} times "
+        f"({1e3 * fig.held_s:.0f} ms in all)",
         _peak_line("velocity", fig.velocity, "rad/s"),
         _peak_line("acceleration", fig.acceleration, "rad/s²"),
         _peak_line("jerk", fig.jerk, "rad/s³"),
     ]
+    if fig.command_gaps:
+        lines.append(
+            f"  ({fig.command_gaps} of {len(run.q_command)} joint commands came more than one "
+            "period after the one before (lost, or a late cycle): the derivatives across them "
+            "are left out)"
+        )
     if run.status_counts:
         counts = ", ".join(
             f"{code} {n}" for code, n in sorted(run.status_counts.items(), key=lambda kv: -kv[1])
@@ -485,7 +559,8 @@ def plot(run: ServoDemoRun, fig_data: ServoDemoFigures, out: Path) -> None:
     ax.set_ylabel("[mm]")
     ax.set_title("tool from the commanded path (spin: from its corner)", fontsize=10)
 
-    v, a, j = command_derivatives(run.q_command, run.period_s)
+    gaps = command_gaps(run.period_s, run.command_sequence, run.command_time)
+    v, a, j = command_derivatives(run.q_command, run.period_s, gaps)
     t_cmd = (np.arange(len(v)) + 1) * run.period_s  # step k commands the time (k + 1) period
     lim = run.limits
     for ax, values, limit, what, peak in (

@@ -112,16 +112,30 @@ def test_joint_commands_stay_within_every_limit(run, fig):
     np.testing.assert_allclose(run.q_tool[1:], run.q_command, atol=1e-12)
 
 
-def test_a_stop_while_commanded_to_move_is_counted():
-    """The stop detector finds a stop planted in the run (so the 0 s above could be false)."""
-    r = servo_demo.run_offline(100.0)
+def _frozen(r, start_s, end_s):
+    """The run with the arm held where it was at `start_s` until `end_s`."""
     t = r.t_tool
-    frozen = (t > 3.0) & (t <= 3.5)  # side 2, moving at speed
+    frozen = (t > start_s) & (t <= end_s)
     q, p, R = r.q_tool.copy(), r.p_tool.copy(), r.R_tool.copy()
     k0 = int(np.argmax(frozen)) - 1
     q[frozen], p[frozen], R[frozen] = q[k0], p[k0], R[k0]
-    stopped = servo_demo.figures(dataclasses.replace(r, q_tool=q, p_tool=p, R_tool=R))
+    return dataclasses.replace(r, q_tool=q, p_tool=p, R_tool=R)
+
+
+def test_a_stop_while_commanded_to_move_is_counted(run):
+    """The stop detector finds a stop planted in the run (so the 0 s above could be false)."""
+    stopped = servo_demo.figures(_frozen(run, 3.0, 3.5))  # side 2, moving at speed
     assert stopped.time_stopped_s == pytest.approx(0.5, abs=0.02)
+    assert stopped.held_steps == 50
+
+
+def test_one_step_without_a_new_command_is_no_stop(run, fig):
+    """An arm step that found no new joint command (the loops are not synchronised over DDS) is
+    counted as such, not as a stop; the undisturbed run has none."""
+    assert fig.held_steps == 0 and fig.held_s == 0.0
+    held = servo_demo.figures(_frozen(run, 3.0, 3.02))
+    assert held.held_steps == 2 and held.held_s == pytest.approx(0.02)
+    assert held.time_stopped_s == 0.0
 
 
 def test_command_derivatives_of_a_cubic():
@@ -203,3 +217,31 @@ def test_other_rates_run_the_same_script():
     assert f.path_error_max_mm < 1.0 and f.time_stopped_s == 0.0
     assert max(f.velocity.fraction, f.acceleration.fraction, f.jerk.fraction) <= 1.0 + 1e-6
     assert "at 250 Hz" in servo_demo.summary(r, f)
+
+
+def test_derivatives_spanning_a_lost_command_are_left_out():
+    dt = 0.01
+    t = np.arange(1, 30)[:, None] * dt
+    q = np.hstack((t**3, t))
+    keep = np.r_[0:10, 11:29]  # the command of row 10 was lost
+    gaps = servo_demo.command_gaps(dt, keep.astype(np.int64), None)
+    v, a, j = servo_demo.command_derivatives(q[keep], dt, gaps)
+    # the row after the gap: no velocity; two rows: no acceleration; three: no jerk
+    assert np.isnan(v[10]).all() and not np.isnan(v[[9, 11]]).any()
+    assert np.isnan(a[10:12]).all() and not np.isnan(a[[9, 12]]).any()
+    assert np.isnan(j[10:13]).all() and not np.isnan(j[[9, 13]]).any()
+    np.testing.assert_allclose(j[13:, 0], 6.0, rtol=1e-6)
+    # without the sequence numbers the gap would be a jerk far beyond the true 6
+    _, _, j_blind = servo_demo.command_derivatives(q[keep], dt)
+    assert np.abs(j_blind[10:13, 1]).max() > 1e3
+
+
+def test_a_command_published_late_is_a_gap_too():
+    dt = 0.01
+    times = np.arange(10) * dt
+    times[6:] += 0.02  # command 6 came three periods after command 5
+    gaps = servo_demo.command_gaps(dt, np.arange(10), times)
+    assert gaps.tolist() == [i == 6 for i in range(10)]
+    assert servo_demo.command_gaps(dt, None, None) is None
+    gaps = servo_demo.command_gaps(dt, np.r_[0:3, 4:11], np.arange(10) * dt)
+    assert gaps.tolist() == [i == 3 for i in range(10)]
