@@ -958,9 +958,7 @@ class Servo:
             if any(over):
                 at_limit = np.array(over)
                 self._hold_ramp()
-                saturated = self._saturate(
-                    Jt, x, np.array(lo), np.array(hi), np.array(limited), sol
-                )
+                saturated = self._saturate(Jt, x, lo, hi, limited, sol)
                 if saturated is not None:
                     fixed, undamped, damped, rows, active = saturated
                     exact = False
@@ -1071,9 +1069,9 @@ class Servo:
         self,
         Jt: FloatArray,
         x: FloatArray,
-        lo: FloatArray,
-        hi: FloatArray,
-        limited: NDArray[np.bool_],
+        lo: list[float],
+        hi: list[float],
+        limited: list[bool],
         sol: dls.DLSSolution,
     ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_]] | None:
         """Hold the joints that would pass a position bound at that bound's speed and solve the
@@ -1086,21 +1084,31 @@ class Servo:
         cfg = self.config
         n = self._n
         m = Jt.shape[0]
-        active = np.ones(n, dtype=bool)
-        fixed = np.zeros(n)
+        active = [True] * n
+        fixed = [0.0] * n
         undamped, damped, rows = sol.undamped, sol.damped, sol.row_basis
         for _ in range(n):
-            qd = fixed + undamped + damped
-            bad = active & limited & ((qd > hi + 1e-12) | (qd < lo - 1e-12))
-            if not bad.any():
-                return fixed, undamped, damped, rows, active
-            fixed[bad] = np.minimum(np.maximum(qd[bad], lo[bad]), hi[bad])
-            active &= ~bad
-            if int(active.sum()) < m:
+            qd = [
+                f + u + d for f, u, d in zip(fixed, undamped.tolist(), damped.tolist(), strict=True)
+            ]
+            bad = [
+                a and b and (v > h + 1e-12 or v < lw - 1e-12)
+                for a, b, v, lw, h in zip(active, limited, qd, lo, hi, strict=True)
+            ]
+            if True not in bad:
+                return np.array(fixed), undamped, damped, rows, np.array(active)
+            for k, b in enumerate(bad):
+                if b:
+                    v = qd[k]
+                    fixed[k] = lo[k] if v < lo[k] else hi[k] if v > hi[k] else v
+                    active[k] = False
+            if sum(active) < m:
                 return None
+            kept = np.array(active)
+            held = ~kept
             part = dls.solve(
-                Jt[:, active],
-                x - Jt[:, ~active] @ fixed[~active],
+                Jt[:, kept],
+                x - Jt[:, held] @ np.array(fixed)[held],
                 cfg.singular_value_threshold,
                 cfg.max_damping,
             )
@@ -1108,7 +1116,7 @@ class Servo:
                 return None
             undamped = np.zeros(n)
             damped = np.zeros(n)
-            undamped[active] = part.undamped
+            undamped[kept] = part.undamped
             rows = part.row_basis
         return None
 

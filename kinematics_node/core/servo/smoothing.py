@@ -102,6 +102,21 @@ class JerkLimitedIntegrator:
         self._half_inv_jerk: list[float] = (0.5 / J).tolist()
         self._half_inv_acc: list[float] = (0.5 / A).tolist()
         self._half_acc_over_jerk: list[float] = (0.5 * A / J).tolist()
+        # per joint, for `_reach`: (near_low, near_high, 1/(2J), 1/(2A), A/(2J), J, lower, upper, A)
+        self._reach_constants = list(
+            zip(
+                self._near_low,
+                self._near_high,
+                self._half_inv_jerk,
+                self._half_inv_acc,
+                self._half_acc_over_jerk,
+                self._jerk,
+                self._lower,
+                self._upper,
+                self._acc,
+                strict=True,
+            )
+        )
         self._zeros = _frozen(np.zeros(n))
         self._zero_list = [0.0] * n
         self.reset(positions)
@@ -179,14 +194,7 @@ class JerkLimitedIntegrator:
         alone: list[bool] | None = None
         q, v, a = self._advance(target, acc, alone)
         checked: tuple[list[float], list[float], list[bool] | None] | None = None
-        if all(
-            lo < x < hi for x, lo, hi in zip(q, self._near_low, self._near_high, strict=True)
-        ) and all(
-            abs(vk + ak * abs(ak) * h) <= tol
-            for vk, ak, h, tol in zip(v, a, self._half_inv_jerk, self._v_tolerated, strict=True)
-        ):
-            checked = (q, q, None)  # the common case: both guards pass (see `_check`)
-        for _ in range(0 if checked is not None else n + 1):
+        for _ in range(n + 1):
             checked, bad = self._check(q, v, a, alone, braking)
             if bad is None:
                 break
@@ -227,6 +235,8 @@ class JerkLimitedIntegrator:
         if alone is not None:
             bad = [b and not s for b, s in zip(bad, alone, strict=True)]
         lo, hi = self._reach(q, v, a)
+        if lo is q and True not in bad:
+            return (q, q, braking), None  # the common case: both guards pass
         if lo is not q or hi is not q:
             lower, upper, r_lo, r_hi = self._lower, self._upper, self._reach_lo, self._reach_hi
             for k in range(self._n):
@@ -239,7 +249,7 @@ class JerkLimitedIntegrator:
                     braking = [False] * self._n if braking is None else list(braking)
                     braking[k] = True
                     bad[k] = True
-        return (lo, hi, braking), (bad if any(bad) else None)
+        return (lo, hi, braking), (bad if True in bad else None)
 
     def _advance(
         self, target: list[float], acc: list[float], alone: list[bool] | None
@@ -276,27 +286,21 @@ class JerkLimitedIntegrator:
         braking from rest acceleration, goes no further than s|a|/J + s²/(2A) + sA/(2J) with
         s = |v| + a²/(2J) (a feasible stop, so the time-optimal one stops sooner; the last two
         terms bound `braking_distance(s)` by the AM-GM inequality)."""
-        near_low, near_high = self._near_low, self._near_high
-        if all(a < x < b for x, a, b in zip(q, near_low, near_high, strict=True)):
-            return q, q  # the common case: no joint near a bound
         lo: list[float] | None = None
         hi = q
-        for k, qk in enumerate(q):
-            if near_low[k] < qk < near_high[k]:
-                continue
+        for k, (qk, c) in enumerate(zip(q, self._reach_constants, strict=True)):
+            if c[0] < qk < c[1]:
+                continue  # not near a bound
+            near_low, near_high, h_j, h_a, h_aj, J, lower, upper, A = c
             ak = a[k]
-            speed = abs(v[k]) + ak * ak * self._half_inv_jerk[k]
-            bound = speed * (
-                speed * self._half_inv_acc[k]
-                + self._half_acc_over_jerk[k]
-                + abs(ak) / self._jerk[k]
-            )
-            room = min(qk - self._lower[k], self._upper[k] - qk)
+            speed = abs(v[k]) + ak * ak * h_j
+            bound = speed * (speed * h_a + h_aj + abs(ak) / J)
+            room = min(qk - lower, upper - qk)
             if not room <= bound + 1e-9:
                 continue
             if lo is None:
                 lo, hi = list(q), list(q)
-            lo[k], hi[k] = braking_reach_one(qk, v[k], ak, self._acc[k], self._jerk[k])
+            lo[k], hi[k] = braking_reach_one(qk, v[k], ak, A, J)
         return (q, q) if lo is None else (lo, hi)
 
 
