@@ -1,6 +1,7 @@
 """The servo against moveit_servo's documented scheme, on the same scripted commands, in one run.
 
     python benchmarks/servo_benchmark.py [--arms ur5e,panda,iiwa14,scara] [--json out.json]
+                                         [--baseline REV] [--repeats 5]
 
 Scripts (issue 23, part 4), each on UR5e, Panda, iiwa14 and SCARA, the arm simulated as a perfect
 integrator of the commanded positions (period 10 ms):
@@ -32,24 +33,35 @@ Schemes:
   are reported against the same limits as ours (URDF velocity; acceleration = velocity / 0.25 s;
   jerk = acceleration / 0.1 s).
 
+* ours@REV (with --baseline REV): our servo as it was at git revision REV (its package read
+  from git into a temporary folder and imported beside the current one), for a before/after
+  comparison of the step cost in one process, under the same load; the same rows show whether
+  its behaviour differs (the largest difference of the commanded positions is printed too).
+
 Reported per script and scheme: time stopped [s] (a command asks for motion, the joints move
 slower than 1e-3 rad/s), path error [mm] (largest distance of the tool point from the path the
 commands describe), end error [mm] (tool point after the script vs where the commands put it:
 for pure_rotation this is the drift), peak joint velocity, acceleration and jerk as fractions of
 the limits (finite differences of the commanded positions), cycles with a limit violation, and
-the median cost of one step [µs] (the whole script's steps; the machine is shared, so also a
-best-of-5 median on a steady twist).
+the median cost of one step [µs] (the whole script's steps, a command's `submit` included).
+The machine may be shared, so the cost of one step is also measured on a steady twist (300
+steps from the arm's home, the median of the last 250), `--repeats` times per scheme, the
+schemes taking turns; reported: the smallest, the median and the largest of those medians.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import math
+import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
@@ -64,7 +76,8 @@ from kinematics_node.core.servo import (  # noqa: E402
 )
 
 DT = 0.01
-ROBOTS = Path(__file__).resolve().parents[1] / "config" / "robots"
+ROOT = Path(__file__).resolve().parents[1]
+ROBOTS = ROOT / "config" / "robots"
 LINKS = {  # the bundled robots' default chains (base link, tip link)
     "ur5e": ("base_link", "tool0"),
     "panda": ("panda_link0", "panda_hand_tcp"),
@@ -159,8 +172,17 @@ class MoveItServoScheme:
 
 
 class OurScheme:
-    def __init__(self, chain: SerialChain, q0: np.ndarray) -> None:
-        self.servo = Servo(chain, q0, ServoConfig(period_s=DT))
+    """Our servo with its defaults; `package`: the servo package to take it from (default: the
+    current one; see `load_baseline`)."""
+
+    def __init__(
+        self, chain: SerialChain, q0: np.ndarray, package: ModuleType | None = None
+    ) -> None:
+        self._twist_command = TwistCommand if package is None else package.TwistCommand
+        self._jog_command = JointJogCommand if package is None else package.JointJogCommand
+        servo_class = Servo if package is None else package.Servo
+        config = ServoConfig if package is None else package.ServoConfig
+        self.servo = servo_class(chain, q0, config(period_s=DT))
         self.chain = chain
         self.t = 100.0
 
@@ -169,13 +191,47 @@ class OurScheme:
         if command is not None:
             kind, value = command
             if kind == "jog":
-                self.servo.submit(JointJogCommand(self.chain.joint_names, value.tolist(), t), t)
+                self.servo.submit(self._jog_command(self.chain.joint_names, value.tolist(), t), t)
             else:
                 w, v = value[:3].tolist(), value[3:].tolist()
-                self.servo.submit(TwistCommand(w, v, self.chain.base_link, t), t)
+                self.servo.submit(self._twist_command(w, v, self.chain.base_link, t), t)
         out = self.servo.step(t, self.servo.positions)
         self.t += DT
         return out.positions
+
+
+def load_baseline(revision: str) -> ModuleType:
+    """The servo package (kinematics_node/core/servo) as of git `revision`, imported beside the
+    current one as `kinematics_node.core._servo_baseline` (its relative imports reach the
+    current core: fine for a revision whose servo uses the same core API).
+
+    Raises:
+        SystemExit: git does not know the revision, or it has no servo package.
+    """
+    folder = "kinematics_node/core/servo"
+
+    def git(*args: str) -> str:
+        done = subprocess.run(["git", "-C", str(ROOT), *args], capture_output=True, text=True)
+        if done.returncode != 0:
+            raise SystemExit(f"--baseline {revision}: git {' '.join(args)}: {done.stderr.strip()}")
+        return done.stdout
+
+    names = [n for n in git("ls-tree", "--name-only", f"{revision}:{folder}").split() if n]
+    if "__init__.py" not in names:
+        raise SystemExit(f"--baseline {revision}: no {folder}/__init__.py at that revision")
+    target = Path(tempfile.mkdtemp(prefix="servo_baseline_"))
+    for name in names:
+        if name.endswith(".py"):
+            (target / name).write_text(git("show", f"{revision}:{folder}/{name}"))
+    name = "kinematics_node.core._servo_baseline"
+    spec = importlib.util.spec_from_file_location(
+        name, target / "__init__.py", submodule_search_locations=[str(target)]
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
 
 
 # ---------------------------------------------------------------------- scripts
@@ -252,25 +308,27 @@ def scripts(chain: SerialChain, name: str, limits: ServoLimits) -> dict[str, tup
 
 # ---------------------------------------------------------------------- running and measuring
 def run(scheme, chain: SerialChain, q0: np.ndarray, cycles: int, script: Script):
-    qs, costs, commands = [q0.copy()], [], []
-    ideal_T = [chain.fk(q0)]
+    """The script's commands and the pose they command (integrated exactly), then the scheme's
+    steps on them: the scripts do not depend on the arm's state, so the timed loop does nothing
+    but step (work between the steps would evict the step's data from the caches, which
+    measured as a third more per step)."""
+    commands, ideal_T = [], [chain.fk(q0)]
     for k in range(cycles):
-        T = chain.fk(qs[-1])
         command = script(k, ideal_T[-1])
         commands.append(command)
-        t0 = time.perf_counter()
-        q = scheme.step(command)
-        costs.append(time.perf_counter() - t0)
-        qs.append(np.array(q, dtype=float))
-        # the commanded pose, integrated exactly from the commands (twists only)
         Ti = ideal_T[-1].copy()
         if command is not None and command[0] == "twist":
             w, v = command[1][:3], command[1][3:]
             Ti[:3, :3] = so3.exp(w * DT) @ Ti[:3, :3]
             Ti[:3, 3] += v * DT
         ideal_T.append(Ti)
-        del T
-    return np.array(qs), np.array(costs), commands, np.array(ideal_T)
+    qs, costs = [q0.copy()], []
+    for command in commands:
+        t0 = time.perf_counter()
+        q = scheme.step(command)
+        costs.append(time.perf_counter() - t0)
+        qs.append(np.array(q, dtype=float))  # a copy, in case a scheme reuses its array
+    return np.array(qs, dtype=float), np.array(costs), commands, np.array(ideal_T)
 
 
 def measure(
@@ -313,50 +371,68 @@ def measure(
     }
 
 
-def steady_step_cost(chain: SerialChain, name: str) -> dict[str, float]:
-    """Best-of-5 median cost [µs] of one step while streaming a constant twist."""
-    result = {}
-    for label in ("ours", "moveit_servo"):
-        medians = []
-        for _ in range(5):
-            if label == "ours":
-                scheme = OurScheme(chain, HOMES[name])
-            else:
-                scheme = MoveItServoScheme(
-                    chain, HOMES[name], ServoLimits.from_chain(chain, ServoConfig())
-                )
-            V = np.r_[0.0, 0.0, 0.2, 0.02, 0.0, 0.0]
+def steady_step_cost(
+    chain: SerialChain, name: str, schemes: dict[str, Callable], repeats: int
+) -> dict[str, dict[str, float]]:
+    """Cost of one step [µs] while streaming a constant twist from the arm's home: per scheme,
+    the smallest, median and largest of `repeats` medians (each over steps 50-299 of a fresh
+    run); the schemes take turns, so that they share the machine's load alike."""
+    V = np.r_[0.0, 0.0, 0.2, 0.02, 0.0, 0.0]
+    medians: dict[str, list[float]] = {label: [] for label in schemes}
+    for _ in range(repeats):
+        for label, make in schemes.items():
+            scheme = make(HOMES[name])
             costs = []
             for _ in range(300):
                 t0 = time.perf_counter()
                 scheme.step(("twist", V))
                 costs.append(time.perf_counter() - t0)
-            medians.append(float(np.median(costs[50:])))
-        result[label] = min(medians) * 1e6
-    return result
+            medians[label].append(float(np.median(costs[50:])) * 1e6)
+    return {
+        label: {"min": min(m), "median": float(np.median(m)), "max": max(m)}
+        for label, m in medians.items()
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--arms", default="ur5e,panda,iiwa14,scara")
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument(
+        "--baseline",
+        metavar="REV",
+        default=None,
+        help="also run our servo as of this git revision (e.g. HEAD~3), side by side",
+    )
+    parser.add_argument("--repeats", type=int, default=5, help="runs of the steady-twist cost")
     args = parser.parse_args(argv)
+    baseline = load_baseline(args.baseline) if args.baseline else None
     report: dict = {}
     for name in args.arms.split(","):
         chain = load_robot(name)
         limits = ServoLimits.from_chain(chain, ServoConfig())
-        report[name] = {"scripts": {}, "steady_step_us": steady_step_cost(chain, name)}
+        schemes: dict[str, Callable] = {"ours": lambda q0, c=chain: OurScheme(c, q0)}
+        if baseline is not None:
+            schemes[f"ours@{args.baseline}"] = lambda q0, c=chain: OurScheme(c, q0, baseline)
+        schemes["moveit_servo"] = lambda q0, c=chain, lim=limits: MoveItServoScheme(c, q0, lim)
+        report[name] = {
+            "scripts": {},
+            "steady_step_us": steady_step_cost(chain, name, schemes, args.repeats),
+        }
+        differences = []
         for script_name, (q0, cycles, script, line) in scripts(chain, name, limits).items():
-            rows = {}
-            for label in ("ours", "moveit_servo"):
-                scheme = (
-                    OurScheme(chain, q0)
-                    if label == "ours"
-                    else MoveItServoScheme(chain, q0, limits)
-                )
-                qs, costs, commands, ideal = run(scheme, chain, q0, cycles, script)
+            rows, positions = {}, {}
+            for label, make in schemes.items():
+                qs, costs, commands, ideal = run(make(q0), chain, q0, cycles, script)
                 rows[label] = measure(chain, limits, qs, costs, commands, ideal, script_name, line)
+                positions[label] = qs
+            if baseline is not None:
+                differences.append(
+                    float(np.abs(positions["ours"] - positions[f"ours@{args.baseline}"]).max())
+                )
             report[name]["scripts"][script_name] = rows
+        if differences:
+            report[name]["baseline_max_position_difference_rad"] = max(differences)
     _print(report)
     if args.json:
         args.json.write_text(json.dumps(report, indent=2))
@@ -391,10 +467,21 @@ def _print(report: dict) -> None:
                 cells = " ".join(f"{_fmt(m[k]):>9}" for k, _ in cols)
                 print(f"{name:7} {script_name:14} {label:13} {cells}")
         steady = data["steady_step_us"]
-        print(
-            f"{name:7} {'steady twist':14} {'step cost':13} ours {steady['ours']:.0f} µs, "
-            f"moveit_servo scheme {steady['moveit_servo']:.0f} µs (best-of-5 median)"
+        cells = ", ".join(
+            f"{label} {c['median']:.0f} µs ({c['min']:.0f}-{c['max']:.0f})"
+            for label, c in steady.items()
         )
+        print(
+            f"{name:7} {'steady twist':14} {'step cost':13} {cells} (median of the runs' medians)"
+        )
+        base = [label for label in steady if label.startswith("ours@")]
+        if base:
+            ratio = steady["ours"]["median"] / steady[base[0]]["median"]
+            diff = data.get("baseline_max_position_difference_rad", math.nan)
+            print(
+                f"{name:7} {'':14} {'':13} ours / {base[0]}: {ratio:.2f}; commanded positions "
+                f"differ by at most {diff:.3g} rad over the scripts"
+            )
         print()
 
 
