@@ -117,10 +117,6 @@ def _norm3(x: float, y: float, z: float) -> float:
     return math.sqrt(x * x + y * y + z * z)
 
 
-def _dot3(a: Sequence[float], b: Sequence[float]) -> float:
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
 def _rotation(t: Sequence[float]) -> FloatArray:
     """The (3, 3) rotation of a pose given as 12 floats (rotation row-major, then position)."""
     return np.array(((t[0], t[1], t[2]), (t[3], t[4], t[5]), (t[6], t[7], t[8])))
@@ -1033,11 +1029,17 @@ class Servo:
             )
             # the rotation's second difference: ½ vee(R R0ᵀ − R0 Rᵀ) = ½ (M₂₁ − M₁₂, M₀₂ − M₂₀,
             # M₁₀ − M₀₁), M = R R0ᵀ, Mᵢⱼ = (row i of R)·(row j of R0)
-            r0, r1, r2 = t[0:3], t[3:6], t[6:9]
-            s0, s1, s2 = t0[0:3], t0[3:6], t0[6:9]
-            w[0] += 0.5 * (_dot3(r2, s1) - _dot3(r1, s2))
-            w[1] += 0.5 * (_dot3(r0, s2) - _dot3(r2, s0))
-            w[2] += 0.5 * (_dot3(r1, s0) - _dot3(r0, s1))
+            a00, a01, a02, a10, a11, a12, a20, a21, a22 = t[:9]
+            b00, b01, b02, b10, b11, b12, b20, b21, b22 = t0[:9]
+            w[0] += 0.5 * (
+                (a20 * b10 + a21 * b11 + a22 * b12) - (a10 * b20 + a11 * b21 + a12 * b22)
+            )
+            w[1] += 0.5 * (
+                (a00 * b20 + a01 * b21 + a02 * b22) - (a20 * b00 + a21 * b01 + a22 * b02)
+            )
+            w[2] += 0.5 * (
+                (a10 * b00 + a11 * b01 + a12 * b02) - (a00 * b10 + a01 * b11 + a02 * b12)
+            )
             for i in range(3):
                 d[i] += t[9 + i] - p0[i]
         second = np.array(w + d)
