@@ -17,9 +17,10 @@ for the measured reason. Both layouts run here, alternately, under the same load
   as the kinematics node's own process runs it), which is what "inside the kinematics node"
   amounts to: one Python thread, one GIL, for the pose path, the IK requests and the servo.
 
-Reported per layout (the median over rounds): the servo's cycles on time (a cycle is late when
-its timer callback comes 1.5 periods or more after the previous one; from the servo's own
-status: cycles, late_cycles, lost_periods = periods not made up), its longest callback, and the
+Reported per layout (the median over rounds): the share of the 1 ms ticks served by a cycle on
+time (a cycle is late when its timer callback comes 1.5 periods or more after the previous one;
+from the servo's own status: cycles, late_cycles, lost_periods = periods not made up even by
+the catch-up steps of a late cycle), its longest callback, and the
 kinematics node's ee_pose: the share of joint_states answered and the latency (arrival − stamp)
 median and p99, as this process receives them. The machine is shared: run it on a quiet one.
 """
@@ -257,7 +258,8 @@ def run_layout(
     span = t1 - t0
     return {
         "cycles_per_s": cycles / span,
-        "on_time_pct": 100.0 * (1.0 - late / cycles) if cycles else 0.0,
+        # of the span's 1 ms ticks, those served by a cycle that came on time
+        "on_time_pct": 100.0 * (cycles - late) / (span / SERVO["period_s"]),
         "lost_periods": lost,
         "step_us_max": max(int(v.get("step_us_max", "0")) for _, v in statuses),
         "ee_pose_pct": 100.0 * len(poses) / (1000.0 * span),
