@@ -212,10 +212,11 @@ class JerkLimitedIntegrator:
         # Ruckig ends a stop within rounding of zero: call it zero, so that "at rest" is exact.
         if not any(target) and max(map(abs, v)) < 1e-12 and max(map(abs, a)) < 1e-9:
             v, a = self._zero_list, self._zero_list
-            self.v, self.a = self._zeros, self._zeros
+            self.q, self.v, self.a = _frozen(q), self._zeros, self._zeros
         else:
-            self.v, self.a = _frozen(v), _frozen(a)
-        self.q = _frozen(q)
+            # one read-only array, handed out in three slices (one allocation, not three)
+            state = _frozen(q + v + a)
+            self.q, self.v, self.a = state[:n], state[n : 2 * n], state[2 * n :]
         self.q_list, self.v_list, self.a_list = q, v, a
         self.at_rest = not (any(v) or any(a))
         return braking
