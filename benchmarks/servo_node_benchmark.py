@@ -13,13 +13,16 @@ Phases, one after the other:
   as the servo node (commands in best effort, depth 10; joint commands out reliable, depth 10);
 * servo, command to joint command: the `sim_arm` (UR5e, joint_states at 1 kHz, taking position
   commands as ros2_control's forward_position_controller) and the `servo` node (period 1 ms,
-  command timeout 10 ms), both as built by `make ros`; a sender process sends one small twist
+  command timeout `TRIAL_TIMEOUT_S`), both as built by `make ros`; a sender process sends one
+  small twist
   (1 mm/s, alternately ±x) every `TRIAL_SPACING_S`, each stamped with its send time; between two
   the command times out and the arm comes to rest (the servo's joint commands stop changing). The
   latency of a twist is the arrival of the first joint command that differs from the one held
   before it, minus the twist's send time (`response_latencies`); the echo gets the same twists
   (`echo_latencies`). Split into: until the node published it (DDS's source timestamp) and from
-  there to the receiver;
+  there to the receiver. A twist that gets no answer counts as slower than any (the servo
+  refuses a twist older than its timeout when it takes it: under load that is the slow tail);
+  one sent while the arm still moved is not counted (the harness's, not the node's);
 * servo, 1 kHz streaming: the same two nodes (command timeout 0.1 s, the default), a twist every
   10 ms (a joystick's rate) moving the tool back and forth at 5 cm/s: the servo publishes every
   period. A cycle is on time when its joint command is published (source timestamp) within the
@@ -69,7 +72,8 @@ TWIST_TOPIC = "/servo/delta_twist_cmds"
 COMMAND_TOPIC = "/forward_position_controller/commands"
 STATUS_TOPIC = "/servo/status"
 PERIOD_S = 0.001
-TRIAL_SPACING_S = 0.06  # the arm is at rest ~37 ms after a one-shot twist with a 10 ms timeout
+TRIAL_TIMEOUT_S = 0.02  # the servo's command timeout in the trials
+TRIAL_SPACING_S = 0.07  # the arm is at rest ~42 ms after a one-shot twist with a 20 ms timeout
 TRIAL_SPEED_M_S = 0.001
 STREAM_RATE_HZ = 100.0
 STREAM_SPEED_M_S = 0.05
@@ -163,14 +167,18 @@ def on_time(publish_ns: Sequence[int], period_ns: int, bins: int = 50) -> dict[s
     }
 
 
-def summarize_latency(found: Sequence[tuple[int, int, int]]) -> dict[str, float]:
-    """Median and p99 [ms] of send → arrival, with the part until the node published (send →
-    source timestamp) and after it (source → arrival), and the count."""
-    total = [(a - s) * 1e-6 for s, _, a in found]
+def summarize_latency(
+    found: Sequence[tuple[int, int, int]], unanswered: int = 0
+) -> dict[str, float]:
+    """Median, p99 and max [ms] of send → arrival, the `unanswered` counted as slower than any
+    (inf); the median and p99 of the part until the node published (send → source timestamp,
+    answered only) and of the rest (source → arrival); the counts."""
+    total = [(a - s) * 1e-6 for s, _, a in found] + [math.inf] * unanswered
     inside = [(o - s) * 1e-6 for s, o, _ in found]
     after = [(a - o) * 1e-6 for _, o, a in found]
     return {
         "count": len(found),
+        "unanswered": unanswered,
         "median_ms": statistics.median(total) if total else math.nan,
         "p99_ms": nb._percentile(total, 0.99),
         "max_ms": max(total, default=math.nan),
@@ -178,6 +186,21 @@ def summarize_latency(found: Sequence[tuple[int, int, int]]) -> dict[str, float]
         "to_publish_p99_ms": nb._percentile(inside, 0.99),
         "transport_median_ms": statistics.median(after) if after else math.nan,
     }
+
+
+def node_counts(
+    statuses: Sequence[tuple[int, dict[str, str]]], start_ns: int, end_ns: int
+) -> dict[str, int]:
+    """The node's own loop counters (~/status: cycles, late_cycles, lost_periods) over the window
+    [start, end] [ns]: the last status before it subtracted from the last one inside it ({} when
+    no status carried them in the window)."""
+    keys = ("cycles", "late_cycles", "lost_periods")
+    before = [v for t, v in statuses if t < start_ns and "cycles" in v]
+    inside = [v for t, v in statuses if start_ns <= t <= end_ns and "cycles" in v]
+    if not inside:
+        return {}
+    base = before[-1] if before else {k: "0" for k in keys}
+    return {k: int(inside[-1].get(k, 0)) - int(base.get(k, 0)) for k in keys if k in inside[-1]}
 
 
 def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bool]]:
@@ -293,13 +316,13 @@ def role_receiver(out: str, status: bool) -> None:
 
     node = rclpy.create_node("bench_command_receiver")
     got: list[tuple[list[float], int, int]] = []
-    last_status: dict[str, str] = {}
+    statuses: list[tuple[int, dict[str, str]]] = []
 
     def record(msg: Any, info: Any) -> None:
         got.append((list(msg.data), info["source_timestamp"], time.time_ns()))
 
     def on_status(msg: Any) -> None:
-        last_status.update({kv.key: kv.value for kv in msg.values})
+        statuses.append((time.time_ns(), {kv.key: kv.value for kv in msg.values}))
 
     subs = [
         node.create_subscription(Float64MultiArray, COMMAND_TOPIC, record, QoSProfile(depth=1000))
@@ -317,7 +340,7 @@ def role_receiver(out: str, status: bool) -> None:
             Path(out + ".ready").touch()
             ready = True
     Path(out).write_text(
-        json.dumps({"outputs": got, "status": last_status, "worst_stall": stalls.worst})
+        json.dumps({"outputs": got, "statuses": statuses, "worst_stall": stalls.worst})
     )
     executor.shutdown()
     node.destroy_node()
@@ -364,7 +387,7 @@ def run_phase(kind: str, seconds: float, env: dict[str, str], directory: Path) -
         system = [_child(["--role", "echo"], env)]
         measured = {"echo": system[0]}
     else:
-        timeout = 0.01 if kind == "trials" else 0.1
+        timeout = TRIAL_TIMEOUT_S if kind == "trials" else 0.1
         sim = _node(
             "sim_arm",
             {
@@ -437,16 +460,15 @@ def run_phase(kind: str, seconds: float, env: dict[str, str], directory: Path) -
             name: 100.0 * (cpu1[name] - cpu0[name]) / (wall1 - wall0) for name in measured
         },
         "receiver_worst_stall_ms": float(got.get("worst_stall", math.nan)) * 1e3,
-        "node_status": got.get("status", {}),
+        "node_counts": node_counts(got.get("statuses", []), first, sends[-1] if sends else 0),
     }
     if kind == "echo":
         found, unanswered = echo_latencies(counted, outputs)
-        result["latency"] = summarize_latency(found)
-        result["unanswered"] = unanswered
+        result["latency"] = summarize_latency(found, unanswered)
     elif kind == "trials":
         found, counts = response_latencies(counted, outputs, int(PERIOD_S * 1e9))
-        result["latency"] = summarize_latency(found)
-        result.update(counts)
+        result["latency"] = summarize_latency(found, counts["unanswered"])
+        result["sent_while_moving"] = counts["moving"]
     else:
         window = [src for _, src, _ in outputs if first <= src <= counted[-1]]
         result["on_time"] = on_time(window, int(PERIOD_S * 1e9))
@@ -480,10 +502,12 @@ def report(results: dict[str, dict[str, Any]]) -> None:
         print(f"| {label} | {r['twists_sent']} | {cells[0]} | {cells[1]} | {cpu} |")
     print()
     for label, r in results.items():
-        if "moving" in r:
+        lat = r.get("latency")
+        if lat is not None and lat["unanswered"]:
+            print(f"{label}: {lat['unanswered']} twists unanswered (counted as slower than any)")
+        if r.get("sent_while_moving"):
             print(
-                f"{label}: {r['unanswered']} twists unanswered, {r['moving']} sent while the arm "
-                "still moved (not counted)"
+                f"{label}: {r['sent_while_moving']} twists sent while the arm still moved (not counted)"
             )
         if "on_time" in r:
             o = r["on_time"]
@@ -492,15 +516,16 @@ def report(results: dict[str, dict[str, Any]]) -> None:
                 f"1 ms cycles on time ({100 * o['fraction']:.2f} %; the emptiest phase bin holds "
                 f"{100 * o['phase_bin_share']:.3f} % of the commands)"
             )
-        status = r.get("node_status") or {}
-        if "cycles" in status:
+        counts = r.get("node_counts") or {}
+        if counts:
             print(
-                f"{label}: the node's own count (~/status): {status['cycles']} cycles, "
-                f"{status.get('late_cycles', '?')} late (> 1.5 periods after the previous), "
-                f"slowest step since its last status {status.get('step_us_max', '?')} µs"
+                f"{label}: the node's own count (~/status) over the phase: {counts['cycles']} "
+                f"cycles, {counts.get('late_cycles', '?')} late (timer callback > 1.5 periods "
+                f"after the previous), {counts.get('lost_periods', '?')} periods not made up"
             )
         print(
-            f"{label}: the receiver's own process stalled up to {r['receiver_worst_stall_ms']:.0f} ms"
+            f"{label}: the receiver's own process stalled up to "
+            f"{r['receiver_worst_stall_ms']:.0f} ms"
         )
     checks = target_checks(results)
     if checks:

@@ -128,6 +128,35 @@ def test_latency_summary_splits_node_and_transport():
     assert s["transport_median_ms"] == pytest.approx(0.20005)
 
 
+def test_unanswered_twists_count_as_the_slowest():
+    found = [(0, 300_000, 500_000)] * 97
+    s = bench.summarize_latency(found, unanswered=3)
+    assert s["count"] == 97 and s["unanswered"] == 3
+    assert s["median_ms"] == pytest.approx(0.5)
+    assert s["p99_ms"] == float("inf") and s["max_ms"] == float("inf")
+    assert s["to_publish_p99_ms"] == pytest.approx(0.3)  # of the answered
+    assert bench.summarize_latency(found)["p99_ms"] == pytest.approx(0.5)
+
+
+def test_node_counts_over_the_window_only():
+    statuses = [
+        (100, {"cycles": "1000", "late_cycles": "7", "lost_periods": "1"}),
+        (200, {"code": "9"}),  # a status without the counters (not from the node's loop)
+        (300, {"cycles": "1500", "late_cycles": "9", "lost_periods": "1"}),
+        (400, {"cycles": "2500", "late_cycles": "12", "lost_periods": "3"}),
+        (900, {"cycles": "9000", "late_cycles": "99", "lost_periods": "9"}),  # after the window
+    ]
+    counts = bench.node_counts(statuses, 250, 500)
+    assert counts == {"cycles": 1500, "late_cycles": 5, "lost_periods": 2}
+    assert bench.node_counts(statuses, 500, 800) == {}
+    # no status before the window: counted from the node's start
+    assert bench.node_counts(statuses, 50, 150) == {
+        "cycles": 1000,
+        "late_cycles": 7,
+        "lost_periods": 1,
+    }
+
+
 RESULTS = {
     "echo": {"latency": {"median_ms": 0.5, "p99_ms": 1.5}},
     "servo, command to joint command": {"latency": {"median_ms": 0.9, "p99_ms": 3.0}},
