@@ -12,6 +12,16 @@ import numpy as np
 from kinematics_node.service.servo import ServoCycle, ServoService
 from msg_adapters.servo_messages import ServoMessageTypes
 
+#: control_msgs/msg/JointJog (control_msgs 4.x, as moveit_servo takes it): not in rosbags'
+#: stores, nor on PyPI; `joint_jog` registers it from this definition.
+JOINT_JOG = """\
+std_msgs/Header header
+string[] joint_names
+float64[] displacements
+float64[] velocities
+float64 duration
+"""
+
 #: A well-conditioned UR5 configuration (σ_min of the world Jacobian ≈ 0.2).
 Q_UR5 = np.array([0.0, -1.57, 1.57, -1.57, -1.57, 0.0])
 
@@ -70,6 +80,21 @@ def joint_state(ros: Any, names, positions=(), velocities=(), t=0.0) -> Any:
         name=list(names),
         position=np.asarray(positions, dtype=float),
         velocity=np.asarray(velocities, dtype=float),
+    )
+
+
+def joint_jog(ros: Any, names, velocities, t=0.0) -> Any:
+    """A control_msgs/JointJog (its definition registered in `ros`'s store on first use)."""
+    name = "control_msgs/msg/JointJog"
+    if name not in ros.store.types:
+        from rosbags.typesys import get_types_from_msg
+
+        ros.store.register(get_types_from_msg(JOINT_JOG, name))
+    return ros.new(
+        name,
+        header=header(ros, t),
+        joint_names=list(names),
+        velocities=np.asarray(velocities, dtype=float),
     )
 
 

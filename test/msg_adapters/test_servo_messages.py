@@ -1,7 +1,7 @@
 """msg_adapters.servo_messages with real ROS 2 message definitions (rosbags): commands in by field
 name, joint commands and status out in messages that survive CDR (what DDS carries).
 
-control_msgs/JointJog is not in rosbags' stores: it is registered here from its definition."""
+control_msgs/JointJog is not in rosbags' stores: servo_testing.joint_jog registers its definition."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from servo_testing import joint_state, pose_msg, twist_msg
+from servo_testing import joint_jog, joint_state, pose_msg, twist_msg
 
 from kinematics_node.core.servo import JointJogCommand, PoseCommand, TwistCommand
 from msg_adapters import matrix_from_pose
@@ -25,15 +25,6 @@ from msg_adapters.servo_messages import (
     pose_command_from_msg,
     twist_command_from_msg,
 )
-
-#: control_msgs/msg/JointJog (control_msgs 4.x, as moveit_servo takes it).
-JOINT_JOG = """\
-std_msgs/Header header
-string[] joint_names
-float64[] displacements
-float64[] velocities
-float64 duration
-"""
 
 
 @pytest.fixture(scope="module")
@@ -79,15 +70,7 @@ def test_a_bad_quaternion_gives_a_matrix_that_is_no_rotation(ros, quaternion):
 
 
 def test_a_joint_jog_takes_names_and_velocities(ros):
-    from rosbags.typesys import get_types_from_msg
-
-    ros.store.register(get_types_from_msg(JOINT_JOG, "control_msgs/msg/JointJog"))
-    msg = ros.new(
-        "control_msgs/msg/JointJog",
-        header=ros.new("std_msgs/msg/Header", stamp=ros.new("builtin_interfaces/msg/Time", sec=2)),
-        joint_names=["a", "b"],
-        velocities=np.array([0.5, -0.25]),
-    )
+    msg = joint_jog(ros, ["a", "b"], [0.5, -0.25], t=2.0)
     cmd = jog_command_from_joint_jog(ros.roundtrip(msg), 0.0)
     assert cmd == JointJogCommand(["a", "b"], [0.5, -0.25], 2.0)
 

@@ -15,6 +15,7 @@ from servo_testing import (
     Q_UR5,
     Loop,
     all_finite,
+    joint_jog,
     joint_state,
     make_service,
     pose_msg,
@@ -156,9 +157,14 @@ def test_a_pose_target_is_reached(ros, loop):
     assert values(status)["target_reached"] == "true", status.message
 
 
-def test_a_joint_state_jog_moves_only_the_named_joint(ros, loop):
-    jog = joint_state(ros, ["elbow_joint"], [], [0.3])
-    loop.run(1.0, lambda now: loop.service.on_joint_state_jog(jog, now))
+@pytest.mark.parametrize("kind", ["JointState", "JointJog"])
+def test_a_jog_moves_only_the_named_joint(ros, loop, kind):
+    if kind == "JointState":
+        jog = joint_state(ros, ["elbow_joint"], [], [0.3])
+        loop.run(1.0, lambda now: loop.service.on_joint_state_jog(jog, now))
+    else:
+        jog = joint_jog(ros, ["elbow_joint"], [0.3])
+        loop.run(1.0, lambda now: loop.service.on_joint_jog(jog, now))
     moved = loop.positions()[-1] - Q_UR5
     assert moved[2] > 0.1
     assert np.abs(np.delete(moved, 2)).max() < 1e-9
