@@ -120,6 +120,24 @@ def braking_speed(distance: FloatArray, acceleration: FloatArray, jerk: FloatArr
     return np.where(np.isinf(d), np.inf, out)
 
 
+def free_distances(
+    velocity: FloatArray, acceleration: FloatArray, jerk: FloatArray, lead_time_s: float
+) -> tuple[FloatArray, FloatArray]:
+    """(d_free, d_rest): beyond both d_free and d_rest + lead_time_s × |v| from a bound, a joint
+    moving at speed |v| is not limited by braking: the speed it may take toward the bound,
+    min(v_max, s(d − t_lead max(|v|, s(d)))) with s = `braking_speed`, is v_max itself.
+
+    Why: s(d) ≤ √(2 A d) (the stop without a jerk limit is shorter), and s grows with d, so the
+    speed is v_max wherever d − t_lead max(|v|, √(2 A d)) ≥ D, the braking distance from v_max:
+    d_rest = D, and d_free solves d − t_lead √(2 A d) = D (a quadratic in √d). Both carry a
+    relative margin of 1e-9, far above the rounding of `braking_speed`.
+    """
+    D = braking_distance(velocity, acceleration, jerk) * (1.0 + 1e-9) + 1e-12
+    c = lead_time_s * np.sqrt(2.0 * acceleration)
+    free = (0.5 * (c + np.sqrt(c * c + 4.0 * D))) ** 2 * (1.0 + 1e-9) + 1e-12
+    return free, D
+
+
 def braking_speeds(
     distances: Sequence[float], acceleration: Sequence[float], jerk: Sequence[float]
 ) -> list[float]:

@@ -53,7 +53,7 @@ from . import _quat, dls
 from .axes import select_axes, task_jacobian_rows
 from .commands import JointJogCommand, PoseCommand, TwistCommand
 from .config import TWIST_AXES, ServoConfig
-from .limits import ServoLimits, braking_distance, braking_speeds
+from .limits import ServoLimits, braking_distance, braking_speeds, free_distances
 from .smoothing import JerkLimitedIntegrator, VelocityRamp
 from .status import ServoStatus, StatusCode
 
@@ -193,16 +193,13 @@ class Servo:
         self._v_low: list[float] = (-lim.velocity).tolist()
         self._plan_a: list[float] = self._plan_acceleration.tolist()
         self._plan_j: list[float] = self._plan_jerk.tolist()
-        # A side of a joint whose bound is farther than both `_free` and `_free_at_rest` + 2 dt ×
-        # its speed never limits it: `_velocity_box` skips it (see there).
-        dt2 = 2.0 * cfg.period_s
-        full = braking_distance(lim.velocity, self._plan_acceleration, self._plan_jerk)
-        full = full * (1.0 + 1e-9) + 1e-12
-        c = dt2 * np.sqrt(2.0 * self._plan_acceleration)
-        self._free_at_rest: list[float] = full.tolist()
-        self._free: list[float] = (
-            (0.5 * (c + np.sqrt(c * c + 4.0 * full))) ** 2 * (1.0 + 1e-9) + 1e-12
-        ).tolist()
+        # A side of a joint whose bound is farther than `_free` and `_free_at_rest` + 2 dt × its
+        # speed never limits it (`free_distances`): `_velocity_box` skips it.
+        free, free_at_rest = free_distances(
+            lim.velocity, self._plan_acceleration, self._plan_jerk, 2.0 * cfg.period_s
+        )
+        self._free: list[float] = free.tolist()
+        self._free_at_rest: list[float] = free_at_rest.tolist()
         bounded = np.isfinite(lim.lower) & np.isfinite(lim.upper)
         lower_b = np.where(bounded, lim.lower, 0.0)
         upper_b = np.where(bounded, lim.upper, 0.0)
@@ -618,10 +615,8 @@ class Servo:
         distance covered before a stop could begin (the speed asked now is held for a period: at
         the current speed or the one asked, whichever is higher), braking at half its
         acceleration and jerk: min(v_max, s(d − 2 dt max(|v|, s(d)))), s = `braking_speed`.
-        That is v_max itself wherever d − 2 dt max(|v|, √(2 A d)) ≥ D, the braking distance from
-        v_max (s(d) ≤ √(2 A d), the stop without a jerk limit, and s grows with d): for
-        d ≥ `_free` (where d − 2 dt √(2 A d) ≥ D) and d ≥ `_free_at_rest` + 2 dt |v|. Only
-        the other sides are computed.
+        That is v_max itself beyond the distances of `limits.free_distances`; only the other
+        sides are computed (the result is the same floats).
         """
         integ = self._integrator
         q = integ.q_list

@@ -24,7 +24,7 @@ from kinematics_node.core.servo import (
     dls,
 )
 from kinematics_node.core.servo.axes import select_axes
-from kinematics_node.core.servo.limits import braking_reach
+from kinematics_node.core.servo.limits import braking_reach, braking_speeds, free_distances
 
 
 # ---------------------------------------------------------------------- settings
@@ -151,6 +151,35 @@ def test_braking_speed_inverts_braking_distance():
     np.testing.assert_allclose(braking_distance(v, A, J), d, rtol=1e-9, atol=1e-12)
     assert braking_speed(np.array([np.inf]), np.array([1.0]), np.array([1.0]))[0] == np.inf
     assert braking_speed(np.array([-1.0]), np.array([1.0]), np.array([1.0]))[0] == 0.0
+
+
+def test_braking_speeds_on_floats_are_the_same_floats_as_on_arrays():
+    rng = np.random.default_rng(8)
+    A = rng.uniform(1.0, 20.0, 300)
+    J = rng.uniform(10.0, 500.0, 300)
+    d = np.r_[rng.uniform(-0.5, 3.0, 297), 0.0, np.inf, 1e-300]
+    on_floats = braking_speeds(d.tolist(), A.tolist(), J.tolist())
+    assert on_floats == braking_speed(d, A, J).tolist()  # exactly, not approximately
+
+
+@pytest.mark.parametrize("name", ["ur5e", "panda", "iiwa14", "scara"])
+@pytest.mark.parametrize("period_s", [0.0005, 0.002, 0.01, 0.1])
+def test_beyond_the_free_distances_braking_never_limits_a_joint(name, period_s):
+    # the servo's velocity planning skips the sides of joints this far from their bounds: the
+    # speed it would compute there must be the velocity limit itself, to the last bit
+    lim = ServoLimits.from_chain(robot(name), ServoConfig(period_s=period_s))
+    A, J, vmax, lead = 0.5 * lim.acceleration, 0.5 * lim.jerk, lim.velocity, 2.0 * period_s
+    free, rest = free_distances(vmax, A, J, lead)
+    rng = np.random.default_rng(9)
+    for _ in range(200):
+        speed = vmax * rng.uniform(0.0, 1.0 + 1e-12, vmax.shape)
+        start = np.maximum(free, rest + lead * speed)
+        for d in (start, start * rng.uniform(1.0, 10.0, vmax.shape)):
+            allowed = braking_speed(d - lead * np.maximum(speed, braking_speed(d, A, J)), A, J)
+            assert np.array_equal(np.minimum(vmax, allowed), vmax)
+    # and the distances are no larger than they need be: a little nearer, a joint at rest is
+    # limited (rest is the braking distance from full speed)
+    assert np.all(braking_speed(0.999 * rest, A, J) < vmax)
 
 
 def test_braking_reach_bounds_rucKigs_stop_from_any_state():
