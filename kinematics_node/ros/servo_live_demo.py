@@ -112,6 +112,26 @@ def run_live(rate: float, stream: TextIO) -> servo_demo.ServoDemoRun:
     return dataclasses.replace(run, notes=run.notes + tuple(notes))
 
 
+def loop_counts(statuses: list[tuple[float, dict[str, str]]], t_start: float) -> str:
+    """The servo's own loop counters (~/status: cycles, late_cycles, lost_periods) from the last
+    status before `t_start` [s] to the last one received, in words."""
+    with_counts = [(t, v) for t, v in statuses if "cycles" in v]
+    before = [v for t, v in with_counts if t < t_start]
+    if not with_counts or with_counts[-1][0] < t_start:
+        return "no counters received"
+    base, last = (before[-1] if before else {}), with_counts[-1][1]
+
+    def delta(key: str) -> str:
+        if key not in last:
+            return "?"
+        return str(int(last[key]) - int(base.get(key, 0)))
+
+    return (
+        f"{delta('cycles')} cycles, {delta('late_cycles')} late (> 1.5 periods after the "
+        f"previous; the periods they missed made up), {delta('lost_periods')} periods lost"
+    )
+
+
 def _stamp(msg: Any) -> float:
     return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
 
@@ -123,17 +143,18 @@ def _drive_and_record(
     import rclpy
     from diagnostic_msgs.msg import DiagnosticStatus
     from geometry_msgs.msg import PoseStamped, TwistStamped
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import QoSProfile
     from sensor_msgs.msg import JointState
     from std_msgs.msg import Float64MultiArray
 
     from msg_adapters import matrix_from_pose
 
+    from .executor import make_executor
+
     context = rclpy.Context()
     rclpy.init(context=context)
     node = rclpy.create_node("kinematics_servo_demo", context=context)
-    executor = SingleThreadedExecutor(context=context)
+    executor = make_executor("lean", context=context)  # (half rclpy's CPU per message)
     executor.add_node(node)
     qos = QoSProfile(depth=1000)
     poses: list[tuple[float, Any]] = []
@@ -149,7 +170,7 @@ def _drive_and_record(
             states[_stamp(m)] = [by_name[j] for j in chain.joint_names]
 
     def on_status(m: Any) -> None:
-        statuses.append((time.time(), {kv.key: kv.value for kv in m.values}))
+        statuses.append((time.time(), {kv.key: kv.value for kv in m.values}))  # (arrival [s])
 
     def on_command(m: Any, info: Any) -> None:  # (two parameters: rclpy passes MessageInfo)
         commands.append(
@@ -237,15 +258,13 @@ def _drive_and_record(
     fk_gap = float(np.abs(T_tool[:, :3, 3] - chain.fk(q_tool)[:, :3, 3]).max())
     seen = [s.get("code_name", "?") for arrival, s in statuses if arrival >= t_start]
     codes_seen = [c for i, c in enumerate(seen) if i == 0 or c != seen[i - 1]]
-    last = statuses[-1][1] if statuses else {}
-    late = last.get("late_cycles", "?")
-    cycles = last.get("cycles", "?")
+    loop = loop_counts(statuses, t_start)
     notes = (
         f"received over DDS: {len(matched)} ee_pose (every one equals the core's FK of its "
         f"joint_states to {fk_gap:.1e} m), {len(q_cmd)} joint commands from the servo "
         f"({lost} lost on the way, by their sequence numbers)",
-        f"servo status along the way: {' → '.join(codes_seen) or 'none received'}; its loop: "
-        f"{cycles} cycles, {late} late (> 1.5 periods after the previous)",
+        f"servo status along the way: {' → '.join(codes_seen) or 'none received'}; its loop "
+        f"meanwhile (its ~/status): {loop}",
     )
     t_twist = np.array([t for t, _ in sent])
     twists = np.array([w for _, w in sent]).reshape(-1, 6)
