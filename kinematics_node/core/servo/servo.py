@@ -1007,7 +1007,7 @@ class Servo:
         cfg = self.config
         lam = cfg.max_damping
         u, v, sigma = sol.left[:, -1], sol.row_basis[-1], float(sol.singular_values[-1])
-        r = float(u @ x)
+        r = float(u.dot(x))
         if r == 0.0:
             return np.zeros(self._n)
         h = 1e-3
@@ -1043,17 +1043,17 @@ class Servo:
             second = np.concatenate((R0.T @ second[:3], R0.T @ second[3:]))
         if not self._all_rows:
             second = second[self._rows]
-        curvature = r * float(u @ second)
+        curvature = r * float(u.dot(second))
         if curvature < -1e-12 and sigma < 0.1 * lam:
             details["out_of_reach"] = True
-            return -float(v @ sol.damped) * v
+            return -float(v.dot(sol.damped)) * v
         if curvature <= 1e-12:
             return np.zeros(self._n)
-        along = float(v @ (sol.undamped + sol.damped))
+        along = float(v.dot(sol.undamped + sol.damped))
         if abs(along) > 1e-9:
             direction = 1.0 if along > 0.0 else -1.0
         else:
-            direction = 1.0 if float(v @ (self._anchor - q)) >= 0.0 else -1.0
+            direction = 1.0 if float(v.dot(self._anchor - q)) >= 0.0 else -1.0
         weight = 1.0 - sigma / lam
         details["escaping"] = True
         return (direction * weight * abs(r) / (2.0 * lam)) * v
