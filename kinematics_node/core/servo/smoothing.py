@@ -335,6 +335,7 @@ class VelocityRamp:
         self._inp: Any = inp
         self._good_results = (_ruckig.Result.Working, _ruckig.Result.Finished)
         self._zeros = [0.0] * n
+        self._arrived = False
         self.v: list[float] = self._zeros
         self.a: list[float] = self._zeros
 
@@ -346,6 +347,15 @@ class VelocityRamp:
     def step(self, target: list[float]) -> list[float]:
         """The velocity one period later, on the way to `target`."""
         assert _ruckig is not None
+        if target == self.v and not any(self.a):
+            # Arrived (a steady command): Ruckig would return this velocity and no acceleration
+            # (checked to the last bit). Its stored input is dropped, so that the next call plans
+            # afresh whatever it is given.
+            if not self._arrived:
+                self._otg.reset()
+                self._arrived = True
+            return self.v
+        self._arrived = False
         inp = self._inp
         inp.current_velocity = self.v
         inp.current_acceleration = self.a
