@@ -349,8 +349,9 @@ class VelocityRamp:
         assert _ruckig is not None
         if target == self.v and not any(self.a):
             # Arrived (a steady command): Ruckig would return this velocity and no acceleration
-            # (checked to the last bit). Its stored input is dropped, so that the next call plans
-            # afresh whatever it is given.
+            # (checked to the last bit). Ruckig keeps the last input it planned for, and goes on
+            # along that plan when given the same input again: it is dropped on arrival, so that
+            # whatever comes next is planned afresh.
             if not self._arrived:
                 self._otg.reset()
                 self._arrived = True

@@ -25,6 +25,7 @@ from kinematics_node.core.servo import (
 )
 from kinematics_node.core.servo.axes import select_axes
 from kinematics_node.core.servo.limits import braking_reach, braking_speeds, free_distances
+from kinematics_node.core.servo.smoothing import VelocityRamp
 
 
 # ---------------------------------------------------------------------- settings
@@ -195,6 +196,39 @@ def test_braking_reach_bounds_rucKigs_stop_from_any_state():
         step = 2.0 * max(abs(v), 1.0) * 1e-3
         assert lo[0] - 1e-12 <= 0.5 + xs.min() <= lo[0] + step
         assert hi[0] - step <= 0.5 + xs.max() <= hi[0] + 1e-12
+
+
+def test_the_twist_ramp_is_rucKigs_velocity_interface_step_by_step():
+    # each step of the ramp, steady stretches included (where it answers without Ruckig), is
+    # what a fresh Ruckig plan from the same state gives for one period
+    acc, jerk, dt = (
+        np.array([3.0, 3.0, 3.0, 1.0, 1.0, 1.0]),
+        np.array([30.0] * 3 + [10.0] * 3),
+        0.01,
+    )
+    ramp = VelocityRamp(acc, jerk, dt)
+    rng = np.random.default_rng(4)
+    targets = [rng.normal(size=6).tolist() for _ in range(4)] + [[0.0] * 6]
+    v, a = [0.0] * 6, [0.0] * 6
+    steady = 0
+    for target in targets:
+        for _ in range(150):  # long enough to arrive and stay
+            otg, out = ruckig.Ruckig(6, dt), ruckig.OutputParameter(6)
+            inp = ruckig.InputParameter(6)
+            inp.control_interface = ruckig.ControlInterface.Velocity
+            inp.synchronization = ruckig.Synchronization.Phase
+            inp.max_velocity, inp.max_acceleration = [math.inf] * 6, acc.tolist()
+            inp.max_jerk, inp.current_position = jerk.tolist(), [0.0] * 6
+            inp.current_velocity, inp.current_acceleration = v, a
+            inp.target_velocity, inp.target_acceleration = target, [0.0] * 6
+            otg.update(inp, out)
+            v, a = out.new_velocity, out.new_acceleration
+            if not any(target) and max(map(abs, v)) < 1e-12 and max(map(abs, a)) < 1e-9:
+                v, a = [0.0] * 6, [0.0] * 6  # the ramp ends a stop at exactly zero
+            steady += v == ramp.v and not any(a)
+            assert ramp.step(list(target)) == v
+            assert ramp.a == a or (not any(ramp.a) and not any(a))
+    assert steady > 50  # the steady stretches were exercised
 
 
 # ---------------------------------------------------------------------- damped least squares
