@@ -30,6 +30,12 @@ Stopping: a twist command that times out ramps to zero with the loop closed, so 
 its path; any other stop (a jog or pose timeout, a refused command, pause, the arm not following,
 an unusable measurement) is step 4 with a target velocity of zero: a jerk-limited stop.
 
+Cost: the per-joint arithmetic of a period works on lists of floats, and the forward kinematics
+is the chain's generated scalar code called without re-checking the servo's own state; NumPy is
+left the matrix products and the SVD (on 6 or 7 joints, a NumPy call costs more than the
+arithmetic it does). `benchmarks/servo_benchmark.py --baseline REV` measures a step beside an
+older revision's and checks that the outputs are the same.
+
 Not thread-safe: call `submit`, `step`, `pause` and `resume` from one thread (or lock).
 """
 
