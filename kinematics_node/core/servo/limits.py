@@ -138,23 +138,31 @@ def free_distances(
     return free, D
 
 
+def braking_speed_one(d: float, A: float, J: float, b: float) -> float:
+    """`braking_speed` of one joint on floats, the same floats: distance d [rad or m], limits A
+    and J, and b = A * A / J (precomputed). The cube root, NumPy's as in `braking_speed`, is
+    taken only where it may decide: where d²J exceeds b³ by more than rounding, the short
+    profile's speed (d²J)^⅓ is surely above b and the long profile's applies."""
+    if not d > 0.0:
+        d = 0.0
+    elif d == math.inf:
+        return math.inf
+    y = d * d * J
+    if y <= b * b * b * (1.0 + 1e-12):
+        v_short = float(np.cbrt(y))
+        if v_short <= b:
+            return v_short
+    return 0.5 * (-b + math.sqrt(b * b + 8.0 * A * d))
+
+
 def braking_speeds(
     distances: Sequence[float], acceleration: Sequence[float], jerk: Sequence[float]
 ) -> list[float]:
-    """`braking_speed` on lists of floats, one value per joint (the same arithmetic, with NumPy's
-    cube root, so that the results are the same floats)."""
-    d = [x if x > 0.0 else 0.0 for x in distances]
-    roots = np.cbrt([x * x * j for x, j in zip(d, jerk, strict=True)]).tolist()
-    out = []
-    for x, v_short, A, J in zip(d, roots, acceleration, jerk, strict=True):
-        b = A * A / J
-        if x == math.inf:
-            out.append(math.inf)
-        elif v_short <= b:
-            out.append(v_short)
-        else:
-            out.append(0.5 * (-b + math.sqrt(b * b + 8.0 * A * x)))
-    return out
+    """`braking_speed` on lists of floats, one value per joint (the same floats)."""
+    return [
+        braking_speed_one(d, A, J, A * A / J)
+        for d, A, J in zip(distances, acceleration, jerk, strict=True)
+    ]
 
 
 def _phase(x: float, v: float, a: float, j: float, t: float) -> tuple[float, float, float]:

@@ -59,7 +59,7 @@ from . import _quat, dls
 from .axes import select_axes, task_jacobian_rows
 from .commands import JointJogCommand, PoseCommand, TwistCommand
 from .config import TWIST_AXES, ServoConfig
-from .limits import ServoLimits, braking_distance, braking_speeds, free_distances
+from .limits import ServoLimits, braking_distance, braking_speed_one, free_distances
 from .smoothing import JerkLimitedIntegrator, VelocityRamp
 from .status import ServoStatus, StatusCode
 
@@ -197,8 +197,6 @@ class Servo:
         self._upper: list[float] = lim.upper.tolist()
         self._v_high: list[float] = lim.velocity.tolist()
         self._v_low: list[float] = (-lim.velocity).tolist()
-        self._plan_a: list[float] = self._plan_acceleration.tolist()
-        self._plan_j: list[float] = self._plan_jerk.tolist()
         # A side of a joint whose bound is farther than `_free` and `_free_at_rest` + 2 dt × its
         # speed never limits it (`free_distances`): `_velocity_box` skips it.
         free, free_at_rest = free_distances(
@@ -206,6 +204,21 @@ class Servo:
         )
         self._free: list[float] = free.tolist()
         self._free_at_rest: list[float] = free_at_rest.tolist()
+        A, J = self._plan_acceleration, self._plan_jerk
+        # per joint, for `_velocity_box`: (lower, upper, free, free_at_rest, A, J, A²/J, v_max)
+        self._box_constants = list(
+            zip(
+                self._lower,
+                self._upper,
+                self._free,
+                self._free_at_rest,
+                A.tolist(),
+                J.tolist(),
+                (A * A / J).tolist(),
+                self._v_high,
+                strict=True,
+            )
+        )
         bounded = np.isfinite(lim.lower) & np.isfinite(lim.upper)
         lower_b = np.where(bounded, lim.lower, 0.0)
         upper_b = np.where(bounded, lim.upper, 0.0)
@@ -630,46 +643,27 @@ class Servo:
         if all(a < x < b for x, a, b in zip(q, self._slow_low, self._slow_high, strict=True)):
             return v_low, v_high, None
         dt2 = 2.0 * self.config.period_s
-        free, free_at_rest = self._free, self._free_at_rest
-        sides: list[int] = []  # k for the upper bound of joint k, -1 - k for its lower bound
-        dists: list[float] = []
-        speeds: list[float] = []
-        for k, (x, lw, up, vk) in enumerate(
-            zip(q, self._lower, self._upper, integ.v_list, strict=True)
-        ):
+        hi: list[float] | None = None
+        lo: list[float] = v_low
+        for k, (x, vk, c) in enumerate(zip(q, integ.v_list, self._box_constants, strict=True)):
+            lower, upper, free, free_at_rest, A, J, b, vm = c
             speed = abs(vk)
-            near = free_at_rest[k] + dt2 * speed * (1.0 + 1e-9)
-            d = up - x
-            if d < free[k] or d < near:
-                sides.append(k)
-                dists.append(d)
-                speeds.append(speed)
-            d = x - lw
-            if d < free[k] or d < near:
-                sides.append(-1 - k)
-                dists.append(d)
-                speeds.append(speed)
-        if not sides:
+            near = free_at_rest + dt2 * speed * (1.0 + 1e-9)
+            for d, up in ((upper - x, True), (x - lower, False)):
+                if d >= free and d >= near:
+                    continue  # not limited (see above); an infinite distance is never near
+                s = braking_speed_one(d, A, J, b)
+                s = braking_speed_one(d - dt2 * (s if s > speed else speed), A, J, b)
+                if s < vm:
+                    if hi is None:
+                        hi, lo = list(v_high), list(v_low)
+                    if up:
+                        hi[k] = s
+                    else:
+                        lo[k] = -s
+        if hi is None:
             return v_low, v_high, None
-        joints = [k if k >= 0 else -1 - k for k in sides]
-        A = [self._plan_a[k] for k in joints]
-        J = [self._plan_j[k] for k in joints]
-        reach = braking_speeds(dists, A, J)
-        left = [
-            d if d == math.inf else d - dt2 * (s if s > v else v)
-            for d, s, v in zip(dists, reach, speeds, strict=True)
-        ]
-        hi, lo = list(v_high), list(v_low)
-        for k, s in zip(sides, braking_speeds(left, A, J), strict=True):
-            if k >= 0:
-                vm = v_high[k]
-                hi[k] = s if s < vm else vm
-            else:
-                vm = v_high[-1 - k]
-                lo[-1 - k] = -(s if s < vm else vm)
         limited = [h < vm or lw > -vm for h, lw, vm in zip(hi, lo, v_high, strict=True)]
-        if not any(limited):
-            return v_low, v_high, None
         return lo, hi, limited
 
     @staticmethod

@@ -161,6 +161,11 @@ def test_braking_speeds_on_floats_are_the_same_floats_as_on_arrays():
     d = np.r_[rng.uniform(-0.5, 3.0, 297), 0.0, np.inf, 1e-300]
     on_floats = braking_speeds(d.tolist(), A.tolist(), J.tolist())
     assert on_floats == braking_speed(d, A, J).tolist()  # exactly, not approximately
+    # where the short and the long profile meet ((d²J)^⅓ = A²/J), to the last bits
+    A, J = np.repeat(A[:20], 41), np.repeat(J[:20], 41)
+    b = A * A / J
+    d = np.sqrt(b**3 / J) * (1.0 + np.tile(np.arange(-20, 21), 20) * 2.2e-16)
+    assert braking_speeds(d.tolist(), A.tolist(), J.tolist()) == braking_speed(d, A, J).tolist()
 
 
 @pytest.mark.parametrize("name", ["ur5e", "panda", "iiwa14", "scara"])
