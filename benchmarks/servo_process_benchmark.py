@@ -198,6 +198,7 @@ class Client:
 
     def close(self) -> None:
         self.executor.shutdown(timeout_sec=2.0)
+        self._thread.join(5.0)
         self.node.destroy_node()
         self.rclpy.try_shutdown()
 
