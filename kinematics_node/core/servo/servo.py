@@ -178,6 +178,7 @@ class Servo:
         keep = np.zeros(6, dtype=bool)
         keep[self._rows] = True
         self._dropped_mask = ~keep
+        self._dropped: tuple[bool, ...] = tuple(self._dropped_mask.tolist())
         self._integrator = JerkLimitedIntegrator(self.limits, cfg.period_s, q0)
         n = chain.dof
         lim = self.limits
@@ -783,6 +784,18 @@ class Servo:
                 self._ref_q = _quat.mul(_quat.from_rotvec(*ew), q_now)
                 self._ref_p = (p[0] + ev[0], p[1] + ev[1], p[2] + ev[2])
             e_task = ew + ev
+        elif not tip_axes:  # dropped components, base axes: on floats too
+            e_w = tuple(0.0 if drop else x for x, drop in zip(ew, self._dropped[:3], strict=True))
+            e_v = tuple(0.0 if drop else x for x, drop in zip(ev, self._dropped[3:], strict=True))
+            # Bound the kept error (anti wind-up): scale each part down to its bound.
+            nw, nv = _norm3(*e_w), _norm3(*e_v)
+            sw = min(1.0, cfg.max_kept_error_rad / nw) if nw > 0 else 1.0
+            sv = min(1.0, cfg.max_kept_error_m / nv) if nv > 0 else 1.0
+            e_w = (e_w[0] * sw, e_w[1] * sw, e_w[2] * sw)
+            e_v = (e_v[0] * sv, e_v[1] * sv, e_v[2] * sv)
+            self._ref_q = _quat.mul(_quat.from_rotvec(*e_w), q_now)
+            self._ref_p = (p[0] + e_v[0], p[1] + e_v[1], p[2] + e_v[2])
+            e_task = e_w + e_v
         else:
             e = np.array(ew + ev)
             e_task, e_base = self._kept_error(R, e, tip_axes)
