@@ -13,7 +13,6 @@ before the limit instead of at it.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -153,16 +152,6 @@ def braking_speed_one(d: float, A: float, J: float, b: float) -> float:
         if v_short <= b:
             return v_short
     return 0.5 * (-b + math.sqrt(b * b + 8.0 * A * d))
-
-
-def braking_speeds(
-    distances: Sequence[float], acceleration: Sequence[float], jerk: Sequence[float]
-) -> list[float]:
-    """`braking_speed` on lists of floats, one value per joint (the same floats)."""
-    return [
-        braking_speed_one(d, A, J, A * A / J)
-        for d, A, J in zip(distances, acceleration, jerk, strict=True)
-    ]
 
 
 def _phase(x: float, v: float, a: float, j: float, t: float) -> tuple[float, float, float]:

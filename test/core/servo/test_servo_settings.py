@@ -24,7 +24,7 @@ from kinematics_node.core.servo import (
     dls,
 )
 from kinematics_node.core.servo.axes import select_axes
-from kinematics_node.core.servo.limits import braking_reach, braking_speeds, free_distances
+from kinematics_node.core.servo.limits import braking_reach, braking_speed_one, free_distances
 from kinematics_node.core.servo.smoothing import VelocityRamp
 
 
@@ -154,18 +154,22 @@ def test_braking_speed_inverts_braking_distance():
     assert braking_speed(np.array([-1.0]), np.array([1.0]), np.array([1.0]))[0] == 0.0
 
 
-def test_braking_speeds_on_floats_are_the_same_floats_as_on_arrays():
+def _braking_speeds(d: np.ndarray, A: np.ndarray, J: np.ndarray) -> list[float]:
+    pairs = zip(d.tolist(), A.tolist(), J.tolist(), strict=True)
+    return [braking_speed_one(x, a, j, a * a / j) for x, a, j in pairs]
+
+
+def test_braking_speed_on_floats_is_the_same_floats_as_on_arrays():
     rng = np.random.default_rng(8)
     A = rng.uniform(1.0, 20.0, 300)
     J = rng.uniform(10.0, 500.0, 300)
     d = np.r_[rng.uniform(-0.5, 3.0, 297), 0.0, np.inf, 1e-300]
-    on_floats = braking_speeds(d.tolist(), A.tolist(), J.tolist())
-    assert on_floats == braking_speed(d, A, J).tolist()  # exactly, not approximately
+    assert _braking_speeds(d, A, J) == braking_speed(d, A, J).tolist()  # exactly
     # where the short and the long profile meet ((d²J)^⅓ = A²/J), to the last bits
     A, J = np.repeat(A[:20], 41), np.repeat(J[:20], 41)
     b = A * A / J
     d = np.sqrt(b**3 / J) * (1.0 + np.tile(np.arange(-20, 21), 20) * 2.2e-16)
-    assert braking_speeds(d.tolist(), A.tolist(), J.tolist()) == braking_speed(d, A, J).tolist()
+    assert _braking_speeds(d, A, J) == braking_speed(d, A, J).tolist()
 
 
 @pytest.mark.parametrize("name", ["ur5e", "panda", "iiwa14", "scara"])
