@@ -1,9 +1,8 @@
 """The rclpy side: the nodes (`kinematics`: the kinematics node, `servo`: the servo node,
-`sim_arm`: the simulated arm),
-their process entry (`executables`: arguments and --help before ROS starts; `spin`: run until
-shutdown) and executor (`executor`, with `deferred` and `mailbox`), ROS clients (`client` for
-`kinematics ros`, `live_demo` for `kinematics demo`) and the environment of the ROS processes we
-start (`env`).
+`sim_arm`: the simulated arm), their process entry (`executables`: arguments and --help before
+ROS starts; `spin`: run until shutdown) and executor (`executor`, with `deferred` and
+`mailbox`), ROS clients (`client` for `kinematics ros`, `live_demo` for `kinematics demo`) and
+the environment of the ROS processes we start (`env`).
 
 May import: `kinematics_node.core`, `msg_adapters`, `kinematics_node.service`,
 `kinematics_node.sim`, rclpy and ROS packages. Never `cli`. This file imports nothing, and
