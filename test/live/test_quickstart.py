@@ -53,11 +53,10 @@ CLONE_ENTRIES = ("Makefile", "tools")
 
 
 def this_runs_build() -> Path:
-    """The build directory of this run's ROS 2 (build/ros, or build/ros-<distro> for a
-    distribution other than the one of the machine's `python3`): where tools/ros-from-pypi
-    installed the node, <build>/install/kinematics_service/lib/kinematics_service/."""
-    node = os.environ.get("KINEMATICS_NODE_EXECUTABLE")
-    return Path(node).parents[4] if node else ROOT / "build" / "ros"
+    """The build directory of this run's ROS 2 (build/ros, or build/ros-<distro> for a second
+    distribution, as in CI): where the env.sh that make sourced lies (it names itself)."""
+    env_sh = os.environ.get("KINEMATICS_ROS_ENV")
+    return Path(env_sh).parent if env_sh else ROOT / "build" / "ros"
 
 
 POSE = re.compile(

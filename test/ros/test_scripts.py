@@ -26,7 +26,9 @@ from kinematics_node.service.servo_parameters import SERVO_PARAMETERS
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPTS = ROOT / "scripts"
-ENV_SH = ROOT / "build" / "ros" / "env.sh"
+#: The env.sh of the build this run uses (build/ros-<distro>/env.sh for a second distribution, as
+#: in CI), which names itself; else build/ros/env.sh
+ENV_SH = Path(os.environ.get("KINEMATICS_ROS_ENV") or ROOT / "build" / "ros" / "env.sh")
 SPECS = {
     "kinematics_node": PARAMETERS,
     "sim_arm": SIM_ARM_PARAMETERS,
