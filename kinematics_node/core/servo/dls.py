@@ -95,15 +95,16 @@ def solve(J: FloatArray, x: FloatArray, threshold: float, max_damping: float) ->
         return DLSSolution(Vk.T.dot(ux * gains), np.zeros(J.shape[1]), Vk, s, U, gains)
     # `variable_damping` on floats (the same arithmetic, without the array calls)
     lam_max2 = max_damping * max_damping
-    lam2 = np.array(
-        [
-            (1.0 - r * r) * lam_max2 if r < 1.0 else 0.0
-            for r in (sigma / threshold for sigma in s.tolist())
-        ]
-    )
-    small = lam2 > 0.0
-    gains = s / (s * s + lam2)  # σ > 0 where λ = 0, and λ > 0 where σ = 0
+    lam2_list = [
+        (1.0 - r * r) * lam_max2 if r < 1.0 else 0.0
+        for r in (sigma / threshold for sigma in s.tolist())
+    ]
+    gains = s / (s * s + np.array(lam2_list))  # σ > 0 where λ = 0, and λ > 0 where σ = 0
     coeff = ux * gains
-    damped = Vk[small].T.dot(coeff[small])
-    undamped = Vk[~small].T.dot(coeff[~small])
+    # The damped directions (λ > 0) are the last ones: σ decreases, and λ grows as σ does.
+    # (Contiguous copies of the rows, as boolean indexing makes, so that the products are the
+    # same floats.)
+    k = sum(1 for lam2 in lam2_list if not lam2 > 0.0)
+    damped = np.ascontiguousarray(Vk[k:]).T.dot(coeff[k:])
+    undamped = np.ascontiguousarray(Vk[:k]).T.dot(coeff[:k])
     return DLSSolution(undamped, damped, Vk, s, U, gains)
