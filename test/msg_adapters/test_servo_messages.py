@@ -1,7 +1,7 @@
 """msg_adapters.servo_messages with real ROS 2 message definitions (rosbags): commands in by field
 name, joint commands and status out in messages that survive CDR (what DDS carries).
 
-control_msgs/JointJog is not in rosbags' stores: servo_testing.joint_jog registers its definition."""
+control_msgs/JointJog is not in rosbags' stores: servo_node_testing.joint_jog registers its definition."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from servo_testing import joint_jog, joint_state, pose_msg, twist_msg
+from servo_node_testing import joint_jog, joint_state, pose_msg, twist_msg
 
 from kinematics_node.core.servo import JointJogCommand, PoseCommand, TwistCommand
 from msg_adapters import matrix_from_pose

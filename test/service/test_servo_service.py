@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from servo_testing import (
+from servo_node_testing import (
     Q_UR5,
     Loop,
     all_finite,
