@@ -52,9 +52,11 @@ schemes taking turns; reported: the smallest, the median and the largest of thos
 from __future__ import annotations
 
 import argparse
+import atexit
 import importlib.util
 import json
 import math
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -220,6 +222,7 @@ def load_baseline(revision: str) -> ModuleType:
     if "__init__.py" not in names:
         raise SystemExit(f"--baseline {revision}: no {folder}/__init__.py at that revision")
     target = Path(tempfile.mkdtemp(prefix="servo_baseline_"))
+    atexit.register(shutil.rmtree, target, ignore_errors=True)
     for name in names:
         if name.endswith(".py"):
             (target / name).write_text(git("show", f"{revision}:{folder}/{name}"))
