@@ -34,7 +34,8 @@ A receiver process (on our LeanExecutor, as in node_benchmark.py, so that the ha
 light on a 2-core machine) records every joint command with its source timestamp and arrival.
 All clocks are CLOCK_REALTIME on one machine. The first second of each phase is warm-up. CPU of
 the nodes [% of one core] from /proc. Last, the issue's targets with their figures and whether
-each is met (`target_checks`). Run it on a quiet machine: every figure is shared-CPU sensitive.
+each is met (`target_checks`). Run it on a quiet machine: every figure is shared-CPU sensitive (each phase reports the machine's
+load average before and after it, the harness's own processes included).
 """
 
 from __future__ import annotations
@@ -525,7 +526,8 @@ def report(results: dict[str, dict[str, Any]]) -> None:
             )
         print(
             f"{label}: the receiver's own process stalled up to "
-            f"{r['receiver_worst_stall_ms']:.0f} ms"
+            f"{r['receiver_worst_stall_ms']:.0f} ms; the machine's load average "
+            f"{r['load_average'][0]:.1f} before the phase, {r['load_average'][1]:.1f} after"
         )
     checks = target_checks(results)
     if checks:
@@ -570,7 +572,11 @@ def main() -> None:
                 continue
             for attempt in (1, 2):  # a harness process that crashes gets one more chance
                 try:
+                    load_before = os.getloadavg()[0]
                     results[label] = run_phase(kind, args.seconds, env, directory)
+                    # the machine's load (1-minute average) around the phase, the harness's own
+                    # processes (the nodes, the sender, the receiver) included
+                    results[label]["load_average"] = (load_before, os.getloadavg()[0])
                     break
                 except nb.HarnessFailure as exc:
                     if attempt == 2:
