@@ -7,8 +7,8 @@ run (issue 23, "What must hold": the node's speed).
 Every process is real rclpy over Fast DDS on loopback, in a ROS_DOMAIN_ID of the run's own.
 Phases, one after the other:
 
-* echo: a bare rclpy node (rclpy's SingleThreadedExecutor; the floor a node on rclpy's stock
-  executor pays) that answers each TwistStamped on /servo/delta_twist_cmds at once with a
+* echo, alone: a bare rclpy node (rclpy's SingleThreadedExecutor; the floor a node on rclpy's
+  stock executor pays) that answers each TwistStamped on /servo/delta_twist_cmds at once with a
   Float64MultiArray on /forward_position_controller/commands carrying the twist's stamp; same QoS
   as the servo node (commands in best effort, depth 10; joint commands out reliable, depth 10);
 * servo, command to joint command: the `sim_arm` (UR5e, joint_states at 1 kHz, taking position
@@ -19,7 +19,9 @@ Phases, one after the other:
   the command times out and the arm comes to rest (the servo's joint commands stop changing). The
   latency of a twist is the arrival of the first joint command that differs from the one held
   before it, minus the twist's send time (`response_latencies`); the echo gets the same twists
-  (`echo_latencies`). Split into: until the node published it (DDS's source timestamp) and from
+  (`echo_latencies`), once alone and once beside the servo (on topics of its own, each twist sent
+  to both, in turns first: the same machine load for both, which on a shared machine moves
+  between phases). Split into: until the node published it (DDS's source timestamp) and from
   there to the receiver. A twist that gets no answer counts as slower than any (the servo
   refuses a twist older than its timeout when it takes it: under load that is the slow tail);
   one sent while the arm still moved is not counted (the harness's, not the node's);
@@ -71,6 +73,8 @@ ROBOT = ROOT / "config" / "robots" / "ur5e.urdf"
 HOME = (0.3, -1.3, 1.6, -1.9, 1.2, 0.4)  # [rad] well inside the limits, away from singularities
 TWIST_TOPIC = "/servo/delta_twist_cmds"
 COMMAND_TOPIC = "/forward_position_controller/commands"
+ECHO_TWIST_TOPIC = "/echo/delta_twist_cmds"  # the echo beside the servo: topics of its own
+ECHO_COMMAND_TOPIC = "/echo/commands"
 STATUS_TOPIC = "/servo/status"
 PERIOD_S = 0.001
 TRIAL_TIMEOUT_S = 0.02  # the servo's command timeout in the trials
@@ -219,14 +223,16 @@ def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bo
             )
         )
     servo = results.get("servo, command to joint command")
-    echo = results.get("echo")
     if servo is not None:
         median = servo["latency"]["median_ms"]
-        if echo is not None:
+        for label in ("echo, alone", "echo, beside the servo"):
+            echo = results.get(label)
+            if echo is None:
+                continue
             ratio = median / echo["latency"]["median_ms"]
             checks.append(
                 (
-                    "command in → joint command out: median ≤ 2× the bare echo's",
+                    f"command in → joint command out: median ≤ 2× the bare echo's ({label})",
                     f"{ratio:.2f}× ({median:.2f} vs {echo['latency']['median_ms']:.2f} ms)",
                     ratio <= 2.0,
                 )
@@ -237,16 +243,19 @@ def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bo
 
 
 # ============================================================================ child roles
-def role_echo() -> None:
+def role_echo(beside: bool) -> None:
     """The bare echo: TwistStamped in, Float64MultiArray [sec, nanosec of its stamp] out, at once
-    (rclpy's SingleThreadedExecutor; QoS as the servo node's)."""
+    (rclpy's SingleThreadedExecutor; QoS as the servo node's); `beside` the servo: on topics of
+    its own."""
     rclpy = nb._init_rclpy(freeze=False)
     from geometry_msgs.msg import TwistStamped
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
     from std_msgs.msg import Float64MultiArray
 
     node = rclpy.create_node("echo_node")
-    pub = node.create_publisher(Float64MultiArray, COMMAND_TOPIC, 10)
+    pub = node.create_publisher(
+        Float64MultiArray, ECHO_COMMAND_TOPIC if beside else COMMAND_TOPIC, 10
+    )
     qos = QoSProfile(
         history=HistoryPolicy.KEEP_LAST,
         depth=10,
@@ -259,20 +268,24 @@ def role_echo() -> None:
         out.data = [float(msg.header.stamp.sec), float(msg.header.stamp.nanosec)]
         pub.publish(out)
 
-    node.create_subscription(TwistStamped, TWIST_TOPIC, echo, qos)
+    node.create_subscription(TwistStamped, ECHO_TWIST_TOPIC if beside else TWIST_TOPIC, echo, qos)
     nb._spin_until_sigint(node)
 
 
-def role_sender(mode: str, seconds: float, out: str) -> None:
+def role_sender(mode: str, seconds: float, out: str, echo: bool) -> None:
     """Twists on /servo/delta_twist_cmds, each stamped with its send time, for `seconds`:
     `mode` "trials": one every TRIAL_SPACING_S; "stream": at STREAM_RATE_HZ, the tool moving back
-    and forth along x at STREAM_SPEED_M_S (reversing every 2 s). Writes the send times [ns]."""
+    and forth along x at STREAM_SPEED_M_S (reversing every 2 s). With `echo`, each twist goes to
+    the echo beside the servo too, the same message right after or before (in turns). Writes the
+    send times [ns]."""
     rclpy = nb._init_rclpy()
     from geometry_msgs.msg import TwistStamped
 
     node = rclpy.create_node("bench_twist_sender")
-    pub = node.create_publisher(TwistStamped, TWIST_TOPIC, 10)
-    while pub.get_subscription_count() == 0:
+    pubs = [node.create_publisher(TwistStamped, TWIST_TOPIC, 10)]
+    if echo:
+        pubs.append(node.create_publisher(TwistStamped, ECHO_TWIST_TOPIC, 10))
+    while any(pub.get_subscription_count() == 0 for pub in pubs):
         time.sleep(0.01)
     time.sleep(0.5)
     spacing = TRIAL_SPACING_S if mode == "trials" else 1.0 / STREAM_RATE_HZ
@@ -294,7 +307,8 @@ def role_sender(mode: str, seconds: float, out: str) -> None:
             msg.twist.linear.x = STREAM_SPEED_M_S * sign
         ns = time.time_ns()
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(ns, 1_000_000_000)
-        pub.publish(msg)
+        for pub in pubs if k % 2 == 0 else pubs[::-1]:
+            pub.publish(msg)
         stamps.append(ns)
         k += 1
         next_at += spacing
@@ -303,9 +317,10 @@ def role_sender(mode: str, seconds: float, out: str) -> None:
     rclpy.shutdown()
 
 
-def role_receiver(out: str, status: bool) -> None:
-    """Records (data, source timestamp, arrival) of every joint command, and with `status` the
-    servo's last ~/status values, until SIGINT; writes `<out>.ready` once matched."""
+def role_receiver(out: str, status: bool, echo: bool) -> None:
+    """Records (data, source timestamp, arrival) of every joint command, with `echo` those of
+    the echo beside the servo, and with `status` the servo's ~/status values with their arrival,
+    until SIGINT; writes `<out>.ready` once matched."""
     stopping: list[int] = []
     signal.signal(signal.SIGINT, lambda signum, frame: stopping.append(signum))
     rclpy = nb._init_rclpy(rclpy_signals=False)
@@ -317,17 +332,26 @@ def role_receiver(out: str, status: bool) -> None:
 
     node = rclpy.create_node("bench_command_receiver")
     got: list[tuple[list[float], int, int]] = []
+    got_echo: list[tuple[list[float], int, int]] = []
     statuses: list[tuple[int, dict[str, str]]] = []
 
-    def record(msg: Any, info: Any) -> None:
-        got.append((list(msg.data), info["source_timestamp"], time.time_ns()))
+    def recorder(bucket: list[tuple[list[float], int, int]]) -> Any:
+        def record(msg: Any, info: Any) -> None:  # (two parameters: rclpy passes MessageInfo)
+            bucket.append((list(msg.data), info["source_timestamp"], time.time_ns()))
+
+        return record
 
     def on_status(msg: Any) -> None:
         statuses.append((time.time_ns(), {kv.key: kv.value for kv in msg.values}))
 
-    subs = [
-        node.create_subscription(Float64MultiArray, COMMAND_TOPIC, record, QoSProfile(depth=1000))
-    ]
+    deep = QoSProfile(depth=1000)
+    subs = [node.create_subscription(Float64MultiArray, COMMAND_TOPIC, recorder(got), deep)]
+    if echo:
+        subs.append(
+            node.create_subscription(
+                Float64MultiArray, ECHO_COMMAND_TOPIC, recorder(got_echo), deep
+            )
+        )
     if status:
         subs.append(node.create_subscription(DiagnosticStatus, STATUS_TOPIC, on_status, 100))
     executor = LeanExecutor()
@@ -341,7 +365,14 @@ def role_receiver(out: str, status: bool) -> None:
             Path(out + ".ready").touch()
             ready = True
     Path(out).write_text(
-        json.dumps({"outputs": got, "statuses": statuses, "worst_stall": stalls.worst})
+        json.dumps(
+            {
+                "outputs": got,
+                "echo_outputs": got_echo,
+                "statuses": statuses,
+                "worst_stall": stalls.worst,
+            }
+        )
     )
     executor.shutdown()
     node.destroy_node()
@@ -381,8 +412,11 @@ def _stop(processes: list[Any]) -> None:
             p.kill()
 
 
-def run_phase(kind: str, seconds: float, env: dict[str, str], directory: Path) -> dict[str, Any]:
-    """One phase: `kind` "echo", "trials" (the servo, command to joint command) or "stream"."""
+def run_phase(
+    kind: str, seconds: float, env: dict[str, str], directory: Path
+) -> dict[str, dict[str, Any]]:
+    """One phase: `kind` "echo" (alone), "trials" (the servo, command to joint command, with the
+    echo beside it) or "stream" (the servo at 1 kHz). Returns {label: figures}."""
     description = ROBOT.read_text(encoding="utf-8")
     if kind == "echo":
         system = [_child(["--role", "echo"], env)]
@@ -414,6 +448,9 @@ def run_phase(kind: str, seconds: float, env: dict[str, str], directory: Path) -
         )
         system = [sim, servo]
         measured = {"servo": servo, "sim_arm": sim}
+        if kind == "trials":
+            system.append(_child(["--role", "echo", "--beside"], env))
+            measured["echo"] = system[-1]
     try:
         time.sleep(4.0)  # start-up (URDF parse, discovery) is not what this measures
         for p in system:
@@ -423,8 +460,10 @@ def run_phase(kind: str, seconds: float, env: dict[str, str], directory: Path) -
         ready = Path(str(recv_out) + ".ready")
         for path in (recv_out, send_out, ready):
             path.unlink(missing_ok=True)
-        status = [] if kind == "echo" else ["--status"]
-        receiver = _child(["--role", "receiver", "--out", str(recv_out), *status], env)
+        flags = ([] if kind == "echo" else ["--status"]) + (
+            ["--beside"] if kind == "trials" else []
+        )
+        receiver = _child(["--role", "receiver", "--out", str(recv_out), *flags], env)
         deadline = time.monotonic() + 20.0
         while not ready.exists():
             if time.monotonic() > deadline or receiver.poll() is not None:
@@ -432,8 +471,10 @@ def run_phase(kind: str, seconds: float, env: dict[str, str], directory: Path) -
                 raise nb.HarnessFailure("the receiver did not match the node's publishers in 20 s")
             time.sleep(0.05)
         mode = "stream" if kind == "stream" else "trials"
+        beside = ["--beside"] if kind == "trials" else []
         sender = _child(
-            ["--role", "sender", "--mode", mode, "--seconds", str(seconds), "--out", str(send_out)],
+            ["--role", "sender", "--mode", mode, "--seconds", str(seconds), "--out", str(send_out)]
+            + beside,
             env,
         )
         time.sleep(0.5)
@@ -466,20 +507,27 @@ def run_phase(kind: str, seconds: float, env: dict[str, str], directory: Path) -
     if kind == "echo":
         found, unanswered = echo_latencies(counted, outputs)
         result["latency"] = summarize_latency(found, unanswered)
-    elif kind == "trials":
+        return {"echo, alone": result}
+    if kind == "trials":
         found, counts = response_latencies(counted, outputs, int(PERIOD_S * 1e9))
         result["latency"] = summarize_latency(found, counts["unanswered"])
         result["sent_while_moving"] = counts["moving"]
-    else:
-        window = [src for _, src, _ in outputs if first <= src <= counted[-1]]
-        result["on_time"] = on_time(window, int(PERIOD_S * 1e9))
-        result["joint_commands"] = len(window)
-    return result
+        echo_outputs = [(d, src, arr) for d, src, arr in got["echo_outputs"]]
+        found, unanswered = echo_latencies(counted, echo_outputs)
+        beside = {k: v for k, v in result.items() if k not in ("latency", "sent_while_moving")}
+        beside["cpu_percent"] = {"echo": result["cpu_percent"].pop("echo")}
+        beside["latency"] = summarize_latency(found, unanswered)
+        beside["node_counts"] = {}
+        return {"servo, command to joint command": result, "echo, beside the servo": beside}
+    window = [src for _, src, _ in outputs if first <= src <= counted[-1]]
+    result["on_time"] = on_time(window, int(PERIOD_S * 1e9))
+    result["joint_commands"] = len(window)
+    return {"servo, 1 kHz streaming": result}
 
 
 PHASES = (
-    ("echo", "echo"),
-    ("servo, command to joint command", "trials"),
+    ("echo, alone", "echo"),
+    ("servo and the echo beside it, command to joint command", "trials"),
     ("servo, 1 kHz streaming", "stream"),
 )
 
@@ -544,16 +592,17 @@ def main() -> None:
     parser.add_argument("--mode", default="trials", help=argparse.SUPPRESS)
     parser.add_argument("--out", help=argparse.SUPPRESS)
     parser.add_argument("--status", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--beside", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--seconds", type=float, default=30.0, help="length of each phase [s]")
     parser.add_argument("--only", default="", help="run only the phases whose label contains this")
     parser.add_argument("--json", help="write every figure to this file")
     args = parser.parse_args()
     if args.role == "echo":
-        return role_echo()
+        return role_echo(args.beside)
     if args.role == "sender":
-        return role_sender(args.mode, args.seconds, args.out)
+        return role_sender(args.mode, args.seconds, args.out, args.beside)
     if args.role == "receiver":
-        return role_receiver(args.out, args.status)
+        return role_receiver(args.out, args.status, args.beside)
 
     reason = unavailable_reason() or next(
         (f"the {n} executable is not built" for n in ("sim_arm", "servo") if not executable(n)),
@@ -573,10 +622,12 @@ def main() -> None:
             for attempt in (1, 2):  # a harness process that crashes gets one more chance
                 try:
                     load_before = os.getloadavg()[0]
-                    results[label] = run_phase(kind, args.seconds, env, directory)
+                    measured = run_phase(kind, args.seconds, env, directory)
                     # the machine's load (1-minute average) around the phase, the harness's own
                     # processes (the nodes, the sender, the receiver) included
-                    results[label]["load_average"] = (load_before, os.getloadavg()[0])
+                    for figures in measured.values():
+                        figures["load_average"] = (load_before, os.getloadavg()[0])
+                    results.update(measured)
                     break
                 except nb.HarnessFailure as exc:
                     if attempt == 2:
