@@ -44,7 +44,8 @@ _RANGES: dict[str, tuple[float, float, bool]] = {
     "max_kept_error_m": (0.0, 1.0, False),
     "max_kept_error_rad": (0.0, math.pi, False),
     "singular_value_threshold": (0.0, 10.0, False),
-    "max_damping": (0.0, 10.0, False),
+    # λ_max² must not underflow: at an exact singularity the solve divides by it
+    "max_damping": (1e-6, 10.0, True),
     "pose_gain_1_per_s": (0.0, 1e3, False),
     "pose_linear_speed_m_s": (0.0, 100.0, False),
     "pose_angular_speed_rad_s": (0.0, 100.0, False),

@@ -46,6 +46,7 @@ def test_defaults_follow_moveit_servo_where_it_has_them():
         ("velocity_scale", 1.5),
         ("velocity_scale", 0.0),
         ("max_damping", math.inf),
+        ("max_damping", 1e-200),  # its square underflows: 0/0 at an exact singularity
         ("tracking_gain_1_per_s", "10"),
         ("position_margin_rad", True),
     ],
