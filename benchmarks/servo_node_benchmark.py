@@ -208,6 +208,14 @@ def node_counts(
     return {k: int(inside[-1].get(k, 0)) - int(base.get(k, 0)) for k in keys if k in inside[-1]}
 
 
+def node_on_time(counts: dict[str, int]) -> float:
+    """The share of periods on time by the node's own counters: its timer callbacks that came
+    within 1.5 periods of the previous, of every period (those the timer skipped and the node
+    did not make up included)."""
+    periods = counts["cycles"] + counts.get("lost_periods", 0)
+    return (counts["cycles"] - counts.get("late_cycles", 0)) / periods if periods else math.nan
+
+
 def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bool]]:
     """Issue 23's node targets for the phases in `results`: (target, measured, met?)."""
     checks: list[tuple[str, str, bool]] = []
@@ -222,6 +230,18 @@ def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bo
                 f >= 0.999,
             )
         )
+    for label, r in results.items():
+        counts = r.get("node_counts") or {}
+        if "streaming" in label and "cycles" in counts:
+            f = node_on_time(counts)
+            checks.append(
+                (
+                    f"{label}: ≥ 99.9 % of cycles on time by the node's own count",
+                    f"{100 * f:.2f} % ({counts.get('late_cycles', '?')} late, "
+                    f"{counts.get('lost_periods', '?')} periods lost, of {counts['cycles']})",
+                    f >= 0.999,
+                )
+            )
     servo = results.get("servo, command to joint command")
     if servo is not None:
         median = servo["latency"]["median_ms"]
@@ -317,10 +337,10 @@ def role_sender(mode: str, seconds: float, out: str, echo: bool) -> None:
     rclpy.shutdown()
 
 
-def role_receiver(out: str, status: bool, echo: bool) -> None:
+def role_receiver(out: str, status: bool, echo: bool, commands: bool = True) -> None:
     """Records (data, source timestamp, arrival) of every joint command, with `echo` those of
     the echo beside the servo, and with `status` the servo's ~/status values with their arrival,
-    until SIGINT; writes `<out>.ready` once matched."""
+    until SIGINT (not `commands`: only the status); writes `<out>.ready` once matched."""
     stopping: list[int] = []
     signal.signal(signal.SIGINT, lambda signum, frame: stopping.append(signum))
     rclpy = nb._init_rclpy(rclpy_signals=False)
@@ -345,7 +365,9 @@ def role_receiver(out: str, status: bool, echo: bool) -> None:
         statuses.append((time.time_ns(), {kv.key: kv.value for kv in msg.values}))
 
     deep = QoSProfile(depth=1000)
-    subs = [node.create_subscription(Float64MultiArray, COMMAND_TOPIC, recorder(got), deep)]
+    subs = []
+    if commands:
+        subs.append(node.create_subscription(Float64MultiArray, COMMAND_TOPIC, recorder(got), deep))
     if echo:
         subs.append(
             node.create_subscription(
@@ -416,7 +438,9 @@ def run_phase(
     kind: str, seconds: float, env: dict[str, str], directory: Path
 ) -> dict[str, dict[str, Any]]:
     """One phase: `kind` "echo" (alone), "trials" (the servo, command to joint command, with the
-    echo beside it) or "stream" (the servo at 1 kHz). Returns {label: figures}."""
+    echo beside it), "stream" (the servo at 1 kHz) or "unobserved" (the same, with the receiver
+    taking only the servo's ~/status: the node's own count, without the receiver's 1 kHz load).
+    Returns {label: figures}."""
     description = ROBOT.read_text(encoding="utf-8")
     if kind == "echo":
         system = [_child(["--role", "echo"], env)]
@@ -463,6 +487,7 @@ def run_phase(
         flags = ([] if kind == "echo" else ["--status"]) + (
             ["--beside"] if kind == "trials" else []
         )
+        flags += ["--status-only"] if kind == "unobserved" else []
         receiver = _child(["--role", "receiver", "--out", str(recv_out), *flags], env)
         deadline = time.monotonic() + 20.0
         while not ready.exists():
@@ -470,7 +495,7 @@ def run_phase(
                 receiver.kill()
                 raise nb.HarnessFailure("the receiver did not match the node's publishers in 20 s")
             time.sleep(0.05)
-        mode = "stream" if kind == "stream" else "trials"
+        mode = "trials" if kind == "trials" else "stream"
         beside = ["--beside"] if kind == "trials" else []
         sender = _child(
             ["--role", "sender", "--mode", mode, "--seconds", str(seconds), "--out", str(send_out)]
@@ -519,6 +544,8 @@ def run_phase(
         beside["latency"] = summarize_latency(found, unanswered)
         beside["node_counts"] = {}
         return {"servo, command to joint command": result, "echo, beside the servo": beside}
+    if kind == "unobserved":
+        return {"servo, 1 kHz streaming, unobserved": result}
     window = [src for _, src, _ in outputs if first <= src <= counted[-1]]
     result["on_time"] = on_time(window, int(PERIOD_S * 1e9))
     result["joint_commands"] = len(window)
@@ -529,6 +556,7 @@ PHASES = (
     ("echo, alone", "echo"),
     ("servo and the echo beside it, command to joint command", "trials"),
     ("servo, 1 kHz streaming", "stream"),
+    ("servo, 1 kHz streaming, unobserved (its own count only)", "unobserved"),
 )
 
 
@@ -593,6 +621,7 @@ def main() -> None:
     parser.add_argument("--out", help=argparse.SUPPRESS)
     parser.add_argument("--status", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--beside", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--status-only", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--seconds", type=float, default=30.0, help="length of each phase [s]")
     parser.add_argument("--only", default="", help="run only the phases whose label contains this")
     parser.add_argument("--json", help="write every figure to this file")
@@ -602,7 +631,7 @@ def main() -> None:
     if args.role == "sender":
         return role_sender(args.mode, args.seconds, args.out, args.beside)
     if args.role == "receiver":
-        return role_receiver(args.out, args.status, args.beside)
+        return role_receiver(args.out, args.status, args.beside, not args.status_only)
 
     reason = unavailable_reason() or next(
         (f"the {n} executable is not built" for n in ("sim_arm", "servo") if not executable(n)),

@@ -195,3 +195,20 @@ def test_without_the_echo_the_ratio_is_not_judged():
     results = {k: v for k, v in RESULTS.items() if not k.startswith("echo")}
     verdicts = _verdicts(results)
     assert not any("echo" in t for t in verdicts) and len(verdicts) == 2
+
+
+def test_the_node_s_own_count_of_cycles_on_time():
+    counts = {"cycles": 29_000, "late_cycles": 20, "lost_periods": 10}
+    assert bench.node_on_time(counts) == pytest.approx((29_000 - 20) / 29_010)
+    results = {"servo, 1 kHz streaming, unobserved": {"node_counts": counts}}
+    (target, measured, met) = bench.target_checks(results)[0]
+    assert "own count" in target and not met and "20 late, 10 periods lost" in measured
+    counts = {"cycles": 29_000, "late_cycles": 20, "lost_periods": 0}
+    assert bench.target_checks(
+        {
+            "servo, 1 kHz streaming": {
+                "node_counts": counts,
+                **{"on_time": {"fraction": 1.0, "slots": 1, "on_time": 1}},
+            }
+        }
+    )[1][2]  # 99.93 %: met
