@@ -26,6 +26,7 @@ from .chain_solver import (
     solve_arrays,
     solve_branches,
     solve_single,
+    steps_for,
 )
 from .detection import require_solver, solver_of
 from .geometry import INV_TWO_PI, BoolArray, FloatArray, pose_errors_list
@@ -329,7 +330,7 @@ def _nearest_at(
             and ep < REFINE_BELOW * solver.scale
             and er < REFINE_BELOW
         ):
-            refined = refine_one(solver, q, Tl)
+            refined = refine_one(solver, q, Tl, steps_for(solver, ep, er))
             qr = [
                 min(max(x, a), b)
                 for x, a, b in zip(refined, solver.lower, solver.upper, strict=True)

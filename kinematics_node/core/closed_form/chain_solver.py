@@ -16,9 +16,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg.lapack import dposv
 
 from ..model import TWO_PI, KinematicChain
-from .general_6r import Arm, solve_general_6r_shifted
+from .general_6r import Arm, solve_general_6r_shifted, solve_one_target
 from .geometry import (
     INV_TWO_PI,
     BoolArray,
@@ -715,11 +716,21 @@ def scalar_candidates(
 def _general_candidates(
     solver: ChainSolver, T: list[list[float]], seed: list[float], held_value: float | None
 ) -> tuple[list[Candidate], Stages]:
-    """`scalar_candidates` of the general 6R solver: its vectorised form on one lane (the
-    eigenvalue problem dominates a single target, whatever the arithmetic around it)."""
+    """`scalar_candidates` of the general 6R solver: its one-target form (`solve_one_target`) for
+    a 6R arm read from the base, else its vectorised form on one lane."""
+    stages = Stages(_STAGE_ORDER["general_6r"])
+    if solver.general is not None and held_value is None:
+        R, p = _times_inverse_home(T, solver.M_inv_rows)
+        Ra, pa = np.array(R), np.array(p)
+        if solver.structure.reversed:  # G⁻¹ = e^{−[S₆]q₆} ⋯ e^{−[S₁]q₁}
+            Ra, pa = Ra.T, -(Ra.T @ pa)
+        Q1 = solve_one_target(solver.general, Ra, pa)
+        if Q1 is not None:
+            rows = wrap_angles(-Q1[:, ::-1] if solver.structure.reversed else Q1).tolist()
+            stages.passed["reach"] = len(rows)
+            return [(q, ()) for q in rows], stages
     held = None if held_value is None else np.array([held_value])
     Q, ok, _, _, _ = solve_branches(solver, np.array([T]), np.array([seed]), held)
-    stages = Stages(_STAGE_ORDER["general_6r"])
     rows = Q[0][ok[0]].tolist()
     stages.passed["reach"] = len(rows)
     return [(q, ()) for q in rows], stages
@@ -840,7 +851,7 @@ def solve_single(
                 and ep < REFINE_BELOW * solver.scale
                 and er < REFINE_BELOW
             ):
-                qr = [wrap_angle(x) for x in refine_one(solver, q, T)]
+                qr = [wrap_angle(x) for x in refine_one(solver, q, T, steps_for(solver, ep, er))]
                 ep_r, er_r = fk_errors(solver, qr, T)
                 if max(ep_r / solver.scale, er_r) < max(ep / solver.scale, er):
                     q, ep, er = qr, ep_r, er_r
@@ -881,17 +892,22 @@ def fk_errors(solver: ChainSolver, q: list[float], T: list[list[float]]) -> tupl
     return dp, chord_angle(f)
 
 
-def refine_one(solver: ChainSolver, q: list[float], T: list[list[float]]) -> list[float]:
-    """`_refine` of one candidate on floats: two Gauss–Newton steps J_world Δq = (ω_err, Δp) with
-    the generated FK's Jacobian columns and one 6×6 solve each (~40 µs, where the batched
-    `_refine` of one row costs ~300 µs: real URDFs whose axes meet only to the detection
-    tolerance need it for every candidate). The held joint of a 7R arm stays fixed."""
+def refine_one(
+    solver: ChainSolver, q: list[float], T: list[list[float]], steps: int = 2
+) -> list[float]:
+    """`_refine` of one candidate on floats: Gauss–Newton steps J_world Δq = (ω_err, Δp) with the
+    generated FK's Jacobian columns and one 6×6 Cholesky solve each (LAPACK's dposv, directly:
+    ~10 µs a step, where the batched `_refine` of one row costs ~300 µs: real URDFs whose axes
+    meet only to the detection tolerance need it for every candidate). Convergence is quadratic,
+    so from a candidate within `ONE_STEP_BELOW` one step is exact to round-off (`steps_for`).
+    The held joint of a 7R arm stays fixed."""
     if solver.fk_world is None:
-        return _refine(solver.chain, np.array([q]), np.array(T)[None], solver.held)[0].tolist()
+        T_t = np.array(T)[None]
+        return _refine(solver.chain, np.array([q]), T_t, solver.held, steps)[0].tolist()
     kept = [i for i in range(len(q)) if i != solver.held]
     q = list(q)
     a, b, c = T[0], T[1], T[2]
-    for _ in range(2):
+    for _ in range(steps):
         t, cols = solver.fk_world(q)
         # A = R_t Rᵀ (row i of R_t against row k of R); ω_err = vee((A − Aᵀ)/2) to first order
         A = [
@@ -903,7 +919,20 @@ def refine_one(solver: ChainSolver, q: list[float], T: list[list[float]]) -> lis
             a[3] - t[9], b[3] - t[10], c[3] - t[11],
         ])  # fmt: skip
         J = np.array([cols[i] for i in kept]).T  # (6, k)
-        dq = J.T @ np.linalg.solve(J @ J.T + 1e-12 * np.eye(6), e)
-        for i, d in zip(kept, dq.tolist(), strict=True):
+        _, y, info = dposv(J @ J.T + _DAMP, e)  # J Jᵀ + 1e-12 I: positive definite
+        if info != 0:
+            y = np.linalg.lstsq(J @ J.T, e, rcond=None)[0]
+        for i, d in zip(kept, (J.T @ y).tolist(), strict=True):
             q[i] += d
     return q
+
+
+#: A candidate within this of its target (position / scale, and rotation [rad]) is refined by one
+#: Gauss–Newton step (quadratic convergence: the next error is of its square), else by two.
+ONE_STEP_BELOW = 1e-6
+_DAMP = 1e-12 * np.eye(6)
+
+
+def steps_for(solver: ChainSolver, ep: float, er: float) -> int:
+    """Gauss–Newton steps that refine a candidate with errors ep [m], er [rad] to round-off."""
+    return 1 if ep < ONE_STEP_BELOW * solver.scale and er < ONE_STEP_BELOW else 2

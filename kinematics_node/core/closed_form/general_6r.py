@@ -15,19 +15,31 @@ With the origin on axis 3, Raghavan and Roth's 14 equations p, l, p·p, p·l, p 
 
 P (14 × 3 × 9) depends on the arm only; Q (14 × 8) and q₀ on the target. Their coefficients are
 read off exactly by evaluating both sides at three angles per joint (a trigonometric polynomial of
-degree one is fixed by three values), so no symbolic expansion is written out. The left null
-space N (6 × 14) of Q, from its SVD, eliminates θ₁, θ₂: N (P(θ₃) m₄₅ − q₀) = 0, six equations in
-θ₃, θ₄, θ₅. With half-angle tangents xᵢ = tan(θᵢ/2) (θ₃ measured from a fixed random offset φ, so
-that θ₃ = φ + π is almost never a root and the leading matrix stays invertible) they are
-polynomial, of degree 2 in x₄ and x₅; with their products by x₄ they form Σ(x₃) v = 0,
-Σ = C₀ + C₁x₃ + C₂x₃² (12 × 12) on v = (x₄ⁱ x₅ʲ), i ≤ 3, j ≤ 2. det Σ(x₃) = 0 has degree 24,
-of which 8 roots are the spurious ±i of (1 + x₃²)⁴: at most 16 real solutions. They are the
-eigenvalues of the 24 × 24 companion matrix, with x₄, x₅ read from the eigenvectors; m₁₂ then
-follows from the 14 equations by least squares (θ₁, θ₂), and θ₆ from the orientation. Candidates
-are polished by Newton steps and checked by forward kinematics in `chain_solver`.
+degree one is fixed by three values), so no symbolic expansion is written out. The right-hand
+side is moreover a polynomial in g = G r₆ and h = R_G ω₆ of degree ≤ 2 in g and ≤ 1 in h, so
+per arm it is one matrix K (40 × 126) on the 40 monomials of (g, h), fitted once: per target, one
+product. The left null space N (6 × 14) of Q, from its SVD, eliminates θ₁, θ₂:
+N (P(θ₃) m₄₅ − q₀) = 0, six equations in θ₃, θ₄, θ₅. With half-angle tangents xᵢ = tan(θᵢ/2)
+(θ₃ measured from a fixed offset φ, so that θ₃ = φ + π is almost never a root and the leading
+matrix stays invertible) they are polynomial, of degree 2 in x₄ and x₅; with their products by x₄
+they form Σ(x₃) v = 0, Σ = C₀ + C₁x₃ + C₂x₃² (12 × 12) on v = (x₄ⁱ x₅ʲ), i ≤ 3, j ≤ 2, whose
+roots are the eigenvalues of the 24 × 24 companion matrix M = [[0, I], [−C₂⁻¹C₀, −C₂⁻¹C₁]].
+
+det Σ(x₃) has degree 24, of which 8 roots are the spurious ±i of (1 + x₃²)⁴: at most 16 real
+solutions. At x₃ = ±i only the vector equations' rotation by θ₃ survives, (Pc ± i Ps), of rank one
+per vector equation, so Σ(±i) has a null space V (12 × 4) that depends on the arm alone; M's
+invariant subspace of ±i is then spanned by (V, ±iV), and with an orthonormal complement Q₂
+(24 × 16, per arm) the 16 genuine roots are the eigenvalues of Q₂ᵀ M Q₂: a 16 × 16 problem
+(a third of the 24 × 24's time), eigenvalues only. Each real root x₃ then gives (x₄, x₅) from the
+null vector of Σ(x₃) (one step of inverse iteration; roots that coincide to within `CLUSTER`
+share a null space of their multiplicity, split by the shift x₄ + c x₅ of the monomials), m₁₂
+follows from the 14 equations by least squares (θ₁, θ₂), and θ₆ from the orientation.
+Candidates are checked by forward kinematics (and polished by Gauss–Newton steps where near) in
+`chain_solver`.
 
 Everything is vectorised over lanes (targets, or target × held value of a 7R arm): NumPy's
-eigensolver takes stacks of matrices. Lengths are scaled by the arm's size first. Angles [rad].
+solvers take stacks of matrices; one lane calls LAPACK directly (`scipy.linalg.lapack`: a fifth
+of NumPy's per-call cost on these sizes). Lengths are scaled by the arm's size first. Angles [rad].
 """
 
 from __future__ import annotations
@@ -35,9 +47,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.linalg import lapack
 
 from .. import subproblems as sp
-from .geometry import BoolArray, FloatArray, Trace
+from .geometry import BoolArray, FloatArray, IntArray, Trace
 
 #: Candidate slots per lane: a 6R chain has at most 16 solutions (Raghavan & Roth 1993).
 BRANCHES = 16
@@ -46,6 +59,10 @@ THETA3_OFFSET = 0.6180339887498949
 #: An eigenvalue x₃ counts as real when |Im x₃| ≤ this × (1 + |x₃|²) (a double real root splits
 #: into a complex pair of about √ε; Newton steps and the FK check decide).
 REAL_ROOT = 1e-4
+#: Real roots of one lane closer than this × (1 + |x₃|) are one root of higher multiplicity (a
+#: double root, or a pair split by rounding): inverse iteration cannot tell their null vectors
+#: apart (its error grows as ε / gap, a shared null space's as the gap: equal near √ε).
+CLUSTER = 1e-7
 #: Where C₂⁻¹[C₀ C₁] has entries beyond this × those of Σ, a lane is solved again with θ₃
 #: measured from φ + 1 (C₂ is singular where θ₃ = φ + π is a root).
 _C2_CONDITION = 1e10
@@ -53,45 +70,60 @@ _C2_CONDITION = 1e10
 # Angles 0, 2π/3, 4π/3: f(θ) = a + b cos θ + c sin θ from its three values, (a, b, c) = V⁻¹ f.
 _SAMPLES = np.array([0.0, 2.0 * math.pi / 3.0, 4.0 * math.pi / 3.0])
 _V_INV = np.linalg.inv(np.stack((np.ones(3), np.cos(_SAMPLES), np.sin(_SAMPLES)), axis=1))
+# (1, cos, sin) ⊗ (1, cos, sin) coefficients from the 3 × 3 samples, as one 9 × 9 matrix.
+_V_INV2 = np.kron(_V_INV, _V_INV)
+_V_INV3 = np.kron(_V_INV, _V_INV2)
 # (1 + x²)(1, cos θ, sin θ) in the powers (1, x, x²) of x = tan(θ/2): rows 1 + x², 1 − x², 2x.
 _HALF = np.array([[1.0, 0.0, 1.0], [1.0, 0.0, -1.0], [0.0, 2.0, 0.0]])
+# The monomials of the right-hand side: (1, g, gᵢgⱼ (i ≤ j)) ⊗ (1, h), 10 × 4 = 40.
+_PAIRS_I, _PAIRS_J = np.triu_indices(3)
+# (g, h) at which K is fitted (scaled coordinates: |g| of order one): 80 points for 40 monomials.
+_FIT = np.random.default_rng(20240624).uniform(-1.5, 1.5, size=(80, 6))
+# The fixed right-hand side of inverse iteration (any vector with a component along every null
+# vector; fixed so that results are repeatable).
+_B = np.random.default_rng(7).standard_normal(12)
+# Entries of v = (x₄ⁱ x₅ʲ) (index 3i + j) that x₄ (+3), x₅ (+1) or both map into v: i ≤ 2; j ≤ 1.
+_X4_BASE = np.array([3 * i + j for i in range(3) for j in range(3)])
+_X5_BASE = np.array([3 * i + j for i in range(4) for j in range(2)])
+_BASE = np.array([3 * i + j for i in range(3) for j in range(2)])
+# The sums of `_shift_ratios` as products of entries v[A] v[B] summed by a 0/1 matrix (34, 4).
+_PROD_A = np.concatenate((_X4_BASE + 3, _X4_BASE, _X5_BASE + 1, _X5_BASE))
+_PROD_B = np.concatenate((_X4_BASE, _X4_BASE, _X5_BASE, _X5_BASE))
+_PROD_SUM = np.zeros((34, 4))
+for _k, (_a, _b) in enumerate(((0, 9), (9, 18), (18, 26), (26, 34))):
+    _PROD_SUM[_a:_b, _k] = 1.0
+_EYE12 = np.eye(12)
+_EYE3 = np.eye(3)
+#: The largest polishing step [rad] taken (`_angles`): larger ones mean a root far from exact.
+_POLISH_LIMIT = 0.1
+# Of the 8 products of (value or derivative) of three angles' rows, value ⊗ value ⊗ value and
+# one derivative each (`_angles`), in the order (a, b, c) ↦ 4a + 2b + c.
+_VALUE_AND_DERIVATIVES = np.array([0, 4, 2, 1])
 
 
-def _rotate(k: FloatArray, c: FloatArray, s: FloatArray, x: FloatArray) -> FloatArray:
-    """R(k, θ) x with c = cos θ, s = sin θ (…) for unit k and x (…, 3) (Rodrigues, MR eq. 3.51)."""
-    c, s = c[..., None], s[..., None]
-    return x * c + sp.cross(k, x) * s + k * (sp.dot(k, x)[..., None] * (1.0 - c))
+def _features(g: FloatArray, h: FloatArray) -> FloatArray:
+    """The 40 monomials (1, g, gᵢgⱼ) ⊗ (1, h) of g, h (…, 3) → (…, 40)."""
+    one = np.ones(g.shape[:-1] + (1,))
+    mu = np.concatenate((one, g, g[..., _PAIRS_I] * g[..., _PAIRS_J]), axis=-1)
+    hh = np.concatenate((one, h), axis=-1)
+    return (mu[..., :, None] * hh[..., None, :]).reshape(g.shape[:-1] + (40,))
+
+
+_FIT_PINV = np.linalg.pinv(_features(_FIT[:, :3], _FIT[:, 3:]))  # (40, 80)
 
 
 def _equations(p: FloatArray, l: FloatArray) -> FloatArray:
     """Raghavan and Roth's 14 quantities of a point p and a direction l (…, 3): (…, 14)."""
-    pp = np.einsum("...i,...i->...", p, p)[..., None]
-    pl = np.einsum("...i,...i->...", p, l)[..., None]
-    pxl = _cross(p, l)
-    return np.concatenate((p, l, pp, pl, pxl, pp * l - 2.0 * pl * p), axis=-1)
+    pp = sp.dot(p, p)[..., None]
+    pl = sp.dot(p, l)[..., None]
+    return np.concatenate((p, l, pp, pl, sp.cross(p, l), pp * l - 2.0 * pl * p), axis=-1)
 
 
-_EPS = np.zeros((3, 3, 3))
-_EPS[0, 1, 2] = _EPS[1, 2, 0] = _EPS[2, 0, 1] = 1.0
-_EPS[0, 2, 1] = _EPS[2, 1, 0] = _EPS[1, 0, 2] = -1.0
-
-
-def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
-    """a × b for (…, 3) arrays (one einsum: np.cross costs ten times more on small arrays)."""
-    return np.einsum("ijk,...j,...k->...i", _EPS, a, b)
-
-
-# (1, cos, sin) ⊗ (1, cos, sin) coefficients from the 3 × 3 samples, as one 9 × 9 matrix.
-_V_INV2 = np.kron(_V_INV, _V_INV)
-
-
-def _interpolate(values: FloatArray, axes: int) -> FloatArray:
-    """Coefficients over (1, cos, sin)^⊗axes of values sampled at `_SAMPLES` per angle: values
-    (…, 3, …, 3, 14) with the `axes` sample axes just before the last → same shape, coefficients."""
-    out = values
-    for a in range(axes):
-        out = np.moveaxis(np.tensordot(_V_INV, np.moveaxis(out, -2 - a, 0), axes=(1, 0)), 0, -2 - a)
-    return out
+def _interpolate(values: FloatArray) -> FloatArray:
+    """Coefficients over (1, cos, sin)^⊗3 of values sampled at `_SAMPLES` per angle: values
+    (…, 3, 3, 3, m) with the three sample axes just before the last → same shape, coefficients."""
+    shape = values.shape
+    return (_V_INV3 @ values.reshape(shape[:-4] + (27, shape[-1]))).reshape(shape)
 
 
 def screw_parts(w: FloatArray, r: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -100,71 +132,9 @@ def screw_parts(w: FloatArray, r: FloatArray) -> tuple[FloatArray, FloatArray, F
     K = np.zeros(w.shape[:-1] + (4, 4))
     K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
     K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = w[..., 2], -w[..., 1], w[..., 0]
-    K[..., :3, 3] = np.cross(r, w)  # v = −ω × r
+    K[..., :3, 3] = sp.cross(r, w)  # v = −ω × r
     K2 = K @ K
     return np.eye(4) + K2, -K2, K
-
-
-class Arm:
-    """What the general solver precomputes for lanes of 6R axes w, r (L, 6, 3) (L = 1 for a 6R
-    arm): coordinates with the origin on axis 3 and lengths / scale, the screws' parts
-    (`screw_parts`), the arm coefficients P (L, 14, 3, 9), and e₂⁻¹e₁⁻¹ at the sample angles."""
-
-    def __init__(self, w: FloatArray, r: FloatArray, scale: float) -> None:
-        self.origin = r[:, 2].copy()
-        self.scale = scale
-        rs = (r - self.origin[:, None]) / scale
-        self.w, self.r = w, rs
-        self.A, self.B, self.C = screw_parts(w, rs)  # (L, 6, 4, 4)
-        c, s = np.cos(_SAMPLES), np.sin(_SAMPLES)
-
-        def at(i: int, sign: float) -> FloatArray:  # e^{±[S_i]θ_k} at the samples: (L, 3, 4, 4)
-            return (
-                self.A[:, i, None]
-                + c[None, :, None, None] * self.B[:, i, None]
-                + sign * s[None, :, None, None] * self.C[:, i, None]
-            )
-
-        E3, E4, E5 = at(2, 1.0), at(3, 1.0), at(4, 1.0)
-        X = E3[:, :, None, None] @ E4[:, None, :, None] @ E5[:, None, None, :]  # (L, 3, 3, 3, 4, 4)
-        p = X[..., :3, :3] @ rs[:, None, None, None, 5, :, None] + X[..., :3, 3:]
-        l = X[..., :3, :3] @ w[:, None, None, None, 5, :, None]
-        E = _interpolate(_equations(p[..., 0], l[..., 0]), 3)  # (L, 3, 3, 3, 14)
-        L = w.shape[0]
-        self.P = np.moveaxis(E, -1, 1).reshape(L, 14, 3, 9)
-        # Σ's arm part with θ₃ measured from φ, and from φ + 1 (`solve_general_6r`).
-        self.G = (
-            poly_coefficients(self.P, THETA3_OFFSET),
-            poly_coefficients(self.P, THETA3_OFFSET + 1.0),
-        )
-        # e₂⁻¹(θ₂ₖ) e₁⁻¹(θ₁ⱼ) at the samples: (L, 3 [j], 3 [k], 4, 4)
-        self.M12 = at(1, -1.0)[:, None, :] @ at(0, -1.0)[:, :, None]
-        self.x6 = _perpendicular(w[:, 5])
-
-    def tile(self, n: int) -> Arm:
-        """This arm's K lanes repeated for n targets: lane i·K + k is target i, lane k."""
-        out = Arm.__new__(Arm)
-        for name, value in vars(self).items():
-            if isinstance(value, np.ndarray):
-                value = np.tile(value, (n,) + (1,) * (value.ndim - 1))
-            elif isinstance(value, tuple):
-                value = tuple(np.tile(v, (n,) + (1,) * (v.ndim - 1)) for v in value)
-            setattr(out, name, value)
-        return out
-
-    def target_coefficients(self, R: FloatArray, t: FloatArray) -> FloatArray:
-        """Right-hand sides of L targets G = (R, t) (L, 3, 3), (L, 3) in the base frame [m] →
-        (L, 14, 9) over (1, c₁, s₁) ⊗ (1, c₂, s₂)."""
-        L = R.shape[0]
-        ts = np.einsum("lij,lj->li", R, np.broadcast_to(self.origin, (L, 3))) + t - self.origin
-        ts /= self.scale  # G in the solver's coordinates: G′ x′ = (R (s x′ + o) + t − o) / s
-        g = np.einsum("lij,lj->li", R, np.broadcast_to(self.r[:, 5], (L, 3))) + ts  # G r₆
-        h = np.einsum("lij,lj->li", R, np.broadcast_to(self.w[:, 5], (L, 3)))  # R_G ω₆
-        M = self.M12
-        p = np.einsum("ljkab,lb->ljka", M[..., :3, :3], g) + M[..., :3, 3]
-        l = np.einsum("ljkab,lb->ljka", M[..., :3, :3], h)
-        E = np.einsum("ab,lbe->lea", _V_INV2, _equations(p, l).reshape(L, 9, 14))
-        return E  # (L, 14, 9)
 
 
 def poly_coefficients(P: FloatArray, phi: float) -> FloatArray:
@@ -181,77 +151,354 @@ def poly_coefficients(P: FloatArray, phi: float) -> FloatArray:
     return F.reshape(L, 3, 14, 9)
 
 
-#: `poly_coefficients` of the constant monomial alone (where q₀ enters): (3, 9).
-_CONSTANT = poly_coefficients(np.eye(27)[0].reshape(1, 1, 3, 9).repeat(14, axis=1), 0.0)[0, :, 0]
+#: `poly_coefficients` of the constant monomial alone (where q₀ enters), flattened: (27,).
+_CONSTANT = poly_coefficients(np.eye(27)[0].reshape(1, 1, 3, 9).repeat(14, axis=1), 0.0)[
+    0, :, 0
+].reshape(27)
+
+
+class Arm:
+    """What the general solver precomputes for lanes of 6R axes w, r (L, 6, 3) (L = 1 for a 6R
+    arm): coordinates with the origin on axis 3 and lengths / scale, the screws' parts
+    (`screw_parts`), the arm coefficients P (L, 14, 3, 9) and Σ's arm part for both offsets of θ₃
+    (L, 14, 27), the right-hand side's map K (L, 40, 126), and the deflating basis Q₂ (L, 24, 16)
+    with Q₂[:12]ᵀ Q₂[12:] (L, 16, 16)."""
+
+    def __init__(self, w: FloatArray, r: FloatArray, scale: float, fit: bool = True) -> None:
+        L = w.shape[0]
+        self.lanes = L
+        self.origin = r[:, 2].copy()
+        self.scale = scale
+        rs = (r - self.origin[:, None]) / scale
+        self.w, self.r = w, rs
+        A, B, C = screw_parts(w, rs)  # (L, 6, 4, 4)
+        c, s = np.cos(_SAMPLES), np.sin(_SAMPLES)
+
+        def at(i: int, sign: float) -> FloatArray:  # e^{±[S_i]θ_k} at the samples: (L, 3, 4, 4)
+            return (
+                A[:, i, None]
+                + c[None, :, None, None] * B[:, i, None]
+                + sign * s[None, :, None, None] * C[:, i, None]
+            )
+
+        E3, E4, E5 = at(2, 1.0), at(3, 1.0), at(4, 1.0)
+        X = E3[:, :, None, None] @ E4[:, None, :, None] @ E5[:, None, None, :]  # (L, 3, 3, 3, 4, 4)
+        p = X[..., :3, :3] @ rs[:, None, None, None, 5, :, None] + X[..., :3, 3:]
+        l = X[..., :3, :3] @ w[:, None, None, None, 5, :, None]
+        E = _interpolate(_equations(p[..., 0], l[..., 0]))  # (L, 3, 3, 3, 14)
+        self.P = np.moveaxis(E, -1, 1).reshape(L, 14, 3, 9)
+        # The 14 equations' left sides as m₃₄₅ Pf, m₃₄₅ = (1, c₃, s₃) ⊗ (1, c₄, s₄) ⊗ (1, c₅, s₅)
+        self.Pf = np.ascontiguousarray(self.P.transpose(0, 2, 3, 1).reshape(L, 27, 14))
+        # Σ's arm part with θ₃ measured from φ, and from φ + 1 (`solve_general_6r`): (L, 14, 27)
+        self.G = tuple(
+            poly_coefficients(self.P, phi).transpose(0, 2, 1, 3).reshape(L, 14, 27)
+            for phi in (THETA3_OFFSET, THETA3_OFFSET + 1.0)
+        )
+        # e₂⁻¹(θ₂ₖ) e₁⁻¹(θ₁ⱼ) at the samples: (L, 3 [j], 3 [k], 4, 4). With `fit`, the right-hand
+        # side at the fitting points, and K by least squares (exact: the right-hand side is such
+        # a polynomial); without (an arm built for one call), the right-hand side from M12.
+        self.M12 = at(1, -1.0)[:, None, :] @ at(0, -1.0)[:, :, None]
+        self.K: FloatArray | None = None
+        if fit:
+            rhs = _right_hand_side(self.M12[:, None], _FIT[None, :, :3], _FIT[None, :, 3:])
+            self.K = np.einsum("fs,lsx->lfx", _FIT_PINV, rhs.reshape(L, -1, 126))  # (L, 40, 126)
+        # θ₆ (`_angles`): R₆ x₆ = (R₃R₄R₅)ᵀ (R₂ᵀR₁ᵀ) R_G x₆ for a unit x₆ ⟂ ω₆, with R₂ᵀR₁ᵀ over
+        # (1, c₁, s₁) ⊗ (1, c₂, s₂) (L, 9, 3, 3) and the functionals (ω₆ × x₆)ᵀ and x₆ᵀ of
+        # (R₃R₄R₅)ᵀ over m₃₄₅ (L, 27, 6)
+        self.x6 = _perpendicular(w[:, 5])
+        R12 = self.M12[..., :3, :3].reshape(L, 9, 3, 3)
+        self.B12 = np.einsum("ab,lbij->laij", _V_INV2, R12)
+        R345 = _interpolate(X[..., :3, :3].swapaxes(-1, -2).reshape(L, 3, 3, 3, 9))
+        R345 = R345.reshape(L, 27, 3, 3)
+        a = sp.cross(w[:, 5], self.x6)
+        self.Bay = np.concatenate(
+            (np.einsum("li,lnij->lnj", a, R345), np.einsum("li,lnij->lnj", self.x6, R345)), axis=2
+        )
+        self.Q2, self.S, self.W = _deflating_basis(self.P)
+        # lane 0's arrays for `_solve_one` (contiguous 2-D: one lane's products skip the stacks)
+        self.one = (
+            np.concatenate((self.G[0][0], self.Pf[0].T), axis=1),  # (14, 54): Σ's and Pfᵀ
+            np.ascontiguousarray(self.W[0]),
+            np.ascontiguousarray(self.S[0]),
+            np.ascontiguousarray(self.Q2[0, 12:].T),
+        )
+        # one lane's constants as floats (`target_side`)
+        self.floats = (
+            self.r[0, 5].tolist(),
+            w[0, 5].tolist(),
+            self.origin[0].tolist(),
+            self.x6[0].tolist(),
+        )
+
+    def tile(self, n: int) -> Arm:
+        """This arm's K lanes repeated for n targets: lane i·K + k is target i, lane k."""
+        out = Arm.__new__(Arm)
+        for name, value in vars(self).items():
+            if isinstance(value, np.ndarray):
+                value = np.tile(value, (n,) + (1,) * (value.ndim - 1))
+            elif name == "G":
+                value = tuple(np.tile(v, (n,) + (1,) * (v.ndim - 1)) for v in value)
+            setattr(out, name, value)
+        out.lanes = self.lanes * n
+        return out
+
+    def target_side(
+        self, R: FloatArray, t: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Right-hand sides of L targets G = (R, t) (L, 3, 3), (L, 3) in the base frame [m]:
+        Q (L, 14, 8) over m₁₂ and q₀ (L, 14); and R_G x₆ (L, 3) (for θ₆)."""
+        L = R.shape[0]
+        if L == 1 and self.K is not None:  # on floats: a tenth of the array operations' time
+            (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = R[0].tolist()
+            t0, t1, t2 = t[0].tolist()
+            (r0, r1, r2), (w0, w1, w2), (o0, o1, o2), (x0, x1, x2) = self.floats
+            k = 1.0 / self.scale
+            # G′ x′ = (R (s x′ + o) + t − o) / s
+            g0 = a0 * r0 + a1 * r1 + a2 * r2 + (a0 * o0 + a1 * o1 + a2 * o2 + t0 - o0) * k
+            g1 = b0 * r0 + b1 * r1 + b2 * r2 + (b0 * o0 + b1 * o1 + b2 * o2 + t1 - o1) * k
+            g2 = c0 * r0 + c1 * r1 + c2 * r2 + (c0 * o0 + c1 * o1 + c2 * o2 + t2 - o2) * k
+            h = (1.0, a0 * w0 + a1 * w1 + a2 * w2, b0 * w0 + b1 * w1 + b2 * w2,
+                 c0 * w0 + c1 * w1 + c2 * w2)  # fmt: skip
+            mu = (1.0, g0, g1, g2, g0 * g0, g0 * g1, g0 * g2, g1 * g1, g1 * g2, g2 * g2)
+            f = np.array([m * e for m in mu for e in h])
+            rhs = (f @ self.K[0]).reshape(1, 14, 9)
+            u = np.array([[a0 * x0 + a1 * x1 + a2 * x2, b0 * x0 + b1 * x1 + b2 * x2,
+                           c0 * x0 + c1 * x1 + c2 * x2]])  # fmt: skip
+            return rhs[:, :, 1:], rhs[:, :, 0], u
+        # G in the solver's coordinates: G′ x′ = (R (s x′ + o) + t − o) / s
+        ts = np.einsum("lij,lj->li", R, np.broadcast_to(self.origin, (L, 3))) + t - self.origin
+        g = np.einsum("lij,lj->li", R, np.broadcast_to(self.r[:, 5], (L, 3))) + ts / self.scale
+        h = np.einsum("lij,lj->li", R, np.broadcast_to(self.w[:, 5], (L, 3)))
+        if self.K is None:
+            rhs = _right_hand_side(self.M12, g, h)
+        elif self.lanes > 1:
+            rhs = (_features(g, h)[:, None, :] @ self.K)[:, 0]
+        else:
+            rhs = _features(g, h) @ self.K[0]
+        rhs = rhs.reshape(L, 14, 9)
+        u = np.einsum("lij,lj->li", R, np.broadcast_to(self.x6, (L, 3)))
+        return rhs[:, :, 1:], rhs[:, :, 0], u
+
+
+def _right_hand_side(M12: FloatArray, g: FloatArray, h: FloatArray) -> FloatArray:
+    """The 14 equations' right-hand sides over (1, c₁, s₁) ⊗ (1, c₂, s₂) (…, 14 · 9) for g = G r₆
+    and h = R_G ω₆ (…, 3), from e₂⁻¹e₁⁻¹ at the sample angles M12 (…, 3, 3, 4, 4)."""
+    p = np.einsum("...jkab,...b->...jka", M12[..., :3, :3], g) + M12[..., :3, 3]
+    l = np.einsum("...jkab,...b->...jka", M12[..., :3, :3], h)
+    eq = _equations(p, l)
+    rhs = np.einsum("ab,...be->...ea", _V_INV2, eq.reshape(eq.shape[:-3] + (9, 14)))
+    return rhs.reshape(rhs.shape[:-2] + (126,))
+
+
+def _deflating_basis(P: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Q₂ (L, 24, 16), orthonormal, spanning the complement of the companion matrix's invariant
+    subspace of the spurious roots ±i; Q₂[:12]ᵀ Q₂[12:] (L, 16, 16); and the rows of Q₂ that
+    `_companion` multiplies [F₀ F₁] by, W (L, 18, 32).
+
+    At x₃ = ±i, Σ = N (Pc ± i Ps) in the half-angle monomials of x₄, x₅ (the constant and q₀
+    terms carry the factor 1 + x₃²). V = {v: K v[:9] = 0, K v[3:] = 0} with K = Pc + i Ps lies in
+    Σ(i)'s null space for every target (four dimensions at least: K has rank one per vector
+    equation), so (V, iV) are eigenvectors of M of eigenvalue i; their real and imaginary parts
+    span an invariant subspace (8 dimensions) that Q₂ completes."""
+    L = P.shape[0]
+    Kc = (P[:, :, 1] + 1j * P[:, :, 2]).reshape(L, 14, 3, 3)
+    Ki = np.einsum("ai,leab,bj->leij", _HALF, Kc, _HALF).reshape(L, 14, 9)
+    Z = np.zeros((L, 28, 12), dtype=complex)
+    Z[:, :14, :9] = Ki
+    Z[:, 14:, 3:] = Ki
+    V = np.linalg.svd(Z)[2][:, -4:].conj().swapaxes(1, 2)  # (L, 12, 4)
+    W = np.concatenate(
+        (
+            np.concatenate((V.real, V.imag), axis=2),
+            np.concatenate((-V.imag, V.real), axis=2),
+        ),
+        axis=1,
+    )  # (L, 24, 8): real and imaginary parts of (V, iV)
+    Q = np.linalg.qr(W, mode="complete")[0]
+    Q2 = np.ascontiguousarray(Q[:, :, 8:])
+    rows = np.concatenate(
+        (
+            np.concatenate((Q2[:, :9], Q2[:, 12:21]), axis=1),
+            np.concatenate((Q2[:, 3:12], Q2[:, 15:24]), axis=1),
+        ),
+        axis=2,
+    )
+    return Q2, Q2[:, :12].swapaxes(1, 2) @ Q2[:, 12:], rows
+
+
+# -- LAPACK on one lane (direct: NumPy's stacked wrappers cost ~10 µs a call more), NumPy on many
+def _svd(Q: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    if Q.shape[0] == 1:
+        u, s, vt, info = lapack.dgesdd(Q[0])
+        if info == 0:
+            return u[None], s[None], vt[None]
+    U, S, Vt = np.linalg.svd(Q)
+    return U, S, Vt
+
+
+def _solve(A: FloatArray, B: FloatArray) -> FloatArray:
+    """A⁻¹ B for stacks; inf where a matrix is singular."""
+    if A.shape[0] == 1:
+        _, _, x, info = lapack.dgesv(A[0], B[0])
+        return x[None] if info == 0 else np.full(B.shape, np.inf)
+    try:
+        return np.asarray(np.linalg.solve(A, B), dtype=np.float64)
+    except np.linalg.LinAlgError:  # an exactly singular matrix in some lane: found by its LU
+        singular = np.linalg.slogdet(A)[0] == 0
+        x = np.linalg.solve(np.where(singular[:, None, None], np.eye(A.shape[1]), A), B)
+        x[singular] = np.inf
+        return np.asarray(x, dtype=np.float64)
+
+
+def _eigvals(A: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Real and imaginary parts of the eigenvalues of a stack of real matrices."""
+    if A.shape[0] == 1:
+        wr, wi, _, _, info = lapack.dgeev(A[0], compute_vl=0, compute_vr=0)
+        if info == 0:
+            return wr[None], wi[None]
+    lam = np.linalg.eigvals(A)
+    return np.asarray(lam.real, dtype=np.float64), np.asarray(lam.imag, dtype=np.float64)
 
 
 def _companion(
-    G: FloatArray, RHS: FloatArray
-) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray]:
-    """The 24 × 24 companion matrices of Σ(x₃) for lanes with `poly_coefficients` G
-    (L or 1, 3, 14, 9) and right-hand sides RHS (L, 14, 9); also the pseudo-inverse of Q
-    (L, 8, 14), q₀ (L, 14), and where C₂ was invertible (L,)."""
-    L = RHS.shape[0]
-    Q, q0 = RHS[:, :, 1:], RHS[:, :, 0]
-    U, S, Vt = np.linalg.svd(Q)  # Q = U S Vᵀ, U (L, 14, 14)
+    arm: Arm, G: FloatArray, Q: FloatArray, q0: FloatArray, lanes: IntArray | None
+) -> tuple[FloatArray, FloatArray, BoolArray, FloatArray, tuple[FloatArray, FloatArray]]:
+    """For lanes of right-hand sides Q (L, 14, 8), q₀ (L, 14) and the arm part G (L or 1, 14, 27):
+    the six eliminated equations F (L, 6, 27) (powers 0, 1, 2 of x₃, then x₄ⁱ x₅ʲ), the deflated
+    companion matrix Q₂ᵀ M Q₂ (L, 16, 16), where C₂ was invertible (L,), the pseudo-inverse of
+    Q (L, 8, 14), and the same six equations in (cos, sin) of θ₃, θ₄, θ₅ for `_polish`:
+    N Pfᵀ m₃₄₅ = N q₀, (L, 6, 27) and (L, 6). `lanes`: the arm lane of each lane (None: the
+    arm's own).
+
+    Σ's blocks are Cₖ = [[Fₖ, 0], [0, Fₖ]] (Fₖ on the columns x₄ⁱ x₅ʲ, i ≤ 2, and again on
+    i ≥ 1 for the equations times x₄), so Cₖ X = [Fₖ X[:9]; Fₖ X[3:]]: products with Q₂ need no
+    12 × 12 matrices, and one arm for every lane makes each of them one matrix product."""
+    L = Q.shape[0]
+    U, S, Vt = _svd(Q)  # Q = U S Vᵀ, U (L, 14, 14)
     N = U[:, :, 8:].swapaxes(1, 2)  # (L, 6, 14): left null space of Q
-    inv_s = np.where(S > S[:, :1] * 1e-12, 1.0 / np.where(S > 0, S, 1.0), 0.0)
+    inv_s = 1.0 / np.maximum(S, S[:, :1] * 1e-12)
+    inv_s[S <= S[:, :1] * 1e-12] = 0.0
     Q_pinv = (Vt.swapaxes(1, 2) * inv_s[:, None, :]) @ U[:, :, :8].swapaxes(1, 2)
+    shared = lanes is None and arm.lanes == 1
+    Q2, S2, W = (arm.Q2, arm.S, arm.W) if lanes is None else (
+        arm.Q2[lanes], arm.S[lanes], arm.W[lanes]
+    )  # fmt: skip
     # N (P(θ₃) m₄₅ − q₀) = 0; q₀ joins the constant monomial.
-    Gt = G - q0[:, None, :, None] * _CONSTANT[None, :, None, :]  # (L, 3, 14, 9)
-    F = np.einsum("lie,lkem->lkim", N, Gt)  # (L, 3, 6, 9)
-    C = np.zeros((L, 3, 12, 12))
-    C[:, :, :6, :9] = F  # the six equations on x₄ⁱ x₅ʲ, i ≤ 2
-    C[:, :, 6:, 3:] = F  # the same times x₄
-    # C₂⁻¹ [C₀ C₁]; a near-singular C₂ shows as entries far larger than those of Σ.
-    C01 = np.concatenate((C[:, 0], C[:, 1]), axis=2)
-    try:
-        D = np.linalg.solve(C[:, 2], C01)
-    except np.linalg.LinAlgError:  # an exactly singular C₂ in some lane: one lane at a time
-        D = np.stack([_solve_or_inf(a, b) for a, b in zip(C[:, 2], C01, strict=True)])
-    size = np.abs(F).max(axis=(1, 2, 3)) + 1e-300
-    good = np.isfinite(D).all(axis=(1, 2)) & (np.abs(D).max(axis=(1, 2)) < _C2_CONDITION * size)
-    D = np.where(good[:, None, None], D, 0.0)
-    M = np.zeros((L, 24, 24))
-    M[:, :12, 12:] = np.eye(12)
-    M[:, 12:, :] = -D
-    return M, Q_pinv, q0, good
+    Nq = N @ q0[:, :, None]  # (L, 6, 1)
+    if shared:
+        F = (N.reshape(L * 6, 14) @ G[0]).reshape(L, 6, 27)
+        NP = (N.reshape(L * 6, 14) @ arm.Pf[0].T).reshape(L, 6, 27)
+    else:
+        F = N @ G
+        NP = N @ (arm.Pf if lanes is None else arm.Pf[lanes]).swapaxes(1, 2)
+    F -= Nq * _CONSTANT
+    # C₀ Q₂[:12] + C₁ Q₂[12:] = [F₀₁ W_top; F₀₁ W_bottom], F₀₁ = [F₀ F₁] (6 × 18)
+    if shared:
+        rhs = (F[:, :, :18].reshape(L * 6, 18) @ W[0]).reshape(L, 6, 2, 16)
+    else:
+        rhs = (F[:, :, :18] @ W).reshape(L, 6, 2, 16)
+    C2 = np.zeros((L, 12, 12))
+    C2[:, :6, :9] = F[:, :, 18:]
+    C2[:, 6:, 3:] = F[:, :, 18:]
+    # M Q₂ = [Q₂[12:]; −C₂⁻¹ (C₀ Q₂[:12] + C₁ Q₂[12:])]
+    Y = _solve(C2, rhs.transpose(0, 2, 1, 3).reshape(L, 12, 16))
+    # A near-singular C₂ shows as entries far larger than those of Σ.
+    size = np.abs(F).max(axis=(1, 2))
+    big = np.abs(Y).max(axis=(1, 2))
+    good = big < _C2_CONDITION * size  # (False for inf and NaN)
+    if not good.all():
+        Y[~good] = 0.0
+    if shared:
+        QY = (Q2[0, 12:].T @ Y.transpose(1, 0, 2).reshape(12, L * 16)).reshape(16, L, 16)
+        A = S2 - QY.transpose(1, 0, 2)
+    else:
+        A = S2 - Q2[:, 12:].swapaxes(1, 2) @ Y
+    return F, A, good, Q_pinv, (NP, Nq[:, :, 0])
 
 
-def _solve_or_inf(a: FloatArray, b: FloatArray) -> FloatArray:
-    """a⁻¹ b, or inf where a is singular."""
-    try:
-        return np.asarray(np.linalg.solve(a, b), dtype=np.float64)
-    except np.linalg.LinAlgError:
-        return np.full(b.shape, np.inf)
+def _real_roots(
+    F: FloatArray, A: FloatArray, ok_lanes: BoolArray
+) -> tuple[IntArray, FloatArray, FloatArray, FloatArray]:
+    """The real roots x₃ of lanes with deflated companion matrices A (L, 16, 16): lane and x₃ of
+    each (R,), sorted, with θ₄, θ₅ (R,) from the null vectors of Σ(x₃) (`_companion`'s F)."""
+    wr, wi = _eigvals(A)
+    if A.shape[0] == 1:  # one lane: on floats
+        xs = sorted(
+            x for x, y in zip(wr[0].tolist(), wi[0].tolist(), strict=True)
+            if abs(y) <= REAL_ROOT * (1.0 + x * x + y * y)
+        ) if ok_lanes[0] else []  # fmt: skip
+        lane = np.zeros(len(xs), dtype=np.int64)
+        x3 = np.array(xs)
+        near: BoolArray = np.array(
+            [abs(b - a) <= CLUSTER * (1.0 + abs(b)) for a, b in zip(xs[:-1], xs[1:], strict=True)],
+            dtype=bool,
+        )
+    else:
+        real = (np.abs(wi) <= REAL_ROOT * (1.0 + wr * wr + wi * wi)) & ok_lanes[:, None]
+        lane, slot = np.nonzero(real)
+        x3 = wr[lane, slot]
+        order = np.lexsort((x3, lane))
+        lane, x3 = lane[order], x3[order]
+        # Roots of a lane that coincide to within CLUSTER: one null space of their multiplicity.
+        near = np.asarray(
+            (lane[1:] == lane[:-1]) & (np.abs(np.diff(x3)) <= CLUSTER * (1.0 + np.abs(x3[1:]))),
+            dtype=bool,
+        )
+    R = lane.size
+    if not R:
+        empty = np.empty(0)
+        return lane, empty, empty, empty
+    Fl = F if F.shape[0] == 1 else F[lane]
+    x = x3[:, None, None]
+    Fx = Fl[:, :, :9] + x * (Fl[:, :, 9:18] + x * Fl[:, :, 18:])  # (R, 6, 9)
+    # One step of inverse iteration on Σ(x₃) = [[Fx, 0], [0, Fx]], shifted by ~ε‖Σ‖ (below x₃'s
+    # own error; an exactly singular Σ would stop NumPy's stacked solve for every root).
+    Sig = np.zeros((R, 12, 12))
+    Sig[:, :6, :9] = Fx
+    Sig[:, 6:, 3:] = Fx
+    Sig += (1e-15 * np.abs(Fl).max()) * _EYE12 if F.shape[0] == 1 else (
+        (1e-15 * np.abs(Fl).max(axis=(1, 2)))[:, None, None] * _EYE12
+    )  # fmt: skip
+    if R <= 3:  # LAPACK per root (NumPy's stacked solve costs ~9 µs a call)
+        v = np.stack([_solve(S[None], _B[None, :, None])[0, :, 0] for S in Sig])
+    else:
+        v = _solve(Sig, np.broadcast_to(_B[:, None], (R, 12, 1)))[..., 0]
+    bad: BoolArray = np.asarray(~np.isfinite(v).all(axis=1), dtype=bool)
+    th4, th5 = _shift_ratios(np.where(bad[:, None], 0.0, v) if bad.any() else v)
+    if near.any() or bad.any():
+        _clusters(Sig, near, bad, th4, th5)
+    return lane, x3, th4, th5
 
 
-def _roots(M: FloatArray, phi: float) -> tuple[FloatArray, FloatArray, FloatArray, BoolArray]:
-    """θ₃, x₄, x₅ (L, 16) and ok (L, 16) from the companion matrices M (L, 24, 24)."""
-    lam, vec = np.linalg.eig(M)
-    L = M.shape[0]
-    realness = np.abs(lam.imag) / (1.0 + np.abs(lam) ** 2)
-    order = np.argsort(realness, axis=1, kind="stable")[:, :BRANCHES]
-    lam = np.take_along_axis(lam, order, axis=1)
-    vec = np.take_along_axis(vec, order[:, None, :], axis=2)  # (L, 24, 16)
-    ok = np.take_along_axis(realness, order, axis=1) <= REAL_ROOT
-    x3 = lam.real
-    # The eigenvector's first half is (x₄ⁱ x₅ʲ), i ≤ 3, j ≤ 2; for a large x₃ the second half
-    # (x₃ times it) carries more digits.
-    v = np.where((np.abs(lam) > 1.0)[:, None, :], vec[:, 12:], vec[:, :12])
-    v = v.swapaxes(1, 2).reshape(L, BRANCHES, 4, 3)
-    mag = np.abs(v)
-    # x₄ = v[i+1, j] / v[i, j] at the largest v[i, j] with i ≤ 2; x₅ likewise with j ≤ 1.
-    a = mag[:, :, :3, :].reshape(L, BRANCHES, 9).argmax(axis=2)
-    i, j = a // 3, a % 3
-    lb = np.arange(L)[:, None], np.arange(BRANCHES)[None, :]
-    with np.errstate(divide="ignore", invalid="ignore"):  # (a zero vector: not ok below)
-        x4 = (v[lb[0], lb[1], i + 1, j] / v[lb[0], lb[1], i, j]).real
-        b = mag[:, :, :, :2].reshape(L, BRANCHES, 8).argmax(axis=2)
-        i, j = b // 2, b % 2
-        x5 = (v[lb[0], lb[1], i, j + 1] / v[lb[0], lb[1], i, j]).real
-    theta3 = phi + 2.0 * np.arctan(x3)
-    return theta3, x4, x5, ok & np.isfinite(x4) & np.isfinite(x5)
+def _shift_ratios(v: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """θ₄, θ₅ (R,) from null vectors v (R, 12) of the monomials x₄ⁱ x₅ʲ (3i + j): x₄ is the
+    least-squares ratio of the entries x₄ⁱ⁺¹ x₅ʲ to x₄ⁱ x₅ʲ (i ≤ 2), x₅ that of x₄ⁱ x₅ʲ⁺¹ to
+    x₄ⁱ x₅ʲ (j ≤ 1); θ = 2 atan2(num, den) with den ≥ 0, which also takes x = ±∞ (θ = π)."""
+    s = (v[:, _PROD_A] * v[:, _PROD_B]) @ _PROD_SUM  # (R, 4): num₄, den₄, num₅, den₅
+    return 2.0 * np.arctan2(s[:, 0], s[:, 1]), 2.0 * np.arctan2(s[:, 2], s[:, 3])
+
+
+def _clusters(
+    Sig: FloatArray, near: BoolArray, bad: BoolArray, th4: FloatArray, th5: FloatArray
+) -> None:
+    """θ₄, θ₅ of the roots in clusters (runs of `near`) and of roots whose Σ(x₃) (Sig (R, 12, 12))
+    was exactly singular, in place. The null space U (12 × m) of Σ at a cluster of m roots (its
+    members' mean: they are within `CLUSTER`) holds their m null vectors: the eigenvectors a of
+    the shift x₄ + c x₅ on U's rows, (U₁ − μ U₀) a = 0, give v = U a."""
+    R = Sig.shape[0]
+    starts = np.flatnonzero(np.concatenate(([True], ~near)))
+    ends = np.append(starts[1:], R)
+    need = (ends - starts > 1) | (np.add.reduceat(bad, starts) > 0)
+    for start, end in zip(starts[need].tolist(), ends[need].tolist(), strict=True):
+        m = end - start
+        U = np.linalg.svd(Sig[start:end].mean(axis=0))[2][-m:].T  # (12, m)
+        c = 0.5772156649015329  # any constant: x₄ + c x₅ also separates roots sharing x₄
+        W = np.linalg.lstsq(U[_BASE], U[_BASE + 3] + c * U[_BASE + 1], rcond=None)[0]
+        v = U @ np.linalg.eig(W)[1]  # (12, m)
+        if np.iscomplexobj(v):  # (a complex pair, not a double root: the FK check rejects)
+            top = v[np.abs(v).argmax(axis=0), np.arange(m)]
+            v = (v * (np.abs(top) / np.where(top == 0, 1.0, top))).real
+        th4[start:end], th5[start:end] = _shift_ratios(np.ascontiguousarray(v.T))
 
 
 def solve_general_6r(
@@ -263,41 +510,184 @@ def solve_general_6r(
     refines and checks by forward kinematics.
     """
     L = R.shape[0]
-    RHS = arm.target_coefficients(R, t)
-    G = np.broadcast_to(arm.G[0], (L,) + arm.G[0].shape[1:])
-    M, Q_pinv, q0, good = _companion(G, RHS)
-    theta3, x4, x5, ok = _roots(M, THETA3_OFFSET)
-    ok &= good[:, None]
-    bad = ~good
-    if bad.any():  # C₂ near singular: θ₃ = φ + π nearly a root; measure from another offset
-        G2 = np.broadcast_to(arm.G[1], (L,) + arm.G[1].shape[1:])
-        M2, _, _, good2 = _companion(G2[bad], RHS[bad])
-        t3b, x4b, x5b, okb = _roots(M2, THETA3_OFFSET + 1.0)
-        theta3[bad], x4[bad], x5[bad], ok[bad] = t3b, x4b, x5b, okb & good2[:, None]
+    Q, q0, u = arm.target_side(R, t)
+    if L == 1 and arm.lanes == 1:
+        one = _solve_one(arm, Q[0], q0[0], u)
+        if one is not None:
+            Qout = np.zeros((1, BRANCHES, 6))
+            ok = np.zeros((1, BRANCHES), dtype=bool)
+            k = min(one.shape[0], BRANCHES)
+            Qout[0, :k] = one[:k]
+            ok[0, :k] = np.isfinite(one[:k]).all(axis=1)
+            trace.fails.append(("reach", ok))
+            return Qout, ok
+    F, A, good, Q_pinv, eqs = _companion(arm, arm.G[0], Q, q0, None)
+    lane, x3, th4, th5 = _real_roots(F, A, good)
+    th3 = THETA3_OFFSET + 2.0 * np.arctan(x3)
+    if not good.all():  # C₂ near singular: θ₃ = φ + π nearly a root; measure from another offset
+        bad = np.flatnonzero(~good)
+        sub = bad if arm.lanes > 1 else None
+        G2 = arm.G[1][bad] if arm.lanes > 1 else arm.G[1]
+        F2, A2, good2, _, _ = _companion(arm, G2, Q[bad], q0[bad], sub)
+        lane2, x3b, th4b, th5b = _real_roots(F2, A2, good2)
+        lane = np.concatenate((lane, bad[lane2]))
+        th3 = np.concatenate((th3, THETA3_OFFSET + 1.0 + 2.0 * np.arctan(x3b)))
+        th4, th5 = np.concatenate((th4, th4b)), np.concatenate((th5, th5b))
+        order = np.argsort(lane, kind="stable")
+        lane, th3, th4, th5 = lane[order], th3[order], th4[order], th5[order]
+    Qout = np.zeros((L, BRANCHES, 6))
+    ok = np.zeros((L, BRANCHES), dtype=bool)
+    if lane.size:
+        q = _angles(arm, lane, th3, th4, th5, u, q0, Q_pinv, eqs)
+        slot = np.arange(lane.size) - np.searchsorted(lane, lane)  # the root's place in its lane
+        keep = slot < BRANCHES
+        Qout[lane[keep], slot[keep]] = q[keep]
+        ok[lane[keep], slot[keep]] = np.isfinite(q[keep]).all(axis=1)
     trace.fails.append(("reach", ok))
-    theta4, theta5 = 2.0 * np.arctan(x4), 2.0 * np.arctan(x5)
+    return Qout, ok
 
-    def E(i: int, th: FloatArray) -> FloatArray:  # e^{[S_i]θ} (L, 16, 4, 4)
-        c, s = np.cos(th)[..., None, None], np.sin(th)[..., None, None]
-        return arm.A[:, None, i] + c * arm.B[:, None, i] + s * arm.C[:, None, i]
 
-    X345 = E(2, theta3) @ E(3, theta4) @ E(4, theta5)
-    p = X345[..., :3, :3] @ arm.r[:, None, 5, :, None] + X345[..., :3, 3:]
-    l = X345[..., :3, :3] @ arm.w[:, None, 5, :, None]
-    # θ₁, θ₂ from the 14 equations at (θ₃, θ₄, θ₅): Q m₁₂ = P m₄₅ − q₀ by least squares.
-    lhs = _equations(p[..., 0], l[..., 0]) - q0[:, None, :]  # (L, 16, 14)
-    m12 = np.einsum("lke,lbe->lbk", Q_pinv, lhs)  # (L, 16, 8): (c₂, s₂, c₁, c₁c₂, c₁s₂, s₁, …)
-    theta1 = np.arctan2(m12[..., 5], m12[..., 2])
-    theta2 = np.arctan2(m12[..., 1], m12[..., 0])
-    # θ₆: R₆ = (R₁ ⋯ R₅)ᵀ R_G; a unit x ⟂ ω₆ goes to y = R₆ x.
-    R15 = (E(0, theta1) @ E(1, theta2) @ X345)[..., :3, :3]
-    x = arm.x6[:, None, :]
-    y = np.einsum("lbji,lj->lbi", R15, np.einsum("lij,lj->li", R, np.broadcast_to(arm.x6, (L, 3))))
-    w6 = arm.w[:, None, 5]
-    theta6 = np.arctan2(np.einsum("lbi,lbi->lb", np.broadcast_to(w6, y.shape), _cross(x, y)),
-                        np.einsum("lbi,lbi->lb", np.broadcast_to(x, y.shape), y))  # fmt: skip
-    Q = np.stack((theta1, theta2, theta3, theta4, theta5, theta6), axis=-1)
-    return Q, ok & np.isfinite(Q).all(axis=-1)
+def solve_one_target(arm: Arm, R: FloatArray, t: FloatArray) -> FloatArray | None:
+    """The solutions (k, 6) of one target G = (R, t) ((3, 3), (3,)) of a 6R arm (one lane),
+    unpolished, angles in (−π, π]; None where `solve_general_6r` must decide (`_solve_one`)."""
+    Q, q0, u = arm.target_side(R[None], t[None])
+    q = _solve_one(arm, Q[0], q0[0], u)
+    if q is None:
+        return None
+    return q[np.isfinite(q).all(axis=1)]
+
+
+def _solve_one(arm: Arm, Q: FloatArray, q0: FloatArray, u: FloatArray) -> FloatArray | None:
+    """`solve_general_6r` of one target of a 6R arm (Q (14, 8), q₀ (14,), u = R_G x₆ (1, 3)):
+    the same steps on 2-D arrays with LAPACK called directly, about half the time of the stacked
+    form on one lane. The solutions (R, 6); None where the stacked form must decide (C₂ near
+    singular, roots that coincide, an exactly singular Σ(x₃))."""
+    GP, W0, S0, Q2bT = arm.one
+    U, S, Vt, info = lapack.dgesdd(Q)
+    if info:
+        return None
+    s = S.tolist()
+    cut = s[0] * 1e-12
+    inv = np.array([1.0 / x if x > cut else 0.0 for x in s])
+    Q_pinv = (Vt.T * inv) @ U[:, :8].T  # (8, 14)
+    N = U[:, 8:].T
+    Nq = N @ q0
+    H = N @ GP  # N times Σ's arm part, and N Pfᵀ (`_angles`' polish)
+    F = H[:, :27] - Nq[:, None] * _CONSTANT  # (6, 27)
+    X = F[:, :18] @ W0  # (6, 32): the two halves of C₀ Q₂[:12] + C₁ Q₂[12:]
+    C2 = np.zeros((12, 12))
+    C2[:6, :9] = C2[6:, 3:] = F[:, 18:]
+    _, _, Y, info = lapack.dgesv(C2, np.concatenate((X[:, :16], X[:, 16:])))
+    size = float(np.abs(F).max())
+    if info or not float(np.abs(Y).max()) < _C2_CONDITION * size:
+        return None
+    wr, wi, _, _, info = lapack.dgeev(S0 - Q2bT @ Y, compute_vl=0, compute_vr=0)
+    if info:
+        return None
+    xs = sorted(
+        x for x, y in zip(wr.tolist(), wi.tolist(), strict=True)
+        if abs(y) <= REAL_ROOT * (1.0 + x * x + y * y)
+    )  # fmt: skip
+    R = len(xs)
+    if not R:
+        return np.empty((0, 6))
+    if any(b - a <= CLUSTER * (1.0 + abs(b)) for a, b in zip(xs[:-1], xs[1:], strict=True)):
+        return None
+    x = np.array(xs)[:, None, None]
+    Fx = F[:, :9] + x * (F[:, 9:18] + x * F[:, 18:])  # (R, 6, 9)
+    Sig = (1e-15 * size) * np.broadcast_to(_EYE12, (R, 12, 12))  # (`_real_roots`)
+    Sig[:, :6, :9] += Fx
+    Sig[:, 6:, 3:] += Fx
+    if R <= 3:  # inverse iteration (`_real_roots`), LAPACK per root
+        vs = []
+        for M in Sig:
+            _, _, v, info = lapack.dgesv(M, _B)
+            if info:
+                return None
+            vs.append(v)
+        V = np.array(vs)
+    else:
+        try:
+            V = np.linalg.solve(Sig, np.broadcast_to(_B[:, None], (R, 12, 1)))[..., 0]
+        except np.linalg.LinAlgError:
+            return None
+    th4, th5 = _shift_ratios(V)
+    th3 = THETA3_OFFSET + 2.0 * np.arctan(x[:, 0, 0])
+    lane = np.zeros(R, dtype=np.int64)
+    eqs = (H[None, :, 27:], Nq[None])
+    return _angles(arm, lane, th3, th4, th5, u, q0[None], Q_pinv[None], eqs)
+
+
+def _angles(
+    arm: Arm,
+    lane: IntArray,
+    theta3: FloatArray,
+    theta4: FloatArray,
+    theta5: FloatArray,
+    u: FloatArray,
+    q0: FloatArray,
+    Q_pinv: FloatArray,
+    eqs: tuple[FloatArray, FloatArray],
+) -> FloatArray:
+    """Full solutions (R, 6) of roots (θ₃, θ₄, θ₅) (R,) of lanes `lane`, first polished by one
+    Gauss–Newton step on the six eliminated equations `eqs` (`_companion`): θ₁, θ₂ from the 14
+    equations by least squares, Q m₁₂ = P(θ₃) m₄₅ − q₀; θ₆ from the orientation, y = R₆ x₆ =
+    (R₃R₄R₅)ᵀ (R₂ᵀR₁ᵀ) u with u = R_G x₆ (L, 3) (`Arm.B12`, `Arm.Bay`)."""
+    R = lane.size
+    one = arm.lanes == 1
+    q = np.empty((R, 6))
+    q[:, 2], q[:, 3], q[:, 4] = theta3, theta4, theta5
+    # rows (1, cos θ, sin θ) and their derivatives (0, −sin θ, cos θ) of θ₃, θ₄, θ₅: (R, 3, 2, 3)
+    t = np.zeros((R, 3, 2, 3))
+    t[:, :, 0, 0] = 1.0
+    t[:, :, 0, 1] = t[:, :, 1, 2] = np.cos(q[:, 2:5])
+    t[:, :, 0, 2] = np.sin(q[:, 2:5])
+    t[:, :, 1, 1] = -t[:, :, 0, 2]
+    # m₃₄₅ = t₃ ⊗ t₄ ⊗ t₅ and its derivative by each angle: (R, 4, 27)
+    full = np.einsum("rai,rbj,rck->rabcijk", t[:, 0], t[:, 1], t[:, 2]).reshape(R, 8, 27)
+    m = full[:, _VALUE_AND_DERIVATIVES]
+    # One Gauss–Newton step on N (Pfᵀ m₃₄₅(θ₃, θ₄, θ₅) − q₀) = 0 (6 equations, 3 unknowns): a root
+    # found to ε / gap (near-double roots, as wrists that nearly meet give) comes back to ε.
+    NP, Nq = eqs
+    Y = m @ (NP[0].T if NP.shape[0] == 1 else NP[lane].swapaxes(1, 2))  # (R, 4, 6)
+    J = Y[:, 1:]  # (R, 3, 6) = Jᵀ
+    res = Y[:, 0] - Nq[lane]
+    JJ = J @ J.swapaxes(1, 2)
+    JJ += (1e-14 * np.trace(JJ, axis1=1, axis2=2) + 1e-300)[:, None, None] * _EYE3
+    try:
+        step = np.linalg.solve(JJ, -(J @ res[:, :, None]))
+    except np.linalg.LinAlgError:  # (a non-finite root: the FK check rejects it)
+        step = np.zeros((R, 3, 1))
+    # a step is a polish: one that is not small is not taken (a root far from converging)
+    step[~(np.abs(step) < _POLISH_LIMIT).all(axis=(1, 2))] = 0.0
+    q[:, 2:5] += step[:, :, 0]
+    m345 = m[:, 0] + (step.swapaxes(1, 2) @ m[:, 1:])[:, 0]  # to first order
+    if one:
+        lhs = m345 @ arm.Pf[0]  # (R, 14)
+        Yv = m345 @ arm.Bay[0]  # (R, 6)
+    else:
+        lhs = np.einsum("rn,rne->re", m345, arm.Pf[lane])
+        Yv = np.einsum("rn,rnk->rk", m345, arm.Bay[lane])
+    lhs -= q0[lane]
+    if Q_pinv.shape[0] == 1:
+        m12 = lhs @ Q_pinv[0].T  # (R, 8): (c₂, s₂, c₁, c₁c₂, c₁s₂, s₁, s₁c₂, s₁s₂)
+    else:
+        m12 = np.einsum("rke,re->rk", Q_pinv[lane], lhs)
+    q[:, 0] = np.arctan2(m12[:, 5], m12[:, 2])
+    q[:, 1] = np.arctan2(m12[:, 1], m12[:, 0])
+    t12 = np.ones((R, 2, 3))  # rows (1, cos θ, sin θ) of θ₁, θ₂
+    t12[:, :, 1] = np.cos(q[:, :2])
+    t12[:, :, 2] = np.sin(q[:, :2])
+    # R₂ᵀR₁ᵀ u at each root, from its coefficients over m₁₂ (9, 3) per lane of targets
+    m12f = (t12[:, 0, :, None] * t12[:, 1, None, :]).reshape(R, 1, 9)
+    if one and u.shape[0] == 1:
+        w12 = (m12f[:, 0] @ (arm.B12[0] @ u[0]))[:, :, None]  # (R, 3, 1)
+    else:
+        B12 = arm.B12[0] if one else arm.B12[lane]
+        w12 = (m12f @ (B12 @ u[lane][:, None, :, None])[..., 0]).swapaxes(1, 2)
+    yw = (Yv.reshape(R, 2, 3) @ w12)[:, :, 0]  # ((ω₆ × x₆)·y, x₆·y)
+    q[:, 5] = np.arctan2(yw[:, 0], yw[:, 1])
+    return q
 
 
 def solve_general_6r_shifted(
@@ -324,7 +714,7 @@ def solve_general_6r_shifted(
     wl[:, :shift] = np.einsum("lij,lkj->lki", Rt, wl[:, :shift])
     rl[:, :shift] = np.einsum("lij,lkj->lki", Rt, rl[:, :shift] - t[:, None])
     order = [*range(shift, 6), *range(shift)]
-    Q, ok = solve_general_6r(Arm(wl[:, order], rl[:, order], scale), R, t, trace)
+    Q, ok = solve_general_6r(Arm(wl[:, order], rl[:, order], scale, fit=False), R, t, trace)
     return Q[..., np.argsort(order)], ok
 
 
