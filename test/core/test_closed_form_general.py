@@ -207,3 +207,48 @@ def test_the_fitted_right_hand_side_and_the_deflated_eigenproblem_are_exact(name
             np.sort_complex(full[~spurious(full)]),
             atol=1e-7,
         )
+
+
+# Manocha & Canny, "Efficient inverse kinematics for general 6R manipulators", IEEE Trans. Robotics
+# and Automation 10(5):648-657, 1994, section V's example (problem 6 of Wampler & Morgan 1991, a
+# variation of the arm of Manseur & Doty, "A robot manipulator with 16 real inverse kinematic
+# solution sets", IJRR 8(5), 1989): Table I, standard DH rows (a, d, α [deg]) ...
+MANOCHA_CANNY_DH = [(0.3, 0.0, 90.0), (1.0, 0.0, 1.0), (0.0, 0.2, 90.0),
+                    (1.5, 0.0, 1.0), (0.0, 0.0, 90.0), (0.0, 0.0, 1.0)]  # fmt: skip
+# ... the hand pose A_hand as printed (4 decimals; the scan we read lost the minus signs of
+# entries (1, 2), (1, 4) and (3, 1), restored as the rotation and the solutions below require) ...
+MANOCHA_CANNY_POSE = [[-0.7601, -0.6416, 0.1022, -1.1401], [0.1333, 0.0, 0.9910, 0.0],
+                      [-0.6359, 0.7669, 0.0855, 0.0], [0.0, 0.0, 0.0, 1.0]]  # fmt: skip
+# ... and Table III, its 16 real solutions (θ₁ … θ₆ [deg], to 0.01°).
+MANOCHA_CANNY_SOLUTIONS = [
+    (-96.28, -6.27, 179.96, 38.48, 52.55, -39.40), (-120.78, 172.33, -179.07, 31.33, -146.71, 142.82),
+    (88.67, -176.72, -176.72, -63.24, 157.19, 140.43), (113.84, 5.30, -177.74, -55.92, -62.98, -43.37),
+    (-178.12, 108.19, -147.73, -5.69, -164.67, 179.58), (168.32, -103.89, 146.60, -17.24, -171.87, 98.16),
+    (-12.94, -105.09, -114.97, 3.02, 7.41, -79.42), (2.51, 108.07, 112.04, -10.52, 0.00, -0.10),
+    (2.51, 108.07, -67.95, -169.47, 179.99, 179.89), (-12.94, -105.09, 65.02, 176.97, 172.58, 100.57),
+    (168.32, -103.89, -33.39, -162.75, -8.12, -81.83), (-178.12, 108.19, 32.26, -174.30, -15.32, -0.41),
+    (88.67, -176.72, 3.27, -116.75, 22.80, -39.56), (-96.28, -6.27, -0.03, 141.51, 127.44, 140.59),
+    (-120.78, 172.33, 0.92, 148.66, -33.28, -37.17), (113.84, 5.30, 2.25, -124.07, -117.01, 136.62),
+]  # fmt: skip
+
+
+def test_the_published_arm_with_16_real_solutions_gets_all_16():
+    """Manocha & Canny's example: `ik_all` returns 16 solutions, one near each published one (the
+    pose is printed to 4 decimals and the solutions to 0.01°), each exact for the pose given."""
+    chain = SerialChain.from_dh(
+        [{"a": a, "alpha": np.radians(al), "d": d, "theta": 0.0} for a, d, al in MANOCHA_CANNY_DH]
+    )
+    published = np.radians(MANOCHA_CANNY_SOLUTIONS)
+    T = np.array(MANOCHA_CANNY_POSE)
+    # the table and the pose as read: every published solution reaches the printed pose
+    assert np.abs(chain.fk(published) - T).max() < 1e-3
+    U, _, Vt = np.linalg.svd(T[:3, :3])  # the printed rotation, onto SO(3)
+    T[:3, :3] = U @ Vt
+    for sols in (np.asarray(chain.ik_all(T).solutions), chain.ik_all_batch(T[None]).solutions):
+        assert sols.shape == (16, 6)
+        ep, er = pose_errors(chain.fk(sols), np.broadcast_to(T, (16, 4, 4)))
+        assert ep.max() <= 1e-9 and er.max() <= 1e-9
+        gap = np.abs((sols[:, None] - published[None] + PI) % (2 * PI) - PI).max(axis=2)
+        nearest = gap.argmin(axis=1)
+        assert sorted(nearest.tolist()) == list(range(16))  # one for each published solution
+        assert np.degrees(gap.min(axis=1)).max() < 0.05
