@@ -6,7 +6,11 @@
 
 `--arms repo-ur5e,repo-panda,repo-iiwa14,repo-scara,repo-planar3r` measures the repository's own
 bundled arms (`load_robot`); scara and planar3r have no closed form, so their `ik` is the numeric
-search. `--numeric` also times `IKOptions(method="numeric")` on arms that have a closed form.
+search. `--arms xarm6,irb140,puma560,baxter` measures arms in no named family (xArm 6 and ABB's
+IRB 140: the general 6R solver; Baxter's left arm: a joint held, the general 6R solver for the
+rest) and a Puma 560 whose wrist axes meet only to rounding (pybullet_data's xArm 6 URDF, the
+rtbdata descriptions of roboticstoolbox-data, example-robot-data's Baxter). `--numeric` also
+times `IKOptions(method="numeric")` on arms that have a closed form.
 
 Protocol (Beeson & Ames, TRAC-IK, 2015): targets are FK of configurations drawn uniformly within
 the joint limits; every solver starts from the middle of the limits; the full 6-D pose must match
@@ -56,6 +60,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _pinocchio import chain_setup  # noqa: E402
 
 ERD = Path(sysconfig.get_paths()["purelib"]) / "cmeel.prefix/share/example-robot-data/robots"
+RTBDATA = Path(sysconfig.get_paths()["purelib"]) / "rtbdata/xacro"
+#: The base link of arms whose chain does not start at the URDF's root.
+BASES = {"baxter": "torso"}
 TOL = 1e-5
 BUDGET = 0.005
 # The repository's bundled arms (config/robots), `--arms repo-<name>`; scara and planar3r have no
@@ -77,13 +84,24 @@ def arm_paths() -> dict[str, tuple[Path | None, str | None, str]]:
         "kinova": (ERD / "kinova_description/robots/kinova.urdf", "j2s6s200_end_effector", erd),
         "xarm7": (ERD / "xarm_description/urdf/xarm7.urdf", "link_eef", erd),
     }
+    # Arms in no named family (issue 24): the general 6R solver, or a 7R arm holding a joint for it.
+    out["irb140"] = (RTBDATA / "abb_irb140_description/urdf/irb140.urdf", "tool0", "rtbdata")
+    out["puma560"] = (
+        RTBDATA / "unimation_puma560_description/urdf/puma560_robot.urdf",
+        None,
+        "rtbdata",
+    )
+    out["baxter"] = (ERD / "baxter_description/urdf/baxter.urdf", "left_gripper", erd)
     try:
         import pybullet_data
 
         p = Path(pybullet_data.getDataPath()) / "kuka_iiwa/model.urdf"
         out["iiwa"] = (p, "lbr_iiwa_link_7", "pybullet_data kuka_iiwa/model.urdf")
+        p = Path(pybullet_data.getDataPath()) / "xarm/xarm6_robot.urdf"
+        out["xarm6"] = (p, "link6", "pybullet_data xarm/xarm6_robot.urdf")
     except ImportError:
         out["iiwa"] = (None, None, "pybullet not installed (pip install pybullet)")
+        out["xarm6"] = out["iiwa"]
     for robot in REPO_ARMS:  # the repository's bundled arms, as `load_robot` builds them
         out[f"repo-{robot}"] = (robot_path(robot), default_chain_links(robot)[1], "load_robot")
     return out
@@ -93,7 +111,7 @@ def load_arm(name: str, path: Path, tip: str | None) -> SerialChain:
     """The chain of arm `name` (a bundled arm through `load_robot`, with its default base)."""
     if name.startswith("repo-"):
         return load_robot(name.removeprefix("repo-"))
-    return SerialChain.from_urdf(path, tip_link=tip)
+    return SerialChain.from_urdf(path, base_link=BASES.get(name), tip_link=tip)
 
 
 # ---------------------------------------------------------------------- verification
@@ -326,8 +344,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--arms",
         default="ur5,panda,iiwa",
-        help="any of ur5,panda,iiwa,ur10,z1,kinova,xarm7 and the bundled arms "
-        + ",".join(f"repo-{a}" for a in REPO_ARMS),
+        help="any of ur5,panda,iiwa,ur10,z1,kinova,xarm7,xarm6,irb140,puma560,baxter and the "
+        "bundled arms " + ",".join(f"repo-{a}" for a in REPO_ARMS),
     )
     ap.add_argument("--peers", default=",".join(ALL_PEERS), help=f"subset of {','.join(ALL_PEERS)}")
     ap.add_argument(
@@ -405,8 +423,8 @@ def main(argv: list[str] | None = None) -> int:
                 peers += [(k, v, args.peer_targets) for k, v in kdl.items()]
         if "pinocchio" in chosen:
             pin_peer = (
-                "the bundled arm's chain does not start at the URDF root"
-                if name.startswith("repo-")
+                "the arm's chain does not start at the URDF root"
+                if name.startswith("repo-") or name in BASES
                 else peer_pinocchio(path, chain)
             )
             peers.append(("Pinocchio DLS", pin_peer, args.peer_targets))
