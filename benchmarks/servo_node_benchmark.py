@@ -495,7 +495,7 @@ def run_phase(
                 receiver.kill()
                 raise nb.HarnessFailure("the receiver did not match the node's publishers in 20 s")
             time.sleep(0.05)
-        mode = "trials" if kind == "trials" else "stream"
+        mode = "stream" if kind in ("stream", "unobserved") else "trials"
         beside = ["--beside"] if kind == "trials" else []
         sender = _child(
             ["--role", "sender", "--mode", mode, "--seconds", str(seconds), "--out", str(send_out)]
