@@ -168,6 +168,8 @@ class ChainSolver(JointLimits):
         # None, the rows of M⁻¹ E⁻¹); see `held_prepared`. A plain dict (a lost race only
         # recomputes an entry), emptied when full.
         self._held_cache: dict[float, tuple[Geometry, Prepared, Rows]] = {}
+        # A 7R arm held for the general 6R solver, per tuple of held values (`held_general`).
+        self._general_cache: dict[bytes, tuple[LaneGeometry, FloatArray, Arm]] = {}
         self._held_static = self.held_moves is not None and not any(
             any(flags) for flags in self.held_moves.values()
         )
@@ -239,6 +241,21 @@ class ChainSolver(JointLimits):
         s = np.broadcast_to(g0.s[0], (K, 3)).copy()
         g = LaneGeometry(w, r, pt(g0.c[0], m["c"][0]), pt(g0.b[0], m["b"][0]), h, x, s, self.scale)
         return g, E
+
+    def held_general(self, theta: FloatArray) -> tuple[LaneGeometry, FloatArray, Arm]:
+        """`held_lanes` of K held values θ (K,) and the general 6R solver's `Arm` of those lanes,
+        kept per θ: building an Arm costs ~0.1 ms a lane (its eigenproblem's deflating basis is a
+        complex SVD), and `ik_all` sweeps the same 36 values, `ik` the same spread of them, on
+        every call. A plain dict (a lost race only recomputes an entry), emptied when full."""
+        key = theta.tobytes()
+        got = self._general_cache.get(key)
+        if got is None:
+            g, E = self.held_lanes(theta)
+            got = (g, E, Arm(g.w, g.r, self.scale, fit=False))
+            if len(self._general_cache) >= 64:
+                self._general_cache.clear()
+            self._general_cache[key] = got
+        return got
 
     def held_scalar_geometry(self, theta: float) -> tuple[Geometry, list[list[float]]]:
         """`held_geometry` of one value θ as the scalar solvers' geometry, and E⁻¹ (4 × 4 lists),
@@ -467,10 +484,12 @@ def solve_branches(
         K = held.shape[-1]
         owner_lane = np.repeat(np.arange(N), K)
         if held.ndim == 1:  # shared values: the geometry of K lanes, tiled over the targets
-            gK, EK = solver.held_lanes(held)
-            g = tile_lanes(gK, N)
             if st.kind == "general_6r" and not st.case:  # the K lanes' arms, tiled likewise
-                general_arm = Arm(gK.w, gK.r, solver.scale).tile(N)
+                gK, EK, armK = solver.held_general(held)
+                general_arm = armK.tile(N)
+            else:
+                gK, EK = solver.held_lanes(held)
+            g = tile_lanes(gK, N)
             E = np.tile(EK, (N, 1, 1))
             held_lane = np.tile(held, N)
         else:

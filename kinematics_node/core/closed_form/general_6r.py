@@ -232,6 +232,8 @@ class Arm:
 
     def tile(self, n: int) -> Arm:
         """This arm's K lanes repeated for n targets: lane i·K + k is target i, lane k."""
+        if n == 1:
+            return self
         out = Arm.__new__(Arm)
         for name, value in vars(self).items():
             if isinstance(value, np.ndarray):
@@ -706,7 +708,7 @@ def solve_general_6r_shifted(
     axes (three axes through a point among joints 3-5, say) need not for another. `arm`, the
     prepared `Arm` of w, r, is used when given and shift is 0."""
     if shift == 0:
-        return solve_general_6r(arm or Arm(w, r, scale), R, t, trace)
+        return solve_general_6r(arm or Arm(w, r, scale, fit=False), R, t, trace)
     L = R.shape[0]
     Rt = R.swapaxes(1, 2)
     wl = np.broadcast_to(w, (L,) + w.shape[1:]).copy()
