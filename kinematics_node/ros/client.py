@@ -112,7 +112,7 @@ class RosClient:
         Raises:
             RosClientError: the service did not appear, or did not answer, in time.
         """
-        client = self.node.create_client(srv_type, service)
+        client: Any = self.node.create_client(srv_type, service)
         name = self.resolve(service)
         try:
             if not self._spin_until(client.service_is_ready, time.monotonic() + wait):

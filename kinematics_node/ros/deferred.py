@@ -68,7 +68,7 @@ class DeferredResponses:
     """
 
     def __init__(
-        self, service: Any, on_send_error: Callable[[BaseException], None] | None = None
+        self, service: Any, on_send_error: Callable[[BaseException], object] | None = None
     ) -> None:
         self._send: Callable[[Any, Any], None] = service.send_response
         self._held: dict[int, _Held] = {}  # id(response) -> its record (which keeps it alive)

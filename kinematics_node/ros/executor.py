@@ -49,7 +49,7 @@ from __future__ import annotations
 from collections.abc import Callable, Coroutine
 from contextlib import ExitStack, suppress
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 from rclpy.exceptions import InvalidHandle
 from rclpy.executors import (
@@ -65,7 +65,7 @@ from rclpy.waitable import NumberOfEntities
 try:
     from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 except ImportError:  # pragma: no cover - an rclpy that moved its C extension
-    _rclpy = None
+    _rclpy = None  # type: ignore[assignment]
 try:
     from rclpy.utilities import timeout_sec_to_nsec
 except ImportError:  # pragma: no cover
@@ -166,7 +166,7 @@ def _hooks_left_undefined() -> list[str]:
 
 
 def make_executor(
-    kind: str = "lean", log: Callable[[str], None] | None = None, context: Any = None
+    kind: str = "lean", log: Callable[[str], object] | None = None, context: Any = None
 ) -> Executor:
     """The executor of a node process: `LeanExecutor` ("lean") where this rclpy supports it, else
     (or for "rclpy") rclpy's `SingleThreadedExecutor`; `log` hears about a fallback."""
@@ -341,7 +341,9 @@ class LeanExecutor(Executor):
         except StopIteration:
             return True
         # the callback awaits something: finish it as a task, resumed on later turns
-        task = Task(coroutine, executor=self)
+        # (rclpy's Task runs a started coroutine as well as a coroutine function; its typing
+        # names only callables)
+        task = Task(cast(Any, coroutine), executor=self)
         with self._tasks_lock:
             self._tasks.append((task, entity, node))
         return True
@@ -428,7 +430,10 @@ class LeanExecutor(Executor):
                 hold.enter_context(guard.handle)
                 plan.own_guards.append(guard.handle)
                 counts["guards"] += 1
-            hold.enter_context(self._context.handle)  # type: ignore[arg-type]
+            context = self._context.handle
+            if context is None:  # (as rclpy's executors check)
+                raise RuntimeError("Cannot enter context if context is None")
+            hold.enter_context(context)
             plan.wait_set = _rclpy.WaitSet(
                 counts["subscriptions"],
                 counts["guards"],
@@ -436,7 +441,7 @@ class LeanExecutor(Executor):
                 counts["clients"],
                 counts["services"],
                 events,
-                self._context.handle,
+                context,
             )
             return plan
         except BaseException:

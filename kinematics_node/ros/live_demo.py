@@ -122,7 +122,7 @@ def _listen_and_call(
     spinner.start()
     lines: list[str] = []
     try:
-        clients = {
+        clients: dict[str, Any] = {
             "fk": node.create_client(ComputeFK, "compute_fk"),
             "jac": node.create_client(ComputeJacobian, "compute_jacobian"),
             "ik": node.create_client(ComputeIK, "compute_ik"),
