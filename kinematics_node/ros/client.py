@@ -20,7 +20,6 @@ import time
 from typing import Any
 
 from ..core.exceptions import KinematicsError
-from .executables import ros_setup_hint
 
 #: Seconds between checks of a deadline while waiting (Ctrl-C is seen within this).
 _POLL = 0.05
@@ -36,6 +35,10 @@ def missing_ros(modules: tuple[str, ...] = ("rclpy",)) -> str | None:
         try:
             importlib.import_module(module)
         except ImportError as exc:
+            # here, not at the top: executables brings the nodes' parameter tables, and with them
+            # the servo's core and SciPy, which `kinematics fk` must not pay for
+            from .executables import ros_setup_hint
+
             return f"needs ROS 2 ({module} is not importable: {exc}): {ros_setup_hint()}"
     return None
 
