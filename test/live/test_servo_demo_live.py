@@ -2,10 +2,10 @@
 the simulated arm, the kinematics node and the servo node as real processes, the square through
 the wrist singularity and the spin sent as TwistStamped over DDS, a picture of what arrived.
 
-The timing properties (no stop, the square within 2 mm, the limits on every joint command) hold
-when the twists reach the servo in time and its loop keeps its period; on a machine too loaded for
-that (the servo reports a command timeout in mid-script, or late cycles) they are not judged, and
-the test says so by skipping after the rest is checked."""
+The timing properties hold when the twists reach the servo in time (no stop, the square within
+2 mm) and when its loop keeps its period (the spin in place within 2 mm, the limits on every joint
+command); on a machine too loaded for that (the servo reports a command timeout in mid-script, or
+late cycles) they are not judged, and the test says so by skipping after the rest is checked."""
 
 from __future__ import annotations
 
@@ -55,17 +55,20 @@ def test_servo_demo_drives_the_square_over_dds(tmp_path):
     codes = re.search(r"servo status along the way: (.*); its loop", text)
     assert codes, text
     sequence = codes[1].split(" → ")
-    interrupted = any(c in ("TIMEOUT_STOP", "COMMAND_STALE") for c in sequence[:-1])
-    (late,) = _number(r"its loop meanwhile \(its ~/status\): \d+ cycles, (\d+) late", text)
-    if interrupted or late:
-        pytest.skip(
-            f"the machine was too loaded to judge the timing properties: the servo's status "
-            f"went {codes[1]}, with {late:.0f} late cycles"
-        )
+    if any(c in ("TIMEOUT_STOP", "COMMAND_STALE") for c in sequence[:-1]):
+        pytest.skip(f"the twists did not reach the servo in time (its status went {codes[1]})")
     stopped, asked = _number(r"time stopped while commanded to move: (\S+) s of (\S+) s", text)
     assert stopped == 0.0 and asked > 10.0, text
     (err_max, _) = _number(r"tracking error .*: max (\S+) mm, rms (\S+) mm", text)
-    assert err_max < 2.0 and drift < 2.0, text
+    assert err_max < 2.0, text
+    (late,) = _number(r"its loop meanwhile \(its ~/status\): \d+ cycles, (\d+) late", text)
+    if late:
+        # a late cycle's made-up periods reach the arm in one command (a jump the derivatives
+        # may not see as a gap), and shift the tool along its path
+        pytest.skip(
+            f"{late:.0f} late cycles of the servo: its limits and the spin's drift not judged"
+        )
+    assert drift < 2.0, text
     for what in ("velocity", "acceleration", "jerk"):
         (percent,) = _number(rf"peak joint {what}: .*, (\d+) % of its limit", text)
         assert percent <= 100, text
