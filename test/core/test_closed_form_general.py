@@ -252,3 +252,36 @@ def test_the_published_arm_with_16_real_solutions_gets_all_16():
         nearest = gap.argmin(axis=1)
         assert sorted(nearest.tolist()) == list(range(16))  # one for each published solution
         assert np.degrees(gap.min(axis=1)).max() < 0.05
+
+
+def test_a_joint_with_a_range_over_two_turns_gives_every_whole_turn_equivalent():
+    """Limits of ±2.2π on joint 6 (up to three equivalents of an angle) and ±2π on joint 1: the
+    set is every solution of the ±π arm moved by every whole turn that stays within the limits,
+    in `ik_all` and in `ik_all_batch` alike."""
+    rows = ARMS["random 0"]
+    lower = np.array([-2 * PI, -PI, -PI, -PI, -PI, -2.2 * PI])
+    wide = SerialChain.from_dh(
+        [
+            {"a": a, "alpha": al, "d": d, "theta": 0.0, "type": "R", "lower": lo, "upper": -lo}
+            for (a, al, d), lo in zip(rows, lower, strict=True)
+        ]
+    )
+    rng = np.random.default_rng(8)
+    T = wide.fk(rng.uniform(-PI, PI, size=(6, 6)))
+    batch = wide.ik_all_batch(T)
+    for i, t in enumerate(T):
+        base = np.asarray(dh_chain(rows).ik_all(t).solutions)
+        expected = np.array(
+            [
+                s + 2 * PI * np.array([k1, 0, 0, 0, 0, k6])
+                for s in base
+                for k1 in (-1, 0, 1)
+                for k6 in (-2, -1, 0, 1, 2)
+                if abs(s[0] + 2 * PI * k1) <= 2 * PI and abs(s[5] + 2 * PI * k6) <= 2.2 * PI
+            ]
+        )
+        got = np.asarray(wide.ik_all(t).solutions)
+        for sols in (got, batch.solutions_of(i)):
+            assert sols.shape == expected.shape
+            gap = np.abs(sols[:, None] - expected[None]).max(axis=2)
+            assert gap.min(axis=1).max() < 1e-9 and gap.min(axis=0).max() < 1e-9

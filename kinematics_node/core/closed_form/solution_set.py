@@ -9,6 +9,7 @@ carries the reason: the first solver stage at which every branch failed, or the 
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -282,7 +283,7 @@ def _equivalents(
     if m <= 1:
         keep = np.flatnonzero((cnt == 1).all(axis=1))
         out = Q[keep] + TWO_PI * k_lo[keep]
-    else:
+    elif m == 2:
         n = chain.dof
         combos = _COMBOS.get((m, n))
         if combos is None:
@@ -291,6 +292,17 @@ def _equivalents(
         ok = (combos[None, :, :] < cnt[:, None, :]).all(axis=2)
         keep, which = np.nonzero(ok)
         out = Q[keep] + TWO_PI * (k_lo[keep] + combos[which])
+    else:  # a joint with three or more (a range over 4π): the product per solution, not mⁿ
+        base = (Q + TWO_PI * k_lo).tolist()
+        rows: list[tuple[float, ...]] = []
+        source: list[int] = []
+        for i, (b, c) in enumerate(zip(base, cnt.tolist(), strict=True)):
+            options = [[x + TWO_PI * k for k in range(cj)] for x, cj in zip(b, c, strict=True)]
+            for row in itertools.product(*options):  # (empty if some joint has none)
+                rows.append(row)
+                source.append(i)
+        out = np.array(rows, dtype=np.float64).reshape(len(rows), Q.shape[1])
+        keep = np.array(source, dtype=np.int64)
     return np.clip(out, solver.lower_arr, solver.upper_arr), keep
 
 
