@@ -293,7 +293,7 @@ def test_a_worker_exempts_its_inherited_heap_from_the_cyclic_gc():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     before, after = (int(v) for v in out.stdout.split())
-    assert before == 0 and after > 10_000
+    assert after - before > 10_000  # (Python 3.12 starts with a few hundred objects frozen)
 
 
 def test_solve_at_once_answers_a_reachable_target_as_a_worker_would_and_leaves_the_rest():
