@@ -32,10 +32,12 @@ invariant subspace of ±i is then spanned by (V, ±iV), and with an orthonormal 
 (24 × 16, per arm) the 16 genuine roots are the eigenvalues of Q₂ᵀ M Q₂: a 16 × 16 problem
 (a third of the 24 × 24's time), eigenvalues only. Each real root x₃ then gives (x₄, x₅) from the
 null vector of Σ(x₃) (one step of inverse iteration; roots that coincide to within `CLUSTER`
-share a null space of their multiplicity, split by the shift x₄ + c x₅ of the monomials), m₁₂
-follows from the 14 equations by least squares (θ₁, θ₂), and θ₆ from the orientation.
-Candidates are checked by forward kinematics (and polished by Gauss–Newton steps where near) in
-`chain_solver`.
+share a null space of their multiplicity, split by the shift x₄ + c x₅ of the monomials). Each
+root is polished by one Gauss–Newton step on the six eliminated equations in (cos, sin) of θ₃, θ₄,
+θ₅ (a near-double root, found to ε / gap, comes back to ε), m₁₂ follows from the 14 equations by
+least squares (θ₁, θ₂), and θ₆ from the orientation through coefficients of R₂ᵀR₁ᵀ and (R₃R₄R₅)ᵀ
+precomputed per arm. Candidates are checked by forward kinematics (and refined where still off)
+in `chain_solver`.
 
 Everything is vectorised over lanes (targets, or target × held value of a 7R arm): NumPy's
 solvers take stacks of matrices; one lane calls LAPACK directly (`scipy.linalg.lapack`: a fifth
