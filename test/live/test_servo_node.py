@@ -90,7 +90,9 @@ class Rig:
                 directory,
             ),
             Process("kinematics_node", dict(CHAIN), directory),
-            Process("servo", {**CHAIN, "period_s": 0.001, "status_period": 0.05}, directory),
+            # 2 ms, not 1: on a loaded 2-core machine a 1 kHz servo starved the pose path of its
+            # CPU (0-1 ee_pose in 0.3 s); 1 kHz is measured in benchmarks/servo_node_benchmark.py
+            Process("servo", {**CHAIN, "period_s": 0.002, "status_period": 0.05}, directory),
         ]
         self.poses: list[Any] = client.collect(PoseStamped, "ee_pose")
         self.statuses: list[Any] = client.collect(DiagnosticStatus, "/servo/status")
@@ -177,14 +179,14 @@ def rig(client: Client) -> Iterator[Rig]:
 def test_ee_pose_follows_the_commanded_twist_and_the_timeout_stops_it(rig):
     v = np.array([0.04, -0.03, 0.02])  # 0.054 m/s in base_link
     start, end = rig.stream(1.6, linear=v)
-    time.sleep(0.8)  # the timeout (0.1 s) and the stop
+    time.sleep(1.3)  # the timeout (0.1 s) and the stop, and the poses of the rest to arrive
     # after the ramp (0.4 s) the tool moves at the commanded velocity
     t, p = rig.positions(start + 0.7, end)
     fit = np.polyfit(t - t[0], p, 1)[0]  # m/s, per axis
     assert np.dot(fit, v) / (np.linalg.norm(fit) * np.linalg.norm(v)) > 0.99, fit
     assert np.linalg.norm(fit) == pytest.approx(np.linalg.norm(v), rel=0.15), fit
     # the timeout stops the arm: still from 0.5 s after the last command on
-    t_rest, p_rest = rig.positions(end + 0.5, end + 0.8)
+    t_rest, p_rest = rig.positions(end + 0.5, end + 1.1)
     assert np.abs(p_rest - p_rest[0]).max() < 5e-4, p_rest
     names = [code_name(s) for s in rig.statuses]
     assert "OK" in names and "TIMEOUT_STOP" in names
@@ -229,8 +231,8 @@ def test_a_nan_command_is_refused_with_a_status_and_the_arm_stops(rig):
     )
     refusal = next(s for s in rig.status_since(seen) if "finite" in s.message)
     assert code_name(refusal) == "COMMAND_REFUSED" and refusal.level == DiagnosticStatus.WARN
-    time.sleep(0.6)
-    t, p = rig.positions(rig.now() - 0.25, rig.now())
+    time.sleep(1.0)
+    t, p = rig.positions(rig.now() - 0.6, rig.now() - 0.1)
     assert np.abs(p - p[-1]).max() < 5e-4  # stopped
 
 
