@@ -160,6 +160,16 @@ NODE_PARAMETERS: tuple[ParameterSpec, ...] = (
         "'rclpy' (rclpy's SingleThreadedExecutor).",
         choices=("lean", "rclpy"),
     ),
+    ParameterSpec(
+        "thread_priority",
+        0,
+        "SCHED_FIFO priority (1-99) of the node's thread, set at start-up (read at start-up); "
+        "0 = leave the scheduling alone. moveit_servo's parameter of this name (its default 40, "
+        "below ros2_control's 50). Where it is not permitted (no CAP_SYS_NICE or RLIMIT_RTPRIO) "
+        "the node says so in its log and runs as before.",
+        minimum=0,
+        maximum=99,
+    ),
 )
 
 SERVO_PARAMETERS: tuple[ParameterSpec, ...] = (
@@ -171,7 +181,9 @@ SERVO_SPECS: dict[str, ParameterSpec] = {spec.name: spec for spec in SERVO_PARAM
 CONFIG_NAMES = frozenset(spec.name for spec in CONFIG_PARAMETERS)
 
 #: Parameters read once at start-up; changing them at run time is refused.
-SERVO_STARTUP_ONLY = frozenset({"command_out_type", "command_out_topic", "executor"})
+SERVO_STARTUP_ONLY = frozenset(
+    {"command_out_type", "command_out_topic", "executor", "thread_priority"}
+)
 
 
 def servo_defaults() -> dict[str, Any]:
