@@ -72,7 +72,7 @@ SIM_ARM_PARAMETERS: tuple[ParameterSpec, ...] = (
         "joint_trajectory or joint_velocity_commands; 'position', 'velocity', 'trajectory' = "
         "no demo: it holds still until commanded on command_topic as ros2_control's "
         "controllers are (std_msgs/Float64MultiArray of positions or velocities, one per "
-        "simulated joint in joint_states order; trajectory_msgs/JointTrajectory).",
+        "joint of command_joints; trajectory_msgs/JointTrajectory).",
         choices=("demo", *CONTROLLER_TOPICS),
     ),
     ParameterSpec(
@@ -82,10 +82,27 @@ SIM_ARM_PARAMETERS: tuple[ParameterSpec, ...] = (
         "controller's: " + ", ".join(f"{k} {v}" for k, v in CONTROLLER_TOPICS.items()) + ".",
     ),
     ParameterSpec(
+        "command_joints",
+        "",
+        "Joints a Float64MultiArray command (position and velocity modes) gives values for, in "
+        "its order, as forward_command_controller's `joints` parameter: 'joint joint ...'; the "
+        "others hold still (a gripper's fingers under an arm's servo). Empty = every simulated "
+        "joint, in joint_states order.",
+    ),
+    ParameterSpec(
         "initial_positions",
         (),
         "Joint positions to start at, one per simulated joint in joint_states order [rad or "
         "m]; empty = the middle of each joint's limits.",
+    ),
+    ParameterSpec(
+        "thread_priority",
+        0,
+        "SCHED_FIFO priority (1-99) of the node's thread, set at start-up, as ros2_control's "
+        "controller_manager does (its default 50); 0 = leave the scheduling alone. Where it is "
+        "not permitted the node says so in its log and runs as before.",
+        minimum=0,
+        maximum=99,
     ),
 )
 

@@ -26,8 +26,17 @@ Commands are taken best effort (a best-effort subscription matches reliable and 
 publishers alike), depth 10; only the newest matters.
 
 One thread runs everything (`spin`: our LeanExecutor): a timer at the servo's period (up to
-1 kHz, 2 kHz at the most) steps the servo and publishes; the command and joint_states callbacks
-only store what they receive.
+1 kHz, 2 kHz at the most) steps the servo and publishes; the joint_states callback only stores
+what it receives. Each tick tells the servo the grid time it serves (the timer's next call
+minus one period: rcl keeps the timer on its grid and skips the ticks a late callback missed),
+so that a late cycle makes up exactly the periods skipped (`ServoService.step`). A command that
+finds the servo idle is stepped at once in its own callback, and the timer restarted from there
+(`ServoService.take_start_now`): the first joint command of a motion does not wait up to a
+period for the next tick.
+
+`thread_priority` (start-up): SCHED_FIFO for the node's thread, as moveit_servo's parameter of
+that name (`realtime.apply_thread_priority`; a system that does not permit it is logged, and
+the node runs on).
 
 Why a process of its own and not inside the kinematics node: one Python thread runs one callback
 at a time; the kinematics node's pose path carries joint_states at up to 1 kHz (and its IK
@@ -68,6 +77,7 @@ from ..core.exceptions import InvalidInputError, KinematicsError
 from ..service.parameters import ParameterSpec
 from ..service.servo import ServoService
 from ..service.servo_parameters import SERVO_PARAMETERS, SERVO_SPECS
+from .realtime import apply_thread_priority
 from .spin import spin_until_shutdown
 
 try:  # Jazzy and later
@@ -166,7 +176,18 @@ class ServoNode(Node):
             f"servo every {self._logic.period_s * 1e3:g} ms; joint commands "
             f"({self._logic.command_out_type}) on {self._logic.command_out_topic}"
         )
+        self._apply_thread_priority(int(self._logic.params["thread_priority"]))
         _freeze_heap()
+
+    def _apply_thread_priority(self, priority: int) -> None:
+        said = apply_thread_priority(priority)  # (the range: checked by ServoService)
+        if said is None:
+            return
+        level, text = said
+        if level == "info":
+            self.get_logger().info(text)
+        else:
+            self.get_logger().warn(text)
 
     def _subscribe(self, msg_type: Any, topic: str, callback: Any, qos: Any, group: Any) -> None:
         self.create_subscription(
@@ -183,8 +204,15 @@ class ServoNode(Node):
 
     # -------------------------------------------------------------- callbacks
     def _on_timer(self) -> None:
+        now = self._now()
+        # the grid time of this tick: rcl has moved the timer to its next call already
+        until_next = self._timer.time_until_next_call()
+        scheduled = None if until_next is None else now + until_next * 1e-9 - self._logic.period_s
+        self._step(now, scheduled)
+
+    def _step(self, now: float, scheduled: float | None) -> None:
         start = time.perf_counter()
-        cycle = self._logic.step(self._now())
+        cycle = self._logic.step(now, scheduled)
         if cycle.command is not None:
             self._command_pub.publish(cycle.command)
         if cycle.status is not None:
@@ -201,6 +229,11 @@ class ServoNode(Node):
     def _answer(self, status: Any | None) -> None:
         if status is not None:
             self._publish_status(status)
+        if self._logic.take_start_now():
+            # the servo was idle: step this command at once, and restart the grid from it
+            self._timer.reset()
+            now = self._now()
+            self._step(now, now)
 
     def _on_twist(self, msg: TwistStamped) -> None:
         self._answer(self._logic.on_twist(msg, self._now()))

@@ -19,7 +19,15 @@ Parameters (`executables.SIM_ARM_PARAMETERS`, which `sim_arm --help` lists):
         forward_command_controller (positions or velocities) or joint_trajectory_controller
         takes commands (how the servo node drives it).
     command_topic (str, ""): empty = that controller's topic (`CONTROLLER_TOPICS`).
+    command_joints (str, ""): the joints a Float64MultiArray command on `command_topic` is for,
+        "joint joint ...", in its order (forward_command_controller's `joints`); the others hold
+        still; empty = every simulated joint. So the servo drives an arm's chain while the
+        simulation also publishes the gripper's joints that robot_state_publisher needs.
     initial_positions (double[], []): where the arm starts; empty = the middle of its limits.
+    thread_priority (int, 0): SCHED_FIFO priority (1-99) of the node's thread, set at start-up
+        (standing in for ros2_control's controller_manager, whose loop runs SCHED_FIFO at 50 by
+        default; `realtime.apply_thread_priority`); 0 = leave the scheduling alone. A system
+        that does not permit it is logged, and the node runs on.
 
 Topics (relative names): publishes ``joint_states`` (sensor_msgs/JointState); subscribes
 ``joint_trajectory`` (trajectory_msgs/JointTrajectory) and ``joint_velocity_commands``
@@ -43,6 +51,7 @@ from trajectory_msgs.msg import JointTrajectory
 from kinematics_node.core import SerialChain
 from kinematics_node.core.exceptions import KinematicsError
 from kinematics_node.ros.executables import SIM_ARM_PARAMETERS
+from kinematics_node.ros.realtime import apply_thread_priority
 from kinematics_node.ros.spin import spin_until_shutdown
 from kinematics_node.service.description_file import read_description_file
 from kinematics_node.service.servo_parameters import CONTROLLER_TOPICS
@@ -73,6 +82,12 @@ class SimArmNode(Node):
         rate = p["rate"]
         if not rate > 0:
             raise KinematicsError(f"parameter rate must be > 0 Hz, got {rate}")
+        priority = p["thread_priority"]
+        if not 0 <= priority <= 99:
+            raise KinematicsError(
+                f"parameter thread_priority must be 0 (leave the scheduling alone) or a "
+                f"SCHED_FIFO priority 1-99, got {priority}"
+            )
         mode = p["command_mode"]
         if mode not in COMMAND_MODES:
             raise KinematicsError(
@@ -102,9 +117,10 @@ class SimArmNode(Node):
         if mode != "demo":
             self._command_topic = p["command_topic"] or CONTROLLER_TOPICS[mode]
             kind = JointTrajectory if mode == "trajectory" else Float64MultiArray
+            joints = _command_joints(p["command_joints"], self.sim.joint_names)
             self._apply = {
-                "position": apply_position_msg,
-                "velocity": apply_velocity_msg,
+                "position": lambda sim, msg, topic: apply_position_msg(sim, msg, topic, joints),
+                "velocity": lambda sim, msg, topic: apply_velocity_msg(sim, msg, topic, joints),
                 "trajectory": lambda sim, msg, topic: apply_trajectory_msg(sim, msg),
             }[mode]
             self.create_subscription(kind, self._command_topic, self._on_command, 10)
@@ -114,6 +130,13 @@ class SimArmNode(Node):
             f"simulating {self.sim.dof} joints {list(self.sim.joint_names)} at {rate:g} Hz"
             + commanded
         )
+        said = apply_thread_priority(priority)
+        if said is not None:
+            level, text = said
+            if level == "info":
+                self.get_logger().info(text)
+            else:
+                self.get_logger().warn(text)
 
     def _declare_parameters(self) -> dict:
         values = {}
@@ -162,6 +185,20 @@ class SimArmNode(Node):
             self.get_logger().warning(
                 f"refused a command on {self._command_topic}: {exc}", throttle_duration_sec=5.0
             )
+
+
+def _command_joints(text: str, simulated: tuple[str, ...]) -> tuple[str, ...] | None:
+    """The joints of the command_joints parameter (None: all), checked against the simulated
+    ones."""
+    names = tuple(text.replace(",", " ").split())
+    if not names:
+        return None
+    if len(set(names)) != len(names) or not set(names) <= set(simulated):
+        raise KinematicsError(
+            f"parameter command_joints must name distinct simulated joints (of {list(simulated)}), "
+            f"got {text!r}"
+        )
+    return names
 
 
 def main(args: list[str] | None = None) -> int:

@@ -14,10 +14,24 @@ node does is tested on machines without ROS, on real message definitions (rosbag
   (`msg_adapters.servo_messages`): the core refuses bad ones, with a status that says why, and
   stops the arm smoothly. A frame that is a link fixed to the base without being in the chain
   (UR's `base`, a `world` link above the base) is turned into the base's frame here.
-* `step(now)`, once per period, gives the joint command (Float64MultiArray of positions or
-  velocities, or a JointTrajectory) and, when it is due, the status (diagnostic_msgs/
+* `step(now, scheduled)`, once per period, gives the joint command (Float64MultiArray of
+  positions or velocities, or a JointTrajectory) and, when it is due, the status (diagnostic_msgs/
   DiagnosticStatus). Nothing non-finite is ever handed out: the core promises it, and a check
   here withholds a command that would break the promise.
+* The period grid: the node's timer is due at t₀ + k·period; a callback that starts a period or
+  more after its tick makes the timer skip the ticks it missed (rcl keeps the grid). `step`
+  makes up the skipped periods from the grid (`scheduled`, the tick this call serves), not from
+  the callback's start: a callback that is merely late within its period makes up nothing.
+  Only the last step of a catch-up is published (`step`).
+* A command that finds the servo idle (at rest, following nothing) may be stepped at once
+  (`take_start_now`): the node steps it in the command's callback and restarts its timer's grid
+  there, so the first joint command of a motion does not wait up to a period for the next tick.
+  While the arm moves, commands wait for the tick: the output stays strictly periodic.
+* A new robot description that arrives while the arm moves (the robot_description topic; the
+  parameters change only at rest) does not drop the servo at once: the old servo stops the arm
+  on the old chain within its acceleration and jerk limits, every period published as before,
+  ending at zero velocity (a velocity controller would otherwise keep the last velocity), and
+  only then is the servo of the new chain built. Meanwhile commands are refused (NOT_READY).
 
 Status policy: published when its code changes (near a singularity: when the code changes, not at
 every new condition number), when its message changes otherwise, when a command is refused, and
@@ -99,11 +113,26 @@ LEVELS: dict[int, int] = {
 MAX_CATCH_UP = 4
 #: Codes under which the servo follows a command (otherwise it has none, or stops).
 _FOLLOWING = frozenset({StatusCode.OK, StatusCode.NEAR_SINGULARITY, StatusCode.AT_JOINT_LIMIT})
+#: The NOT_READY message while a servo of the previous chain stops the arm (module docstring).
+RETIRING_MESSAGE = (
+    "a new robot description arrived while the arm moved: stopping it on the previous chain "
+    "({old}) within its limits before switching to {new}; commands are refused until then"
+)
 
 
 def code_name(code: int) -> str:
     """The name of a status code: a `StatusCode` member's, or NOT_READY."""
     return "NOT_READY" if code == NOT_READY else StatusCode(code).name
+
+
+@dataclass
+class _Retiring:
+    """The servo of a previous chain, stopping the arm before the new chain's takes over."""
+
+    servo: Servo
+    chain: SerialChain
+    index: dict[str, int]
+    q: list[float]  # its joints' measured positions, its chain's order
 
 
 @dataclass(frozen=True)
@@ -161,7 +190,9 @@ class ServoService:
         self._paused = False
         self._last_code: int = StatusCode.IDLE  # of the last step
         self._idle_cycles = 0
-        self._last_step: float | None = None  # `now` of the last step
+        self._last_slot: float | None = None  # the grid time of the last step's period
+        self._start_now = False  # the last accepted command found the servo idle
+        self._retiring: _Retiring | None = None
         self._cycles = 0
         self._late_cycles = 0
         self._lost_periods = 0
@@ -237,6 +268,15 @@ class ServoService:
         # (the same description again, e.g. from a restarted robot_state_publisher, keeps its
         # model: KinematicsService.load_description)
         chain = model.chain if model is not None else None
+        if self._servo is not None and self._chain is not None and self._moving():
+            # stop on the old chain first (module docstring)
+            old, servo = self._chain, self._servo
+            servo.pause()
+            self._retiring = _Retiring(servo, old, dict(self._index), list(self._q))
+            self._say(
+                "warn",
+                RETIRING_MESSAGE.format(old=_chain_name(old), new=_chain_name(chain)),
+            )
         self._chain = chain
         self._servo = None
         self._build_problem = None
@@ -286,6 +326,8 @@ class ServoService:
             new_servo = self._make_servo(self._chain, start, config)
         if description_changed:
             self._robot.configure({k: merged[k] for k in DESCRIPTION_PARAMETERS if k in changes})
+        if config.period_s != self._config.period_s:
+            self._last_slot = None  # the node starts a new timer: a new grid
         self._params = merged
         self._config = config
         if new_servo is not None and self._servo is not None:
@@ -316,7 +358,10 @@ class ServoService:
             ) from None
 
     def _moving(self) -> bool:
-        """True while the servo follows a command or has not come to rest."""
+        """True while the servo follows a command or has not come to rest (or the servo of a
+        previous chain is still stopping the arm)."""
+        if self._retiring is not None:
+            return True
         servo = self._servo
         if servo is None:
             return False
@@ -338,6 +383,11 @@ class ServoService:
                 f"joint_states has {len(names)} names but {len(positions)} positions; "
                 "sample ignored"
             )
+        retiring = self._retiring
+        if retiring is not None:
+            problem = _read_positions(names, positions, retiring.index, retiring.q)
+            if problem is not None:
+                return problem
         found = []
         for name, value in zip(names, positions, strict=True):
             i = index.get(name)
@@ -357,7 +407,7 @@ class ServoService:
             self._measured = np.array(q)
         else:
             self._measured = np.array(q)
-        if self._servo is None and self._build_problem is None:
+        if self._servo is None and self._build_problem is None and self._retiring is None:
             self._build()
         return None
 
@@ -419,16 +469,31 @@ class ServoService:
     def _submit(self, cmd: TwistCommand | PoseCommand | JointJogCommand, now: float) -> Any:
         servo = self._servo
         assert servo is not None
+        idle = not self._moving()
         status = servo.submit(cmd, now)
         if not status.refused:
+            self._start_now = idle
             return None
+        self._start_now = False
         return self._status_due(status.code, status.message, status, now)
+
+    def take_start_now(self) -> bool:
+        """True (once) when the last accepted command found the servo idle: at rest, following
+        nothing. The node may then step at once (`step(now, scheduled=now)`) and restart its
+        timer's grid from there (module docstring); otherwise the command waits for the tick."""
+        start, self._start_now = self._start_now, False
+        return start
 
     def _not_ready_answer(self, kind: str, now: float) -> Any | None:
         message = f"{kind} refused: {self._not_ready_reason()}"
         return self._status_due(NOT_READY, message, None, now)
 
     def _not_ready_reason(self) -> str:
+        retiring = self._retiring
+        if retiring is not None:
+            return RETIRING_MESSAGE.format(
+                old=_chain_name(retiring.chain), new=_chain_name(self._chain)
+            )
         if self._chain is None:
             return self._robot.status.message
         if self._build_problem is not None:
@@ -472,30 +537,45 @@ class ServoService:
         return "resumed: waiting for a command" if was else "was not paused; nothing to resume"
 
     # ------------------------------------------------------------------ the period
-    def step(self, now: float) -> ServoCycle:
+    def step(self, now: float, scheduled: float | None = None) -> ServoCycle:
         """One period at time `now` [s]: the joint command to publish (None while there is no
         servo, or at rest after `halt_messages` holding commands) and the status when due.
 
-        A call that comes late (1.5 periods or more after the previous one: the process was
-        held up, and the node's timer skips the ticks it missed) first makes up the periods
-        missed, up to `MAX_CATCH_UP` of them, so that the arm keeps to the commanded speed in
-        real time; the status counts such cycles (late_cycles) and the periods not made up
-        (lost_periods)."""
+        `scheduled` [s] is the time the node's timer was due for this call (its tick on the
+        grid t₀ + k·period); None: the grid is estimated from the calls (anchored at the first,
+        moved earlier by a call that comes early). The call serves the period of the latest grid
+        time at or before `now`.
+
+        When that is more than one period after the last step's (the callback began a period or
+        more after its tick: the process was held up, and the timer skips the ticks it missed),
+        the periods in between are made up first, up to `MAX_CATCH_UP` of them, each at its own
+        grid time, so that the arm keeps to the commanded speed in real time; the status counts
+        such cycles (late_cycles) and the periods not made up (lost_periods). A callback that is
+        late within its own period makes up nothing.
+
+        Only the last step's command is published: the made-up ones are already due by the time
+        they could go out; a forward position or velocity controller applies only the newest
+        command it has at its update, and joint_trajectory_controller drops points whose time
+        has passed (and would replay points stamped from their receipt late), so sending them
+        would only make this late cycle later still."""
         self._cycles += 1
+        missed = self._advance_grid(now, scheduled)
+        if self._retiring is not None:
+            return self._retire_step(now)
         servo = self._servo
         if servo is None:
-            self._last_step = None
+            self._last_slot = None
             reason = self._not_ready_reason()
             return ServoCycle(None, self._status_due(NOT_READY, reason, None, now))
-        period = self._config.period_s
-        last, self._last_step = self._last_step, now
-        if last is not None and now - last >= 1.5 * period:
+        if missed:
             self._late_cycles += 1
-            missed = round((now - last) / period) - 1
             extra = min(missed, MAX_CATCH_UP) if self._idle_cycles == 0 else 0
             self._lost_periods += missed - extra
+            period = self._config.period_s
+            slot = self._last_slot
+            assert slot is not None
             for k in range(extra, 0, -1):
-                servo.step(now - k * period, self._measured)
+                servo.step(slot - k * period, self._measured)
         out = servo.step(now, self._measured)
         status = out.status
         code = int(status.code)
@@ -510,17 +590,57 @@ class ServoService:
         halt = int(self._params["halt_messages"])
         command = None
         if halt == 0 or self._idle_cycles <= halt:
-            command = self._command_message(out)
+            command = self._command_message(out, servo.chain)
         return ServoCycle(command, self._status_due(code, status.message, status, now))
 
-    def _command_message(self, out: ServoOutput) -> Any:
+    def _advance_grid(self, now: float, scheduled: float | None) -> int:
+        """Move to the period this call serves: the latest grid time at or before `now` (`step`);
+        returns the periods skipped since the last step's."""
+        period = self._config.period_s
+        last = self._last_slot
+        if scheduled is not None:  # the grid's phase: the tick this callback was taken for
+            late = max(0, math.floor((now - scheduled) / period + 1e-6))
+            slot = float(scheduled) + late * period
+        elif last is None:
+            slot = now
+        else:
+            k = math.floor((now - last) / period + 1e-6)
+            slot = last + k * period if k >= 1 else now  # early: the estimate was late
+        self._last_slot = slot
+        if last is None:
+            return 0
+        return max(0, round((slot - last) / period) - 1)
+
+    def _retire_step(self, now: float) -> ServoCycle:
+        """A period of the previous chain's servo stopping the arm (module docstring); once at
+        rest (the command of zero velocity published), the new chain's servo is built from the
+        next joint_states that name all of its joints."""
+        retiring = self._retiring
+        assert retiring is not None
+        measured = np.array(retiring.q) if all(v == v for v in retiring.q) else None
+        out = retiring.servo.step(now, measured)
+        reason = self._not_ready_reason()
+        finite = bool(np.isfinite(out.positions).all() and np.isfinite(out.velocities).all())
+        command = self._command_message(out, retiring.chain) if finite else None
+        if not finite or not (out.velocities.any() or out.accelerations.any()):
+            self._retiring = None
+            self._say(
+                "info",
+                f"the arm is at rest on {_chain_name(retiring.chain)}; switching to "
+                f"{_chain_name(self._chain)}",
+            )
+            self._idle_cycles = 0
+            self._last_code = StatusCode.IDLE
+            # the new chain's servo is built from the next joint_states (`on_joint_state`): they
+            # show where this last command left the arm
+        return ServoCycle(command, self._status_due(NOT_READY, reason, None, now))
+
+    def _command_message(self, out: ServoOutput, chain: SerialChain) -> Any:
         kind = self._params["command_out_type"]
         if kind == "position":
             return float64_multi_array(self._types, out.positions)
         if kind == "velocity":
             return float64_multi_array(self._types, out.velocities)
-        chain = self._chain
-        assert chain is not None
         return joint_trajectory(
             self._types,
             chain.joint_names,
@@ -574,6 +694,28 @@ class ServoService:
         return diagnostic_status(
             self._types, LEVELS.get(code, 2), f"{self._node_name}: servo", message, robot, values
         )
+
+
+def _chain_name(chain: SerialChain | None) -> str:
+    return "no chain" if chain is None else f"chain {chain.base_link} -> {chain.tip_link}"
+
+
+def _read_positions(
+    names: Any, positions: Any, index: Mapping[str, int], q: list[float]
+) -> str | None:
+    """Set q[index[name]] from a JointState's names and positions (other joints ignored); a
+    problem to log (nothing set) when one of them is not finite."""
+    found = []
+    for name, value in zip(names, positions, strict=True):
+        i = index.get(name)
+        if i is not None:
+            v = float(value)
+            if not math.isfinite(v):
+                return f"joint_states gives joint {name!r} the position {v}; sample ignored"
+            found.append((i, v))
+    for i, v in found:
+        q[i] = v
+    return None
 
 
 def _fixed_to_base(model: RobotModel, link: str) -> FloatArray | None:

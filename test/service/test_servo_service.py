@@ -398,3 +398,166 @@ def test_a_late_cycle_makes_up_the_periods_missed(ros, ur5_text):
     assert v["late_cycles"] == "21" and v["lost_periods"] == str(10 - 1 - MAX_CATCH_UP)
     assert cycle.command is not None
     assert np.abs(late.servo.positions - before).max() > 0
+
+
+def _punctual_and(ros, ur5_text, **params):
+    """Two services at rest at Q_UR5 under the same twist: a reference stepped on every tick of
+    the grid 100 + k·period, and one to step otherwise."""
+    services = [make_service(ros, ur5_text, **UR5, halt_messages=0, **params) for _ in range(2)]
+    for service in services:
+        service.on_joint_state(joint_state(ros, service.chain.joint_names, Q_UR5))
+    return services
+
+
+@pytest.mark.parametrize("told", [True, False], ids=["the node gives its tick", "estimated"])
+def test_a_callback_late_within_its_period_makes_up_nothing(ros, ur5_text, told):
+    """Catch-up follows the timer's grid, not the callback's start: a callback 0.6 or 0.9 period
+    after its tick (the timer skipped nothing) serves its own period, so the servo stays where
+    the punctual one is; counting from the previous callback's start would make up a period
+    (1.6 periods apart) that was never skipped and run ahead of the punctual servo."""
+    twist = twist_msg(ros, linear=(0.05, 0.0, 0.0))
+    punctual, jittery = _punctual_and(ros, ur5_text)
+    period = punctual.period_s
+    delays = [0.0, 0.6, 0.0, 0.9, 0.1, 0.0]  # [periods] after the tick, in turns
+    for k in range(120):
+        tick = 100.0 + k * period
+        now = tick + delays[k % len(delays)] * period
+        for service, t in ((punctual, tick), (jittery, now)):
+            service.on_twist(twist, t)
+        punctual.step(tick)
+        jittery.step(now, tick if told else None)
+    assert np.abs(punctual.servo.velocities).max() > 0.01  # moving
+    assert np.allclose(jittery.servo.positions, punctual.servo.positions, atol=1e-12)
+    v = values(jittery.status_message(0, "", None))
+    assert v["late_cycles"] == "0" and v["lost_periods"] == "0"
+
+
+def test_a_callback_a_period_late_makes_up_the_skipped_periods_at_once(ros, ur5_text):
+    """A callback that begins 2.3 periods after its tick (the timer then skips the next two)
+    serves the period it runs in: it makes up the two skipped, and the next tick is ordinary.
+    One command goes out, the last step's: it equals the punctual servo's of that period."""
+    twist = twist_msg(ros, linear=(0.05, 0.0, 0.0))
+    punctual, late = _punctual_and(ros, ur5_text)
+    period = punctual.period_s
+    commands = {}
+    for k in range(80):
+        tick = 100.0 + k * period
+        punctual.on_twist(twist, tick)
+        commands[k] = punctual.step(tick).command
+    for k in range(80):
+        tick = 100.0 + k * period
+        if k in (51, 52):
+            continue  # skipped by the timer: the callback of tick 50 ran 2.3 periods late
+        now = tick + 2.3 * period if k == 50 else tick
+        late.on_twist(twist, now)
+        cycle = late.step(now, tick)
+        if k == 50:
+            # it serves tick 52's period: one command, the punctual servo's of that period
+            assert not np.allclose(commands[50].data, commands[52].data, atol=1e-9)
+            assert np.allclose(cycle.command.data, commands[52].data, atol=1e-12)
+    assert np.allclose(late.servo.positions, punctual.servo.positions, atol=1e-12)
+    v = values(late.status_message(0, "", None))
+    assert v["late_cycles"] == "1" and v["lost_periods"] == "0"
+
+
+def test_a_command_that_finds_the_servo_idle_may_be_stepped_at_once(ros, ur5_text):
+    """take_start_now: true once for a command accepted while the servo was idle; false while
+    the arm moves, and for a refused command. Stepped at once (the grid restarted there), the
+    next tick one period later makes up nothing."""
+    service = make_service(ros, ur5_text, **UR5)
+    loop = Loop(ros, service)
+    loop.run(0.05)  # idle
+    assert service.take_start_now() is False
+    assert service.on_twist(twist_msg(ros, linear=(float("nan"), 0, 0), t=loop.now), loop.now)
+    assert service.take_start_now() is False  # refused
+    loop.run(0.01)
+    now = loop.now + 0.3 * service.period_s  # between two ticks
+    assert service.on_twist(twist_msg(ros, linear=(0.05, 0, 0), t=now), now) is None
+    assert service.take_start_now() is True
+    assert service.take_start_now() is False  # once
+    before = service.servo.positions.copy()
+    cycle = service.step(now, now)
+    assert cycle.command is not None and not np.array_equal(cycle.command.data, before)
+    for k in range(1, 50):  # the restarted grid
+        t = now + k * service.period_s
+        assert service.on_twist(twist_msg(ros, linear=(0.05, 0, 0), t=t), t) is None
+        assert service.take_start_now() is False  # moving: the command waits for the tick
+        service.step(t, now + k * service.period_s)
+    assert values(service.status_message(0, "", None))["late_cycles"] == "0"
+
+
+def test_a_new_description_while_moving_stops_the_arm_on_the_old_chain_first(ros, ur5_text):
+    """The robot_description topic brings another robot (its last joint renamed) while the arm
+    moves: the old chain's servo decelerates it within its acceleration and jerk limits, every
+    period published with the old joint names, ending at zero velocity; commands are refused
+    meanwhile; then the new chain's servo starts where the arm came to rest."""
+    service = make_service(ros, "", **UR5, command_out_type="trajectory", halt_messages=0)
+    service.on_description_message(ur5_text)
+    old_names = list(service.chain.joint_names)
+    new_text = ur5_text.replace('"wrist_3_joint"', '"wrist_3_joint_b"')
+    assert new_text != ur5_text
+    q = Q_UR5.copy()
+    period = service.period_s
+    now = 100.0
+
+    def feed(positions):
+        names = [*old_names, "wrist_3_joint_b"]
+        service.on_joint_state(joint_state(ros, names, [*positions, positions[-1]]))
+
+    def cycle(command=None):
+        nonlocal now, q
+        answer = command(now) if command is not None else None
+        c = service.step(now)
+        if c.command is not None:
+            (point,) = c.command.points
+            q = np.array(point.positions)
+            feed(q)
+        now += period
+        return c, answer
+
+    feed(q)
+    limits = service.servo.limits
+    for _ in range(300):
+        cycle(lambda t: service.on_twist(twist_msg(ros, linear=(0.05, 0, 0.05), t=t), t))
+    v_before = service.servo.velocities.copy()
+    assert np.abs(v_before).max() > 0.01
+    service.on_description_message(new_text)
+    assert service.servo is None
+    stopping, answers = [], []
+    for _ in range(2000):
+        c, answer = cycle(lambda t: service.on_twist(twist_msg(ros, linear=(0.05, 0, 0), t=t), t))
+        answers.append(answer)
+        stopping.append(c)
+        if service.servo is not None:  # built from the joint_states after the last stop command
+            break
+    assert service.servo is not None, "the new chain's servo was never built"
+    assert len(stopping) > 10  # a deceleration, not a jump to rest
+    msgs = [c.command for c in stopping]
+    assert all(m is not None and list(m.joint_names) == old_names for m in msgs)
+    assert all_finite(msgs)
+    v = np.array([m.points[0].velocities for m in msgs])
+    a = np.array([m.points[0].accelerations for m in msgs])
+    assert np.all(np.abs(v[-1]) == 0.0)  # ends at zero velocity
+    assert np.all(np.abs(v[0] - v_before) <= limits.acceleration * period * (1 + 1e-9))
+    assert np.all(np.abs(a) <= limits.acceleration * (1 + 1e-6))
+    jerk = np.abs(np.diff(a, axis=0)) / period
+    assert np.all(jerk <= limits.jerk * (1 + 1e-6))
+    speeds = np.abs(v).max(axis=1)
+    assert speeds[-1] == 0.0 and speeds[0] > 0.5 * np.abs(v_before).max()
+    refusals = [a for a in answers[:-1] if a is not None]
+    assert refusals and all(values(r)["code"] == str(NOT_READY) for r in refusals)
+    assert "new robot description" in refusals[0].message
+    # the new chain's servo, at rest where the arm stopped
+    assert list(service.servo.chain.joint_names)[-1] == "wrist_3_joint_b"
+    assert np.allclose(service.servo.positions, q)
+    assert not service.servo.velocities.any()
+
+
+def test_a_new_description_at_rest_switches_at_once(ros, ur5_text):
+    service = make_service(ros, "", **UR5)
+    service.on_description_message(ur5_text)
+    loop = Loop(ros, service)
+    loop.run(0.05)
+    service.on_description_message(ur5_text.replace('"wrist_3_joint"', '"wrist_3_joint_b"'))
+    assert service.servo is None and service.chain.joint_names[-1] == "wrist_3_joint_b"
+    assert service.step(loop.now).command is None  # nothing of the old chain is published
