@@ -263,8 +263,7 @@ def sp1(k: Vec, p: Vec, q: Vec, default: float, eps: float) -> tuple[float, bool
     e2 = eps * eps
     if a0 * a0 + a1 * a1 + a2 * a2 <= e2 or b0 * b0 + b1 * b1 + b2 * b2 <= e2:
         return default, True
-    y = k0 * (a1 * b2 - a2 * b1) + k1 * (a2 * b0 - a0 * b2) + k2 * (a0 * b1 - a1 * b0)
-    return atan2(y, a0 * b0 + a1 * b1 + a2 * b2), False
+    return atan2(*turn_parts(k, (a0, a1, a2), (b0, b1, b2))), False
 
 
 def sp2(
@@ -337,6 +336,41 @@ def rotate_cs(k: Vec, c: float, s: float, x: Vec) -> Vec:
     )
 
 
+def turn_parts(k: Vec, a: Vec, b: Vec) -> tuple[float, float]:
+    """(kᵀ(a × b), aᵀb) of vectors a, b normal to the unit axis k: the angle about k that turns a
+    onto b is atan2 of the pair (SP1 once both are projected normal to k). Works on floats and,
+    unchanged, on component arrays (a, b as triples of arrays): the families' scalar solvers and
+    their vectorised twins share it. Written out: it runs for every branch of every call."""
+    k0, k1, k2 = k
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    return (
+        k0 * (a1 * b2 - a2 * b1) + k1 * (a2 * b0 - a0 * b2) + k2 * (a0 * b1 - a1 * b0),
+        a0 * b0 + a1 * b1 + a2 * b2,
+    )
+
+
+def sp2_parts(
+    c: float, den: float, n12: float, kp: float, kq: float, pp: float
+) -> tuple[float, float, float]:
+    """SP2's (α, β, γ²) with z = α k₁ + β k₂ + γ (k₁ × k₂) (`subproblems.sp2`), from the axes'
+    constants c = k₁ᵀk₂, den = c² − 1, n12 = ‖k₁ × k₂‖² and kp = k₂ᵀp, kq = k₁ᵀq, pp = ‖p‖².
+    Floats or arrays alike (as `turn_parts`)."""
+    alpha = (c * kp - kq) / den
+    beta = (c * kq - kp) / den
+    return alpha, beta, (pp - alpha * alpha - beta * beta - 2.0 * alpha * beta * c) / n12
+
+
+def sp2_between(k1: Vec, k2: Vec, k12: Vec, alpha: float, beta: float, gamma: float) -> Vec:
+    """SP2's intermediate point z = α k₁ + β k₂ + γ (k₁ × k₂) projected normal to k₂: the target
+    of the SP1 about k₂ that follows (`turn_parts`). Floats or arrays alike."""
+    zx = alpha * k1[0] + beta * k2[0] + gamma * k12[0]
+    zy = alpha * k1[1] + beta * k2[1] + gamma * k12[1]
+    zz = alpha * k1[2] + beta * k2[2] + gamma * k12[2]
+    kz = k2[0] * zx + k2[1] * zy + k2[2] * zz
+    return zx - k2[0] * kz, zy - k2[1] * kz, zz - k2[2] * kz
+
+
 def wrap(a: float) -> float:
     """One angle into (−π, π] (as `wrap_angles`)."""
     return a - TWO_PI * ceil((a - pi) / TWO_PI)
@@ -361,10 +395,8 @@ class PreparedSP2:
         k1, k2, c, k12 = self.k1, self.k2, self.c, self.k12
         kp = k2[0] * p[0] + k2[1] * p[1] + k2[2] * p[2]
         kq = k1[0] * q[0] + k1[1] * q[1] + k1[2] * q[2]
-        alpha = (c * kp - kq) / self.den
-        beta = (c * kq - kp) / self.den
         pp = p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
-        g2 = (pp - alpha * alpha - beta * beta - 2.0 * alpha * beta * c) / self.n12
+        alpha, beta, g2 = sp2_parts(c, self.den, self.n12, kp, kq, pp)
         if g2 < -TANGENT_TOLERANCE * max(pp, eps * eps):
             return []
         gamma = sqrt(max(g2, 0.0))
@@ -426,6 +458,13 @@ class Trace:
 
     fails: list[tuple[str, BoolArray]] = field(default_factory=list)
     frees: list[tuple[str, BoolArray]] = field(default_factory=list)
+
+    def passed(self, L: int, B: int) -> BoolArray:
+        """(L, B): the branches that passed every stage recorded in `fails`."""
+        ok = np.ones((L, B), dtype=bool)
+        for _, f in self.fails:
+            ok &= f
+        return ok
 
 
 def spread_branches(a: NDArray, n: int) -> NDArray:

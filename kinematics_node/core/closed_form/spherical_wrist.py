@@ -47,10 +47,13 @@ from .geometry import (
     rotate_cs,
     solve_trig,
     sp1,
+    sp2_between,
+    sp2_parts,
     sp3,
     sp4,
     sub,
     turn_components,
+    turn_parts,
 )
 
 
@@ -185,16 +188,15 @@ class Spherical:
         Rw5, Rx = matvec(R, w5), matvec(R, x)
         sp2w = self.wsp2
         c34, den, n12 = sp2w.c, sp2w.den, sp2w.n12
-        k12x, k12y, k12z = sp2w.k12
         w3x, w3y, w3z = w3
         w4x, w4y, w4z = w4
         kp, pp = self.kp_w, self.pp_w
-        apx, apy, apz = self.w5p4
-        a_small = apx * apx + apy * apy + apz * apz <= 1e-18
+        ap = self.w5p4
+        a_small = dot(ap, ap) <= 1e-18
         uxw, uw = self.w4xw5, self.w4w5
         d3, d4, d5 = d[3], d[4], d[5]
         w5x, w5y, w5z = w5
-        xpx, xpy, xpz = self.xp5
+        xp = self.xp5
         x_small = self.x_small
         last_q1 = None
         for q1, q2, q3, why in arms:
@@ -211,9 +213,7 @@ class Spherical:
             v6x, v6y, v6z = v6
             # SP2 (ω₄, ω₅) of p = ω₆ onto q = v₆ (`sp2` written out, p fixed).
             kq = w3x * v6x + w3y * v6y + w3z * v6z
-            alpha = (c34 * kp - kq) / den
-            beta = (c34 * kq - kp) / den
-            g2 = (pp - alpha * alpha - beta * beta - 2.0 * alpha * beta * c34) / n12
+            alpha, beta, g2 = sp2_parts(c34, den, n12, kp, kq, pp)
             if g2 < -TANGENT_TOLERANCE * max(pp, 1e-18):
                 continue
             gamma = sqrt(max(g2, 0.0))
@@ -221,21 +221,12 @@ class Spherical:
             bvx, bvy, bvz = v6x - w3x * kq, v6y - w3y * kq, v6z - w3z * kq
             bv_small = bvx * bvx + bvy * bvy + bvz * bvz <= 1e-18
             for gs in (gamma, -gamma):
-                zx = alpha * w3x + beta * w4x + gs * k12x
-                zy = alpha * w3y + beta * w4y + gs * k12y
-                zz = alpha * w3z + beta * w4z + gs * k12z
                 # q₅ = SP1(ω₅, ω₆ → z), the projection of ω₆ stored
-                kz = w4x * zx + w4y * zy + w4z * zz
-                bx, by, bz = zx - w4x * kz, zy - w4y * kz, zz - w4z * kz
+                bx, by, bz = sp2_between(w3, w4, sp2w.k12, alpha, beta, gs)
                 if a_small or bx * bx + by * by + bz * bz <= 1e-18:
                     q5, f2 = d4, True
                 else:
-                    q5 = atan2(
-                        w4x * (apy * bz - apz * by)
-                        + w4y * (apz * bx - apx * bz)
-                        + w4z * (apx * by - apy * bx),
-                        apx * bx + apy * by + apz * bz,
-                    )
+                    q5 = atan2(*turn_parts(w4, ap, (bx, by, bz)))
                     f2 = False
                 # q₄ = SP1(ω₄, R(ω₅, q₅) ω₆ → v₆)
                 c5, s5 = cos(q5), sin(q5)
@@ -248,12 +239,7 @@ class Spherical:
                 if ax * ax + ay * ay + az * az <= 1e-18 or bv_small:
                     q4, f1 = d3, True
                 else:
-                    q4 = atan2(
-                        w3x * (ay * bvz - az * bvy)
-                        + w3y * (az * bvx - ax * bvz)
-                        + w3z * (ax * bvy - ay * bvx),
-                        ax * bvx + ay * bvy + az * bvz,
-                    )
+                    q4 = atan2(*turn_parts(w3, (ax, ay, az), (bvx, bvy, bvz)))
                     f1 = False
                 stages.passed["wrist"] += 1
                 # y = R(ω₅, −q₅) R(ω₄, −q₄) y₀, then q₆ = SP1(ω₆, x → y) (x′ stored)
@@ -271,12 +257,7 @@ class Spherical:
                 if x_small or bx * bx + by * by + bz * bz <= 1e-18:
                     q6 = d5
                 else:
-                    q6 = atan2(
-                        w5x * (xpy * bz - xpz * by)
-                        + w5y * (xpz * bx - xpx * bz)
-                        + w5z * (xpx * by - xpy * bx),
-                        xpx * bx + xpy * by + xpz * bz,
-                    )
+                    q6 = atan2(*turn_parts(w5, xp, (bx, by, bz)))
                 w = why + ("wrist axes aligned (joints 4 and 6 coincide)",) if f1 or f2 else why
                 out.append(([q1, q2, q3, q4, q5, q6], w))
         return out
@@ -428,11 +409,7 @@ def _finish(
         trace.fails.append((name, branch_flag(f, L, 8)))
     for name, f in frees + [("wrist axes aligned (joints 4 and 6 coincide)", frD)]:
         trace.frees.append((name, branch_flag(f, L, 8)))
-    Q = np.stack(angles, axis=-1)
-    ok = np.ones((L, 8), dtype=bool)
-    for _, f in trace.fails:
-        ok &= f
-    return Q, ok
+    return np.stack(angles, axis=-1), trace.passed(L, 8)
 
 
 def _wrist_prepared(
@@ -450,7 +427,6 @@ def _wrist_prepared(
     w0, w1, w2, w3, w4, w5 = c.W
     sp2w = c.wsp2
     c34, den, n12 = sp2w.c, sp2w.den, sp2w.n12
-    k12x, k12y, k12z = sp2w.k12
     w3x, w3y, w3z = w3
     w4x, w4y, w4z = w4
     w5x, w5y, w5z = w5
@@ -474,9 +450,7 @@ def _wrist_prepared(
     # SP2 (ω₄, ω₅) of p = ω₆ onto q = v₆.
     kp, pp = c.kp_w, c.pp_w
     kq = w3x * v[0] + w3y * v[1] + w3z * v[2]
-    alpha = (c34 * kp - kq) / den
-    beta = (c34 * kq - kp) / den
-    g2 = (pp - alpha * alpha - beta * beta - 2.0 * alpha * beta * c34) / n12
+    alpha, beta, g2 = sp2_parts(c34, den, n12, kp, kq, pp)
     ok = g2 >= -TANGENT_TOLERANCE * max(pp, 1e-18)
     gamma = np.sqrt(np.maximum(g2, 0.0))
     gs = np.stack((gamma, -gamma), axis=-1).reshape(L, 8)
@@ -488,18 +462,10 @@ def _wrist_prepared(
     vx, vy, vz = (two(a) for a in v)
     y0x, y0y, y0z = (two(a) for a in y)
     # q₅ = SP1(ω₅, ω₆ → z), z = α ω₄ + β ω₅ + γ (ω₄ × ω₅)
-    zx = alpha * w3x + beta * w4x + gs * k12x
-    zy = alpha * w3y + beta * w4y + gs * k12y
-    zz = alpha * w3z + beta * w4z + gs * k12z
-    kz = w4x * zx + w4y * zy + w4z * zz
-    bx, by, bz = zx - w4x * kz, zy - w4y * kz, zz - w4z * kz
-    apx, apy, apz = c.w5p4
-    a_small = apx * apx + apy * apy + apz * apz <= 1e-18
+    bx, by, bz = sp2_between(w3, w4, sp2w.k12, alpha, beta, gs)
+    a_small = dot(c.w5p4, c.w5p4) <= 1e-18
     fr5 = (bx * bx + by * by + bz * bz <= 1e-18) | a_small
-    q5 = np.arctan2(
-        w4x * (apy * bz - apz * by) + w4y * (apz * bx - apx * bz) + w4z * (apx * by - apy * bx),
-        apx * bx + apy * by + apz * bz,
-    )
+    q5 = np.arctan2(*turn_parts(w4, c.w5p4, (bx, by, bz)))
     q5 = np.where(fr5, dflt[:, 4:5], q5)
     # q₄ = SP1(ω₄, R(ω₅, q₅) ω₆ → v₆)
     cs5, sn5 = np.cos(q5), np.sin(q5)
@@ -511,10 +477,7 @@ def _wrist_prepared(
     ax, ay, az = rx - w3x * kr, ry - w3y * kr, rz - w3z * kr
     bvx, bvy, bvz = vx - w3x * kq, vy - w3y * kq, vz - w3z * kq
     fr4 = (ax * ax + ay * ay + az * az <= 1e-18) | (bvx * bvx + bvy * bvy + bvz * bvz <= 1e-18)
-    q4 = np.arctan2(
-        w3x * (ay * bvz - az * bvy) + w3y * (az * bvx - ax * bvz) + w3z * (ax * bvy - ay * bvx),
-        ax * bvx + ay * bvy + az * bvz,
-    )
+    q4 = np.arctan2(*turn_parts(w3, (ax, ay, az), (bvx, bvy, bvz)))
     q4 = np.where(fr4, dflt[:, 3:4], q4)
     # y = R(ω₅, −q₅) R(ω₄, −q₄) y₀; q₆ = SP1(ω₆, x → y)
     yx, yy, yz = turn_components(
@@ -522,11 +485,7 @@ def _wrist_prepared(
     )
     ky = w5x * yx + w5y * yy + w5z * yz
     bx, by, bz = yx - w5x * ky, yy - w5y * ky, yz - w5z * ky
-    xpx, xpy, xpz = c.xp5
     fr6 = (bx * bx + by * by + bz * bz <= 1e-18) | c.x_small
-    q6 = np.arctan2(
-        w5x * (xpy * bz - xpz * by) + w5y * (xpz * bx - xpx * bz) + w5z * (xpx * by - xpy * bx),
-        xpx * bx + xpy * by + xpz * bz,
-    )
+    q6 = np.arctan2(*turn_parts(w5, c.xp5, (bx, by, bz)))
     q6 = np.where(fr6, dflt[:, 5:6], q6)
     return q4, q5, q6, ok, fr4 | fr5

@@ -36,9 +36,12 @@ from .geometry import (
     per_lane,
     project_out,
     solve_trig,
+    sp2_between,
+    sp2_parts,
     spread_branches,
     sub,
     turn_components,
+    turn_parts,
     wrap,
 )
 
@@ -136,9 +139,8 @@ class ThreeParallel:
         w4x, w4y, w4z = self.w4
         w5x, w5y, w5z = self.w5
         c45, den, kq, n12 = self.c45, self.den, self.kq, self.n12
-        k12x, k12y, k12z = self.k12
-        hpx, hpy, hpz = self.hp4
-        hpn = self.hp4n
+        k12 = self.k12
+        w1, w4, w5, hp4, hpn = self.w1, self.w4, self.w5, self.hp4, self.hp4n
         e2 = 1e-18  # (1e-9)², the SP1 tolerance of the wrist angles
         # Constants as locals (attribute look-ups cost as much as the arithmetic here).
         x0, x1, x2 = self.x
@@ -165,15 +167,12 @@ class ThreeParallel:
             uy = R01 * vx + R11 * vy + R21 * vz
             uz = R02 * vx + R12 * vy + R22 * vz
             # X1 = Rᵀ R(ω₁, q₁) x and H1 = Rᵀ R(ω₁, q₁)(h × x): θ₂₃₄ = atan2(H1ᵀz, X1ᵀz) below.
-            # X1 = Rᵀ R(ω₁, q₁) x and H1 = Rᵀ R(ω₁, q₁)(h × x): θ₂₃₄ = atan2(H1ᵀz, X1ᵀz) below.
             X1 = self._turned(R, c1, s1, self.x, self.w0xx, self.w0x)
             H1 = self._turned(R, c1, s1, self.hx, self.w0xhx, self.w0hx)
             # (q₅, q₆): SP2 R(ω₅, q₅) R(ω₆, q₆) u = h.
             kpu = w5x * ux + w5y * uy + w5z * uz
-            alpha = (c45 * kpu - kq) / den
-            beta = (c45 * kq - kpu) / den
             pp = ux * ux + uy * uy + uz * uz
-            g2 = (pp - alpha * alpha - beta * beta - 2.0 * alpha * beta * c45) / n12
+            alpha, beta, g2 = sp2_parts(c45, den, n12, kpu, kq, pp)
             if g2 < -TANGENT_TOLERANCE * max(pp, e2):
                 continue
             gamma = sqrt(max(g2, 0.0))
@@ -181,20 +180,11 @@ class ThreeParallel:
             up_small = upx * upx + upy * upy + upz * upz <= e2
             for gs in (gamma, -gamma):
                 # q₆ = SP1(ω₆, u → z), z = α ω₅ + β ω₆ + γ (ω₅ × ω₆)
-                zx = alpha * w4x + beta * w5x + gs * k12x
-                zy = alpha * w4y + beta * w5y + gs * k12y
-                zz = alpha * w4z + beta * w5z + gs * k12z
-                kz = w5x * zx + w5y * zy + w5z * zz
-                bx, by, bz = zx - w5x * kz, zy - w5y * kz, zz - w5z * kz
+                bx, by, bz = sp2_between(w4, w5, k12, alpha, beta, gs)
                 if up_small or bx * bx + by * by + bz * bz <= e2:
                     q6, fr6 = wrap(d[5]), True
                 else:
-                    q6 = atan2(
-                        w5x * (upy * bz - upz * by)
-                        + w5y * (upz * bx - upx * bz)
-                        + w5z * (upx * by - upy * bx),
-                        upx * bx + upy * by + upz * bz,
-                    )
+                    q6 = atan2(*turn_parts(w5, (upx, upy, upz), (bx, by, bz)))
                     fr6 = False
                     if q6 <= -pi:  # atan2 gives [−π, π]; candidates are in (−π, π]
                         q6 += TWO_PI
@@ -209,12 +199,7 @@ class ThreeParallel:
                 if ax * ax + ay * ay + az * az <= e2 or hpn <= e2:
                     q5, fr5 = wrap(d[4]), True
                 else:
-                    q5 = atan2(
-                        w4x * (ay * hpz - az * hpy)
-                        + w4y * (az * hpx - ax * hpz)
-                        + w4z * (ax * hpy - ay * hpx),
-                        ax * hpx + ay * hpy + az * hpz,
-                    )
+                    q5 = atan2(*turn_parts(w4, (ax, ay, az), hp4))
                     fr5 = False
                     if q5 <= -pi:
                         q5 += TWO_PI
@@ -275,12 +260,7 @@ class ThreeParallel:
                     if b_small or ax * ax + ay * ay + az * az <= eLsq:
                         q2, fr4 = wrap(d[1]), True
                     else:
-                        q2 = atan2(
-                            w1x * (ay * bz - az * by)
-                            + w1y * (az * bx - ax * bz)
-                            + w1z * (ax * by - ay * bx),
-                            ax * bx + ay * by + az * bz,
-                        )
+                        q2 = atan2(*turn_parts(w1, (ax, ay, az), (bx, by, bz)))
                         fr4 = False
                     if q2 <= -pi:
                         q2 += TWO_PI
@@ -368,10 +348,7 @@ def solve_three_parallel(
     s = g.s[:, None, :]
     q4 = s[..., 2] * (t234 - s[..., 0] * q2 - s[..., 1] * q3)
     Q = np.stack((q1, q2, q3, q4, q5, q6), axis=-1)
-    ok = np.ones((L, 8), dtype=bool)
-    for _, f in trace.fails:
-        ok &= f
-    return Q, ok
+    return Q, trace.passed(L, 8)
 
 
 def solve_three_parallel_prepared(
@@ -433,10 +410,8 @@ def solve_three_parallel_prepared(
     w5x, w5y, w5z = c.w5
     e2 = 1e-18
     kpu = w5x * ux + w5y * uy + w5z * uz
-    alpha = (c.c45 * kpu - c.kq) / c.den
-    beta = (c.c45 * c.kq - kpu) / c.den
     pp = ux * ux + uy * uy + uz * uz
-    g2 = (pp - alpha * alpha - beta * beta - 2.0 * alpha * beta * c.c45) / c.n12
+    alpha, beta, g2 = sp2_parts(c.c45, c.den, c.n12, kpu, c.kq, pp)
     ok2 = g2 >= -TANGENT_TOLERANCE * np.maximum(pp, e2)
     gamma = np.sqrt(np.maximum(g2, 0.0))
     upx, upy, upz = ux - w5x * kpu, uy - w5y * kpu, uz - w5z * kpu  # u′ normal to ω₆
@@ -445,17 +420,9 @@ def solve_three_parallel_prepared(
     alpha, beta, kpu, ux, uy, uz, upx, upy, upz, up_small = (
         spread_branches(a, 2) for a in (alpha, beta, kpu, ux, uy, uz, upx, upy, upz, up_small)
     )
-    k12x, k12y, k12z = c.k12
-    zx = alpha * w4x + beta * w5x + gs * k12x
-    zy = alpha * w4y + beta * w5y + gs * k12y
-    zz = alpha * w4z + beta * w5z + gs * k12z
-    kz = w5x * zx + w5y * zy + w5z * zz
-    bx, by, bz = zx - w5x * kz, zy - w5y * kz, zz - w5z * kz
+    bx, by, bz = sp2_between(c.w4, c.w5, c.k12, alpha, beta, gs)
     fr6 = up_small | (bx * bx + by * by + bz * bz <= e2)
-    q6 = np.arctan2(
-        w5x * (upy * bz - upz * by) + w5y * (upz * bx - upx * bz) + w5z * (upx * by - upy * bx),
-        upx * bx + upy * by + upz * bz,
-    )
+    q6 = np.arctan2(*turn_parts(c.w5, (upx, upy, upz), (bx, by, bz)))
     q6 = np.where(fr6, dflt[:, 5:6], q6)
     c6, s6 = np.cos(q6), np.sin(q6)
     f6 = kpu * (1.0 - c6)
@@ -464,12 +431,8 @@ def solve_three_parallel_prepared(
     yz = uz * c6 + (w5x * uy - w5y * ux) * s6 + w5z * f6
     ky = w4x * yx + w4y * yy + w4z * yz
     ax, ay, az = yx - w4x * ky, yy - w4y * ky, yz - w4z * ky
-    hpx, hpy, hpz = c.hp4
     fr5 = (ax * ax + ay * ay + az * az <= e2) | (c.hp4n <= e2)
-    q5 = np.arctan2(
-        w4x * (ay * hpz - az * hpy) + w4y * (az * hpx - ax * hpz) + w4z * (ax * hpy - ay * hpx),
-        ax * hpx + ay * hpy + az * hpz,
-    )
+    q5 = np.arctan2(*turn_parts(c.w4, (ax, ay, az), c.hp4))
     q5 = np.where(fr5, dflt[:, 4:5], q5)
     trace.fails.append(("wrist", branch_flag(ok2, L, 8)))
     trace.frees.append(
@@ -525,10 +488,7 @@ def solve_three_parallel_prepared(
     ke = w1x * ex + w1y * ey + w1z * ez
     ax, ay, az = ex - w1x * ke, ey - w1y * ke, ez - w1z * ke
     fr4 = b_small | (ax * ax + ay * ay + az * az <= c.eLsq)
-    q2 = np.arctan2(
-        w1x * (ay * bz - az * by) + w1y * (az * bx - ax * bz) + w1z * (ax * by - ay * bx),
-        ax * bx + ay * by + az * bz,
-    )
+    q2 = np.arctan2(*turn_parts(c.w1, (ax, ay, az), (bx, by, bz)))
     q2 = np.where(fr4, dflt[:, 1:2], q2)
     trace.frees.append(("the elbow point lies on joint 2's axis", fr4))
     s2, s3, s4 = c.s
@@ -537,7 +497,4 @@ def solve_three_parallel_prepared(
         (spread_branches(q1, 4), q2, q3, q4, spread_branches(q5, 2), spread_branches(q6, 2)),
         axis=-1,
     )
-    ok = np.ones((L, 8), dtype=bool)
-    for _, fl in trace.fails:
-        ok &= fl
-    return Q, ok
+    return Q, trace.passed(L, 8)
