@@ -318,7 +318,9 @@ def _nearest_at(
 ) -> tuple[list[tuple[FloatArray, tuple[float, float]]], str]:
     """`nearest` for one value of the held joint (None for a 6R arm): the solutions with their
     (position, rotation) errors, and why there are none ("" if there are)."""
-    cands, stages = scalar_candidates(solver, Tl, seed, held_value)
+    # The general 6R solver's roots unpolished: only the one taken is checked, and refined if
+    # off (its polish step costs a third of the solve, for every root).
+    cands, stages = scalar_candidates(solver, Tl, seed, held_value, polish=False)
     ranked = rank_candidates(cands, seed, solver, w)
     found: list[tuple[FloatArray, tuple[float, float]]] = []
     for _, q in ranked:

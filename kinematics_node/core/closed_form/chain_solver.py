@@ -177,6 +177,43 @@ class ChainSolver(JointLimits):
         self.kernel = model.kernel
         self.fk_pose = model.kernel.fk_pose if model.to_internal is None else None
         self.fk_world = model.kernel.fk_world if model.to_internal is None else None
+        # How far the family's candidates of a 6R arm miss their targets at ordinary poses
+        # (`_family_defect`): 0 where the axes have the structure to round-off.
+        self.defect = (
+            self._family_defect()
+            if held is None and structure.kind in ("three_parallel", "spherical_wrist")
+            else 0.0
+        )
+
+    def _family_defect(self) -> float:
+        """The largest error (position / scale, or rotation [rad]) of the candidate nearest the
+        configuration, over 16 random configurations within the limits: ~1e-15 for an arm whose
+        axes have the family's structure exactly; for one that has it only to rounding (the
+        Puma 560 of rtbdata: wrist axes that meet to ~1e-10 m) every candidate is off by about
+        the geometry's own error (there 2e-10 m), which `refine_floor` then leaves unrefined."""
+        rng = np.random.default_rng(5)
+        lo = np.where(np.isfinite(self.lower_arr), self.lower_arr, -math.pi)
+        hi = np.where(np.isfinite(self.upper_arr), self.upper_arr, math.pi)
+        worst = 0.0
+        for q in rng.uniform(lo, hi, size=(16, self.chain.dof)):
+            T = self.chain.fk(q).tolist()
+            cands, _ = scalar_candidates(self, T, self.default_seed_list, None)
+            if not cands:
+                continue
+            Q = np.array([c for c, _ in cands])
+            near = int(np.abs(wrap_angles(Q - q)).max(axis=1).argmin())
+            ep, er = fk_errors(self, cands[near][0], T)
+            worst = max(worst, ep / self.scale, er)
+        return worst
+
+    def refine_floor(self, tol: float) -> float:
+        """`solve_single` refines a candidate whose error (position / scale, rotation [rad])
+        exceeds this: `_REFINE_ABOVE`, or on an arm in its family only to rounding, twice its
+        `defect` up to half the tolerance. Such an arm's candidates are all off by about the
+        defect, and refining each (a Gauss–Newton step and an FK check: ~15 µs) doubled `ik_all`
+        on the Puma 560 for digits below the tolerance; near a singularity, where a subproblem
+        loses digits, the error grows beyond the floor and the candidate is refined as before."""
+        return max(_REFINE_ABOVE, min(2.0 * self.defect, 0.5 * tol))
 
     def _held_moves(self) -> dict[str, list[bool]] | None:
         """For a 7R arm: which parts of the held geometry move with the held joint.
@@ -666,14 +703,19 @@ _STAGE_ORDER = {
 
 
 def scalar_candidates(
-    solver: ChainSolver, T: list[list[float]], seed: list[float], held_value: float | None
+    solver: ChainSolver,
+    T: list[list[float]],
+    seed: list[float],
+    held_value: float | None,
+    polish: bool = True,
 ) -> tuple[list[Candidate], Stages]:
     """The (≤ 8) candidate solutions of one target by the scalar solvers: full configurations with
     angles in (−π, π] (a 7R arm's held joint at `held_value`), unchecked, with the reasons of the
-    angles the target left free (taken from `seed`), and the stages the branches passed."""
+    angles the target left free (taken from `seed`), and the stages the branches passed. Without
+    `polish`, the general 6R solver's roots skip their Gauss–Newton polish (`solve_one_target`)."""
     st = solver.structure
     if st.kind == "general_6r":
-        return _general_candidates(solver, T, seed, held_value)
+        return _general_candidates(solver, T, seed, held_value, polish)
     if held_value is None and not st.reversed and solver.three_parallel is not None:
         R, p = _times_inverse_home(T, solver.M_inv_rows)
         stages = Stages(_STAGE_ORDER["three_parallel"])
@@ -733,7 +775,11 @@ def scalar_candidates(
 
 
 def _general_candidates(
-    solver: ChainSolver, T: list[list[float]], seed: list[float], held_value: float | None
+    solver: ChainSolver,
+    T: list[list[float]],
+    seed: list[float],
+    held_value: float | None,
+    polish: bool = True,
 ) -> tuple[list[Candidate], Stages]:
     """`scalar_candidates` of the general 6R solver: its one-target form (`solve_one_target`) for
     a 6R arm read from the base, else its vectorised form on one lane."""
@@ -743,7 +789,7 @@ def _general_candidates(
         Ra, pa = np.array(R), np.array(p)
         if solver.structure.reversed:  # G⁻¹ = e^{−[S₆]q₆} ⋯ e^{−[S₁]q₁}
             Ra, pa = Ra.T, -(Ra.T @ pa)
-        Q1 = solve_one_target(solver.general, Ra, pa)
+        Q1 = solve_one_target(solver.general, Ra, pa, polish)
         if Q1 is not None:
             rows = wrap_angles(-Q1[:, ::-1] if solver.structure.reversed else Q1).tolist()
             stages.passed["reach"] = len(rows)
@@ -836,21 +882,22 @@ def solve_single(
     """
     chain = solver.chain
     cands, stages = scalar_candidates(solver, T, seed, None)
-    accepted: list[list[float]] = []
-    # (position, rotation) error of each, or (squared position error, ‖ΔR‖_F²) where `squared`
-    errors: list[tuple[float, float]] = []
-    squared: list[bool] = []
-    whys: set[str] = set()
     fk = solver.fk_pose
     # Candidates exact to round-off (the usual case) are accepted on the squared errors, without
     # the square root and arcsine of `fk_errors`, when that implies the tolerance (hand-written
     # for speed: this loop runs for every candidate of every call).
     quick = fk is not None and tol >= _REFINE_ABOVE * max(solver.scale, 1.0)
     exact_p2, exact_f = solver.exact_p2, solver.exact_f
+    floor = solver.refine_floor(tol)
     a0, a1, a2, a3 = T[0]
     b0, b1, b2, b3 = T[1]
     c0, c1, c2, c3 = T[2]
-    for q, why in cands:  # one scalar FK each: ~3 µs, where a batched FK of 7 costs ~90 µs
+    # (q, position error, rotation error, squared) per candidate: the errors squared (position²,
+    # ‖ΔR‖_F²) where `squared`, else [m] and [rad]
+    checked: list[tuple[list[float], float, float, bool]] = []
+    redo: list[int] = []  # near misses, refined together below
+    scale = solver.scale
+    for q, _ in cands:  # one scalar FK each: ~3 µs, where a batched FK of 7 costs ~90 µs
         if quick:
             t, _ = fk(q)  # type: ignore[misc]
             dp2 = (t[9] - a3) ** 2 + (t[10] - b3) ** 2 + (t[11] - c3) ** 2
@@ -859,23 +906,31 @@ def solve_single(
                 + (t[3] - b0) ** 2 + (t[4] - b1) ** 2 + (t[5] - b2) ** 2
                 + (t[6] - c0) ** 2 + (t[7] - c1) ** 2 + (t[8] - c2) ** 2
             )  # fmt: skip
-            exact = dp2 <= exact_p2 and f <= exact_f
-            ep, er = (dp2, f) if exact else (math.sqrt(dp2), chord_angle(f))
-        else:
-            exact = False
-            ep, er = fk_errors(solver, q, T)
-        if not exact:
-            if (
-                (ep > _REFINE_ABOVE * solver.scale or er > _REFINE_ABOVE)
-                and ep < REFINE_BELOW * solver.scale
-                and er < REFINE_BELOW
-            ):
-                qr = [wrap_angle(x) for x in refine_one(solver, q, T, steps_for(solver, ep, er))]
-                ep_r, er_r = fk_errors(solver, qr, T)
-                if max(ep_r / solver.scale, er_r) < max(ep / solver.scale, er):
-                    q, ep, er = qr, ep_r, er_r
-            if ep > tol or er > tol:
+            if dp2 <= exact_p2 and f <= exact_f:
+                checked.append((q, dp2, f, True))
                 continue
+            ep, er = math.sqrt(dp2), chord_angle(f)
+        else:
+            ep, er = fk_errors(solver, q, T)
+        if (ep > floor * scale or er > floor) and ep < REFINE_BELOW * scale and er < REFINE_BELOW:
+            redo.append(len(checked))
+        checked.append((q, ep, er, False))
+    if redo:  # Gauss–Newton on the near misses, stacked (`refine_many`); kept where it helps
+        steps = [steps_for(solver, checked[i][1], checked[i][2]) for i in redo]
+        refined = refine_many(solver, [checked[i][0] for i in redo], T, steps)
+        for i, qr in zip(redo, refined, strict=True):
+            qr = [wrap_angle(x) for x in qr]
+            ep_r, er_r = fk_errors(solver, qr, T)
+            _, ep, er, _ = checked[i]
+            if max(ep_r / scale, er_r) < max(ep / scale, er):
+                checked[i] = (qr, ep_r, er_r, False)
+    accepted: list[list[float]] = []
+    errors: list[tuple[float, float]] = []
+    squared: list[bool] = []
+    whys: set[str] = set()
+    for (q, ep, er, exact), (_, why) in zip(checked, cands, strict=True):
+        if not exact and (ep > tol or er > tol):
+            continue
         if seen_before(q, accepted):
             continue
         accepted.append(q)
@@ -944,6 +999,54 @@ def refine_one(
         for i, d in zip(kept, (J.T @ y).tolist(), strict=True):
             q[i] += d
     return q
+
+
+def refine_many(
+    solver: ChainSolver, Q: list[list[float]], T: list[list[float]], steps: list[int]
+) -> list[list[float]]:
+    """`refine_one` of several candidates of one target, `steps[i]` Gauss–Newton steps for
+    candidate i, with the linear solves stacked: one generated-code FK with Jacobian columns per
+    candidate and step, and one stacked solve of (J Jᵀ + 1e-12 I) y = e per step. An arm whose
+    axes meet only to ~1e-10 (the Puma 560 of rtbdata, detected spherical) leaves all eight
+    candidates a few 1e-11 off, and refining them one by one cost most of an `ik_all` call."""
+    if len(Q) == 1:
+        return [refine_one(solver, Q[0], T, steps[0])]
+    if solver.fk_world is None:  # joints other than the kernel's: the batched FK's Jacobian
+        out = [list(q) for q in Q]
+        for k in range(max(steps)):
+            idx = [i for i, s in enumerate(steps) if s > k]
+            Qa = _refine(solver.chain, np.array([out[i] for i in idx]), np.array([T] * len(idx)),
+                         solver.held, 1).tolist()  # fmt: skip
+            for i, q in zip(idx, Qa, strict=True):
+                out[i] = q
+        return out
+    fk_world = solver.fk_world
+    held = solver.held
+    a, b, c = T[0], T[1], T[2]
+    out = [list(q) for q in Q]
+    for k in range(max(steps)):
+        idx = [i for i, s in enumerate(steps) if s > k]
+        errs, cols = [], []
+        for i in idx:
+            t, col = fk_world(out[i])
+            # A = R_t Rᵀ; ω_err = vee((A − Aᵀ)/2) to first order (as `refine_one`)
+            A = [
+                [r[0] * t[3 * m] + r[1] * t[3 * m + 1] + r[2] * t[3 * m + 2] for m in range(3)]
+                for r in (a, b, c)
+            ]
+            errs.append((
+                0.5 * (A[2][1] - A[1][2]), 0.5 * (A[0][2] - A[2][0]), 0.5 * (A[1][0] - A[0][1]),
+                a[3] - t[9], b[3] - t[10], c[3] - t[11],
+            ))  # fmt: skip
+            cols.append(col)
+        Jt = np.array(cols)  # (k, n, 6): Jᵀ per candidate
+        if held is not None:
+            Jt[:, held] = 0.0
+        JJ = Jt.swapaxes(1, 2) @ Jt + _DAMP
+        y = np.linalg.solve(JJ, np.array(errs)[:, :, None])
+        for i, d in zip(idx, (Jt @ y)[:, :, 0].tolist(), strict=True):
+            out[i] = [x + dx for x, dx in zip(out[i], d, strict=True)]
+    return out
 
 
 #: A candidate within this of its target (position / scale, and rotation [rad]) is refined by one

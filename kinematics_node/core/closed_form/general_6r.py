@@ -98,9 +98,6 @@ _EYE12 = np.eye(12)
 _EYE3 = np.eye(3)
 #: The largest polishing step [rad] taken (`_angles`): larger ones mean a root far from exact.
 _POLISH_LIMIT = 0.1
-# Of the 8 products of (value or derivative) of three angles' rows, value ⊗ value ⊗ value and
-# one derivative each (`_angles`), in the order (a, b, c) ↦ 4a + 2b + c.
-_VALUE_AND_DERIVATIVES = np.array([0, 4, 2, 1])
 
 
 def _features(g: FloatArray, h: FloatArray) -> FloatArray:
@@ -551,17 +548,23 @@ def solve_general_6r(
     return Qout, ok
 
 
-def solve_one_target(arm: Arm, R: FloatArray, t: FloatArray) -> FloatArray | None:
+def solve_one_target(
+    arm: Arm, R: FloatArray, t: FloatArray, polish: bool = True
+) -> FloatArray | None:
     """The solutions (k, 6) of one target G = (R, t) ((3, 3), (3,)) of a 6R arm (one lane),
-    unpolished, angles in (−π, π]; None where `solve_general_6r` must decide (`_solve_one`)."""
+    angles in (−π, π]; None where `solve_general_6r` must decide (`_solve_one`). Without
+    `polish` the roots skip `_angles`' Gauss–Newton step: for a caller that checks (and refines)
+    by forward kinematics only the one solution it takes (`ik`)."""
     Q, q0, u = arm.target_side(R[None], t[None])
-    q = _solve_one(arm, Q[0], q0[0], u)
+    q = _solve_one(arm, Q[0], q0[0], u, polish)
     if q is None:
         return None
     return q[np.isfinite(q).all(axis=1)]
 
 
-def _solve_one(arm: Arm, Q: FloatArray, q0: FloatArray, u: FloatArray) -> FloatArray | None:
+def _solve_one(
+    arm: Arm, Q: FloatArray, q0: FloatArray, u: FloatArray, polish: bool = True
+) -> FloatArray | None:
     """`solve_general_6r` of one target of a 6R arm (Q (14, 8), q₀ (14,), u = R_G x₆ (1, 3)):
     the same steps on 2-D arrays with LAPACK called directly, about half the time of the stacked
     form on one lane. The solutions (R, 6); None where the stacked form must decide (C₂ near
@@ -619,7 +622,7 @@ def _solve_one(arm: Arm, Q: FloatArray, q0: FloatArray, u: FloatArray) -> FloatA
     th3 = THETA3_OFFSET + 2.0 * np.arctan(x[:, 0, 0])
     lane = np.zeros(R, dtype=np.int64)
     eqs = (H[None, :, 27:], Nq[None])
-    return _angles(arm, lane, th3, th4, th5, u, q0[None], Q_pinv[None], eqs)
+    return _angles(arm, lane, th3, th4, th5, u, q0[None], Q_pinv[None], eqs, polish)
 
 
 def _angles(
@@ -632,6 +635,7 @@ def _angles(
     q0: FloatArray,
     Q_pinv: FloatArray,
     eqs: tuple[FloatArray, FloatArray],
+    polish: bool = True,
 ) -> FloatArray:
     """Full solutions (R, 6) of roots (θ₃, θ₄, θ₅) (R,) of lanes `lane`, first polished by one
     Gauss–Newton step on the six eliminated equations `eqs` (`_companion`): θ₁, θ₂ from the 14
@@ -641,31 +645,41 @@ def _angles(
     one = arm.lanes == 1
     q = np.empty((R, 6))
     q[:, 2], q[:, 3], q[:, 4] = theta3, theta4, theta5
-    # rows (1, cos θ, sin θ) and their derivatives (0, −sin θ, cos θ) of θ₃, θ₄, θ₅: (R, 3, 2, 3)
-    t = np.zeros((R, 3, 2, 3))
-    t[:, :, 0, 0] = 1.0
-    t[:, :, 0, 1] = t[:, :, 1, 2] = np.cos(q[:, 2:5])
-    t[:, :, 0, 2] = np.sin(q[:, 2:5])
-    t[:, :, 1, 1] = -t[:, :, 0, 2]
-    # m₃₄₅ = t₃ ⊗ t₄ ⊗ t₅ and its derivative by each angle: (R, 4, 27)
-    full = np.einsum("rai,rbj,rck->rabcijk", t[:, 0], t[:, 1], t[:, 2]).reshape(R, 8, 27)
-    m = full[:, _VALUE_AND_DERIVATIVES]
-    # One Gauss–Newton step on N (Pfᵀ m₃₄₅(θ₃, θ₄, θ₅) − q₀) = 0 (6 equations, 3 unknowns): a root
-    # found to ε / gap (near-double roots, as wrists that nearly meet give) comes back to ε.
-    NP, Nq = eqs
-    Y = m @ (NP[0].T if NP.shape[0] == 1 else NP[lane].swapaxes(1, 2))  # (R, 4, 6)
-    J = Y[:, 1:]  # (R, 3, 6) = Jᵀ
-    res = Y[:, 0] - Nq[lane]
-    JJ = J @ J.swapaxes(1, 2)
-    JJ += (1e-14 * np.trace(JJ, axis1=1, axis2=2) + 1e-300)[:, None, None] * _EYE3
-    try:
-        step = np.linalg.solve(JJ, -(J @ res[:, :, None]))
-    except np.linalg.LinAlgError:  # (a non-finite root: the FK check rejects it)
-        step = np.zeros((R, 3, 1))
-    # a step is a polish: one that is not small is not taken (a root far from converging)
-    step[~(np.abs(step) < _POLISH_LIMIT).all(axis=(1, 2))] = 0.0
-    q[:, 2:5] += step[:, :, 0]
-    m345 = m[:, 0] + (step.swapaxes(1, 2) @ m[:, 1:])[:, 0]  # to first order
+    # rows (1, cos θ, sin θ) of θ₃, θ₄, θ₅ (R, 3, 3) and m₃₄₅ = t₃ ⊗ t₄ ⊗ t₅ (R, 27)
+    t = np.empty((R, 3, 3))
+    t[:, :, 0] = 1.0
+    c, sn = np.cos(q[:, 2:5]), np.sin(q[:, 2:5])
+    t[:, :, 1], t[:, :, 2] = c, sn
+    t34 = t[:, 0, :, None] * t[:, 1, None, :]  # (R, 3, 3)
+    m345 = (t34[:, :, :, None] * t[:, 2, None, None, :]).reshape(R, 27)
+    if polish:
+        # One Gauss–Newton step on N (Pfᵀ m₃₄₅(θ₃, θ₄, θ₅) − q₀) = 0 (6 equations, 3 unknowns): a
+        # root found to ε / gap (near-double roots, as wrists that nearly meet give) comes back
+        # to ε. The derivatives of m₃₄₅ by each angle replace its row by (0, −sin θ, cos θ).
+        d = np.zeros((R, 3, 3))
+        d[:, :, 1], d[:, :, 2] = -sn, c
+        dm = np.empty((R, 3, 27))
+        dm[:, 0] = (
+            (d[:, 0, :, None] * t[:, 1, None, :])[:, :, :, None] * t[:, 2, None, None, :]
+        ).reshape(R, 27)
+        dm[:, 1] = (
+            (t[:, 0, :, None] * d[:, 1, None, :])[:, :, :, None] * t[:, 2, None, None, :]
+        ).reshape(R, 27)
+        dm[:, 2] = (t34[:, :, :, None] * d[:, 2, None, None, :]).reshape(R, 27)
+        NP, Nq = eqs
+        NPt = NP[0].T if NP.shape[0] == 1 else NP[lane].swapaxes(1, 2)
+        J = dm @ NPt  # (R, 3, 6) = Jᵀ
+        res = (m345[:, None, :] @ NPt)[:, 0] - Nq[lane]
+        JJ = J @ J.swapaxes(1, 2)
+        JJ += (1e-14 * np.trace(JJ, axis1=1, axis2=2) + 1e-300)[:, None, None] * _EYE3
+        try:
+            step = np.linalg.solve(JJ, -(J @ res[:, :, None]))
+        except np.linalg.LinAlgError:  # (a non-finite root: the FK check rejects it)
+            step = np.zeros((R, 3, 1))
+        # a step is a polish: one that is not small is not taken (a root far from converging)
+        step[~(np.abs(step) < _POLISH_LIMIT).all(axis=(1, 2))] = 0.0
+        q[:, 2:5] += step[:, :, 0]
+        m345 = m345 + (step.swapaxes(1, 2) @ dm)[:, 0]  # to first order
     if one:
         lhs = m345 @ arm.Pf[0]  # (R, 14)
         Yv = m345 @ arm.Bay[0]  # (R, 6)
