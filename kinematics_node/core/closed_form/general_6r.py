@@ -188,10 +188,11 @@ class Arm:
         self.P = np.moveaxis(E, -1, 1).reshape(L, 14, 3, 9)
         # The 14 equations' left sides as m₃₄₅ Pf, m₃₄₅ = (1, c₃, s₃) ⊗ (1, c₄, s₄) ⊗ (1, c₅, s₅)
         self.Pf = np.ascontiguousarray(self.P.transpose(0, 2, 3, 1).reshape(L, 27, 14))
-        # Σ's arm part with θ₃ measured from φ, and from φ + 1 (`solve_general_6r`): (L, 14, 27)
-        self.G = tuple(
-            poly_coefficients(self.P, phi).transpose(0, 2, 1, 3).reshape(L, 14, 27)
-            for phi in (THETA3_OFFSET, THETA3_OFFSET + 1.0)
+        # Σ's arm part with θ₃ measured from φ, and from φ + 1 (`solve_general_6r`; computed
+        # where first needed, `second_offset`): (L, 14, 27)
+        self.G: tuple[FloatArray, FloatArray | None] = (
+            poly_coefficients(self.P, THETA3_OFFSET).transpose(0, 2, 1, 3).reshape(L, 14, 27),
+            None,
         )
         # e₂⁻¹(θ₂ₖ) e₁⁻¹(θ₁ⱼ) at the samples: (L, 3 [j], 3 [k], 4, 4). With `fit`, the right-hand
         # side at the fitting points, and K by least squares (exact: the right-hand side is such
@@ -229,6 +230,17 @@ class Arm:
             self.x6[0].tolist(),
         )
 
+    def second_offset(self) -> FloatArray:
+        """Σ's arm part with θ₃ measured from φ + 1 (L, 14, 27): for the rare target whose
+        leading matrix C₂ is near singular from φ. Built on first use (an arm built for one call,
+        `solve_general_6r_shifted`, seldom needs it)."""
+        G1 = self.G[1]
+        if G1 is None:
+            G1 = poly_coefficients(self.P, THETA3_OFFSET + 1.0).transpose(0, 2, 1, 3)
+            G1 = G1.reshape(self.lanes, 14, 27)
+            self.G = (self.G[0], G1)
+        return G1
+
     def tile(self, n: int) -> Arm:
         """This arm's K lanes repeated for n targets: lane i·K + k is target i, lane k."""
         if n == 1:
@@ -238,7 +250,9 @@ class Arm:
             if isinstance(value, np.ndarray):
                 value = np.tile(value, (n,) + (1,) * (value.ndim - 1))
             elif name == "G":
-                value = tuple(np.tile(v, (n,) + (1,) * (v.ndim - 1)) for v in value)
+                value = tuple(
+                    None if v is None else np.tile(v, (n,) + (1,) * (v.ndim - 1)) for v in value
+                )
             setattr(out, name, value)
         out.lanes = self.lanes * n
         return out
@@ -528,7 +542,7 @@ def solve_general_6r(
     if not good.all():  # C₂ near singular: θ₃ = φ + π nearly a root; measure from another offset
         bad = np.flatnonzero(~good)
         sub = bad if arm.lanes > 1 else None
-        G2 = arm.G[1][bad] if arm.lanes > 1 else arm.G[1]
+        G2 = arm.second_offset()[bad] if arm.lanes > 1 else arm.second_offset()
         F2, A2, good2, _, _ = _companion(arm, G2, Q[bad], q0[bad], sub)
         lane2, x3b, th4b, th5b = _real_roots(F2, A2, good2)
         lane = np.concatenate((lane, bad[lane2]))
@@ -568,7 +582,8 @@ def _solve_one(
     """`solve_general_6r` of one target of a 6R arm (Q (14, 8), q₀ (14,), u = R_G x₆ (1, 3)):
     the same steps on 2-D arrays with LAPACK called directly, about half the time of the stacked
     form on one lane. The solutions (R, 6); None where the stacked form must decide (C₂ near
-    singular, roots that coincide, an exactly singular Σ(x₃))."""
+    singular). Roots that coincide share a null space as in `_real_roots`; a Σ(x₃) that is exactly singular (an arm with many zero
+    offsets: 5 % of xArm 6 targets) gives its null vector by SVD here, as `_clusters` does."""
     GP, W0, S0, Q2bT = arm.one
     U, S, Vt, info = lapack.dgesdd(Q)
     if info:
@@ -598,8 +613,7 @@ def _solve_one(
     R = len(xs)
     if not R:
         return np.empty((0, 6))
-    if any(b - a <= CLUSTER * (1.0 + abs(b)) for a, b in zip(xs[:-1], xs[1:], strict=True)):
-        return None
+    near = [b - a <= CLUSTER * (1.0 + abs(b)) for a, b in zip(xs[:-1], xs[1:], strict=True)]
     x = np.array(xs)[:, None, None]
     Fx = F[:, :9] + x * (F[:, 9:18] + x * F[:, 18:])  # (R, 6, 9)
     Sig = (1e-15 * size) * np.broadcast_to(_EYE12, (R, 12, 12))  # (`_real_roots`)
@@ -609,16 +623,19 @@ def _solve_one(
         vs = []
         for M in Sig:
             _, _, v, info = lapack.dgesv(M, _B)
-            if info:
-                return None
-            vs.append(v)
+            vs.append(np.linalg.svd(M)[2][-1] if info else v)  # (exactly singular: SVD)
         V = np.array(vs)
     else:
         try:
             V = np.linalg.solve(Sig, np.broadcast_to(_B[:, None], (R, 12, 1)))[..., 0]
-        except np.linalg.LinAlgError:
-            return None
+        except np.linalg.LinAlgError:  # one Σ(x₃) exactly singular: its null vector by SVD
+            V = np.empty((R, 12))
+            for i, M in enumerate(Sig):
+                _, _, v, info = lapack.dgesv(M, _B)
+                V[i] = np.linalg.svd(M)[2][-1] if info else v
     th4, th5 = _shift_ratios(V)
+    if any(near):  # roots that coincide: their shared null space (`_clusters`)
+        _clusters(Sig, np.array(near), np.zeros(R, dtype=bool), th4, th5)
     th3 = THETA3_OFFSET + 2.0 * np.arctan(x[:, 0, 0])
     lane = np.zeros(R, dtype=np.int64)
     eqs = (H[None, :, 27:], Nq[None])
@@ -737,9 +754,14 @@ def solve_general_6r_shifted(
 
 
 def _perpendicular(a: FloatArray) -> FloatArray:
-    """A unit vector normal to each unit vector a (…, 3)."""
-    helper = np.where(
-        (np.abs(a[..., 0]) < 0.9)[..., None], np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    """A unit vector normal to each unit vector a (…, 3): a × e₁, or a × e₂ where a is near e₁
+    (written out: `np.cross` costs ~20 µs on a few vectors, and an arm built for one call,
+    `solve_general_6r_shifted`, pays it every call)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    near_x = np.abs(a0) >= 0.9
+    zero = np.zeros_like(a0)
+    x = np.stack(
+        (np.where(near_x, -a2, zero), np.where(near_x, zero, a2), np.where(near_x, a0, -a1)),
+        axis=-1,
     )
-    x = np.cross(a, helper)
-    return x / np.linalg.norm(x, axis=-1, keepdims=True)
+    return x / np.sqrt((x * x).sum(axis=-1, keepdims=True))
