@@ -2,7 +2,8 @@
 
 No rclpy here: `ros/kinematics.py` turns each `ParameterSpec` into a `ParameterDescriptor`, and its
 set-parameters callback calls `validate_parameters` so that a bad `ros2 param set` is refused with
-the same message a test sees.
+the same message a test sees. `validate` checks values against any node's table of specs: the
+servo node's (`servo_parameters`) is checked by the same rules, with the same sentences.
 """
 
 from __future__ import annotations
@@ -170,36 +171,53 @@ def defaults() -> dict[str, Any]:
 
 
 def validate_parameters(values: Mapping[str, Any]) -> str | None:
-    """None if every value in `values` is acceptable, else a message naming the first bad one.
+    """None if every value in `values` is an acceptable kinematics node parameter, else a message
+    naming the first bad one (`validate` against `SPECS`)."""
+    return validate(values, SPECS)
+
+
+def validate(values: Mapping[str, Any], specs: Mapping[str, ParameterSpec]) -> str | None:
+    """None if every value in `values` is acceptable by its spec in `specs` (a node's table, by
+    name), else a message naming the first bad one.
 
     Checks types (bool is not accepted as a number; an int is accepted for a float parameter),
-    finiteness, ranges, strict positivity and choices. Unknown names are refused.
+    finiteness, ranges, strict positivity and choices. Unknown names are refused. (The servo
+    node's table, `servo_parameters.SERVO_SPECS`, goes through here too.)
     """
     for name, value in values.items():
-        spec = SPECS.get(name)
+        spec = specs.get(name)
         if spec is None:
-            return f"unknown parameter {name!r}; known: {sorted(SPECS)}"
-        want = type(spec.default)
-        if want is bool:
-            ok = isinstance(value, bool)
-        elif want is float:
-            ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-        elif want is int:
-            ok = isinstance(value, int) and not isinstance(value, bool)
-        else:
-            ok = isinstance(value, want)
-        if not ok:
-            return f"parameter {name!r} must be of type {want.__name__}, got {value!r}"
-        if want in (int, float):
-            v = float(value)
-            if not math.isfinite(v):
-                return f"parameter {name!r} must be finite, got {value!r}"
-            if spec.positive and v <= 0:
-                return f"parameter {name!r} must be > 0, got {value!r}"
-            if spec.minimum is not None and v < spec.minimum:
-                return f"parameter {name!r} must be >= {spec.minimum}, got {value!r}"
-            if spec.maximum is not None and v > spec.maximum:
-                return f"parameter {name!r} must be <= {spec.maximum}, got {value!r}"
-        if spec.choices and value not in spec.choices:
-            return f"parameter {name!r} must be one of {list(spec.choices)}, got {value!r}"
+            return f"unknown parameter {name!r}; known: {sorted(specs)}"
+        problem = check_value(spec, value)
+        if problem is not None:
+            return problem
+    return None
+
+
+def check_value(spec: ParameterSpec, value: Any) -> str | None:
+    """None if `value` is acceptable for `spec`, else a sentence naming the parameter, what it
+    takes and what it got."""
+    name, want = spec.name, type(spec.default)
+    if want is bool:
+        ok = isinstance(value, bool)
+    elif want is float:
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    elif want is int:
+        ok = isinstance(value, int) and not isinstance(value, bool)
+    else:
+        ok = isinstance(value, want)
+    if not ok:
+        return f"parameter {name!r} must be of type {want.__name__}, got {value!r}"
+    if want in (int, float):
+        v = float(value)
+        if not math.isfinite(v):
+            return f"parameter {name!r} must be finite, got {value!r}"
+        if spec.positive and v <= 0:
+            return f"parameter {name!r} must be > 0, got {value!r}"
+        if spec.minimum is not None and v < spec.minimum:
+            return f"parameter {name!r} must be >= {spec.minimum:g}, got {value!r}"
+        if spec.maximum is not None and v > spec.maximum:
+            return f"parameter {name!r} must be <= {spec.maximum:g}, got {value!r}"
+    if spec.choices and value not in spec.choices:
+        return f"parameter {name!r} must be one of {list(spec.choices)}, got {value!r}"
     return None

@@ -26,7 +26,7 @@ from typing import Any
 from ..core.exceptions import InvalidInputError
 from ..core.servo import TWIST_AXES, ServoConfig
 from .parameters import SPECS as KINEMATICS_SPECS
-from .parameters import ParameterSpec
+from .parameters import ParameterSpec, validate
 
 #: ros2_control's controllers and the topics they listen on in their documented examples
 #: (forward_command_controller's `<name>/commands`, joint_trajectory_controller's
@@ -259,44 +259,13 @@ def validate_servo_parameters(
     """None if every value in `values` is acceptable (with the others from `current`, default:
     the defaults), else a sentence naming the first bad one: an unknown name, a wrong type, a
     value out of range or not among the choices, or a servo setting `ServoConfig` refuses."""
-    for name, value in values.items():
-        spec = SERVO_SPECS.get(name)
-        if spec is None:
-            return f"unknown parameter {name!r}; known: {sorted(SERVO_SPECS)}"
-        problem = _check_value(spec, value)
-        if problem is not None:
-            return problem
+    problem = validate(values, SERVO_SPECS)
+    if problem is not None:
+        return problem
     if CONFIG_NAMES & set(values):
         merged = {**(current if current is not None else servo_defaults()), **values}
         try:
             servo_config(merged)
         except InvalidInputError as exc:
             return str(exc)
-    return None
-
-
-def _check_value(spec: ParameterSpec, value: Any) -> str | None:
-    name, want = spec.name, type(spec.default)
-    if want is bool:
-        ok = isinstance(value, bool)
-    elif want is float:
-        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-    elif want is int:
-        ok = isinstance(value, int) and not isinstance(value, bool)
-    else:
-        ok = isinstance(value, want)
-    if not ok:
-        return f"parameter {name!r} must be of type {want.__name__}, got {value!r}"
-    if want in (int, float):
-        v = float(value)
-        if not math.isfinite(v):
-            return f"parameter {name!r} must be finite, got {value!r}"
-        if spec.positive and v <= 0:
-            return f"parameter {name!r} must be > 0, got {value!r}"
-        if spec.minimum is not None and v < spec.minimum:
-            return f"parameter {name!r} must be >= {spec.minimum:g}, got {value!r}"
-        if spec.maximum is not None and v > spec.maximum:
-            return f"parameter {name!r} must be <= {spec.maximum:g}, got {value!r}"
-    if spec.choices and value not in spec.choices:
-        return f"parameter {name!r} must be one of {list(spec.choices)}, got {value!r}"
     return None
