@@ -29,6 +29,7 @@ from kinematics_node.core.servo import JointJogCommand, PoseCommand, TwistComman
 from kinematics_node.core.so3 import rows_from_quaternion
 
 from .stamps import seconds_from_time
+from .types import rclpy_classes, typestore_classes
 
 #: ROS 2 interface name of each `ServoMessageTypes` field.
 SERVO_MESSAGE_NAMES: dict[str, str] = {
@@ -61,18 +62,12 @@ class ServoMessageTypes:
     @classmethod
     def from_rclpy(cls) -> ServoMessageTypes:
         """The rclpy-generated classes (needs a sourced ROS 2 installation)."""
-        import importlib
-
-        found = {}
-        for short, full in SERVO_MESSAGE_NAMES.items():
-            package, _, name = full.split("/")
-            found[short] = getattr(importlib.import_module(f"{package}.msg"), name)
-        return cls(**found)
+        return cls(**rclpy_classes(SERVO_MESSAGE_NAMES))
 
     @classmethod
     def from_typestore(cls, typestore: Any) -> ServoMessageTypes:
         """The classes of a rosbags typestore."""
-        return cls(**{short: typestore.types[full] for short, full in SERVO_MESSAGE_NAMES.items()})
+        return cls(**typestore_classes(typestore, SERVO_MESSAGE_NAMES))
 
 
 # ---------------------------------------------------------------------- commands in

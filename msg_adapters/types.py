@@ -2,12 +2,15 @@
 
 The adapters never import message packages. The ROS node fills a `MessageTypes` from rclpy's
 generated classes (`MessageTypes.from_rclpy()`); tests fill it from a rosbags typestore
-(`MessageTypes.from_typestore(typestore)`). Adapters always pass every field at construction,
-because rosbags message dataclasses require it (rclpy classes accept it too).
+(`MessageTypes.from_typestore(typestore)`). The servo's classes (`servo_messages.ServoMessageTypes`)
+come from a table of names of their own by the same two look-ups, `rclpy_classes` and
+`typestore_classes`. Adapters always pass every field at construction, because rosbags message
+dataclasses require it (rclpy classes accept it too).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -52,15 +55,27 @@ class MessageTypes:
     @classmethod
     def from_rclpy(cls) -> MessageTypes:
         """The rclpy-generated classes (needs a sourced ROS 2 installation)."""
-        import importlib
-
-        found = {}
-        for short, full in MESSAGE_NAMES.items():
-            package, _, name = full.split("/")
-            found[short] = getattr(importlib.import_module(f"{package}.msg"), name)
-        return cls(**found)
+        return cls(**rclpy_classes(MESSAGE_NAMES))
 
     @classmethod
     def from_typestore(cls, typestore: Any) -> MessageTypes:
         """The classes of a rosbags typestore (e.g. ``get_typestore(Stores.ROS2_HUMBLE)``)."""
-        return cls(**{short: typestore.types[full] for short, full in MESSAGE_NAMES.items()})
+        return cls(**typestore_classes(typestore, MESSAGE_NAMES))
+
+
+def rclpy_classes(names: Mapping[str, str]) -> dict[str, Any]:
+    """{short name: rclpy-generated class} of `names` ({short name: "package/msg/Name"}),
+    imported from the message packages of a sourced ROS 2 (no import at this module's load)."""
+    import importlib
+
+    found = {}
+    for short, full in names.items():
+        package, _, name = full.split("/")
+        found[short] = getattr(importlib.import_module(f"{package}.msg"), name)
+    return found
+
+
+def typestore_classes(typestore: Any, names: Mapping[str, str]) -> dict[str, Any]:
+    """{short name: class} of `names` ({short name: "package/msg/Name"}) in a rosbags
+    typestore."""
+    return {short: typestore.types[full] for short, full in names.items()}
