@@ -38,7 +38,6 @@ available in both Humble and Jazzy.
 
 from __future__ import annotations
 
-import gc
 import math
 import os
 import time
@@ -49,12 +48,7 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from kinematics_service.srv import ComputeFK, ComputeIK, ComputeJacobian
-from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
-    ParameterDescriptor,
-    SetParametersResult,
-)
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
@@ -75,9 +69,10 @@ from msg_adapters import MessageTypes, matrix_from_transform
 from ..core.exceptions import InvalidInputError, KinematicsError
 from ..service.ik_pool import IKOutcome, IKPool, solve_at_once
 from ..service.kinematics import KinematicsService, PendingIK, Severity
-from ..service.parameters import PARAMETERS, SPECS, STARTUP_ONLY, ParameterSpec
+from ..service.parameters import PARAMETERS, SPECS, STARTUP_ONLY
 from .deferred import DeferredResponses, waited_since_sent
 from .mailbox import Mailbox
+from .node_setup import declare_parameters, freeze_heap
 from .spin import spin_until_shutdown
 
 try:  # Jazzy and later
@@ -132,34 +127,12 @@ WARN_PERIOD = 5.0
 TF_MISSING = "TF frames need tf2_ros, which is not installed here (it comes with a full ROS 2)"
 
 
-def _descriptor(spec: ParameterSpec) -> ParameterDescriptor:
-    text = spec.description
-    if spec.choices:
-        text += f" One of: {', '.join(spec.choices)}."
-    d = ParameterDescriptor(description=text)
-    if isinstance(spec.default, bool):
-        return d
-    if isinstance(spec.default, float) and spec.minimum is not None and spec.maximum is not None:
-        d.floating_point_range = [
-            FloatingPointRange(
-                from_value=float(spec.minimum), to_value=float(spec.maximum), step=0.0
-            )
-        ]
-    elif isinstance(spec.default, int) and spec.minimum is not None and spec.maximum is not None:
-        d.integer_range = [
-            IntegerRange(from_value=int(spec.minimum), to_value=int(spec.maximum), step=1)
-        ]
-    return d
-
-
 class KinematicsNode(Node):
     """Parameters, publishers, subscriptions and services around one `KinematicsService`."""
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("kinematics_node", **kwargs)
-        for spec in PARAMETERS:
-            self.declare_parameter(spec.name, spec.default, _descriptor(spec))
-        values = {spec.name: self.get_parameter(spec.name).value for spec in PARAMETERS}
+        values = declare_parameters(self, PARAMETERS)
 
         self._tf_buffer = None
         lookup = self._lookup_transform
@@ -223,13 +196,13 @@ class KinematicsNode(Node):
         )
         self._ik_responses = DeferredResponses(
             ik_service,
-            lambda exc: self.get_logger().warn(f"an IK answer could not be sent: {exc!r}"),
+            lambda exc: self.get_logger().warning(f"an IK answer could not be sent: {exc!r}"),
         )
         self._diag_timer = self.create_timer(
             float(values["diagnostics_period"]), self._publish_diagnostics, callback_group=group
         )
         self._warned: dict[str, float] = {}  # problem -> when it was last logged
-        _freeze_heap()
+        freeze_heap()
 
     def _publisher(self, msg_type: Any, topic: str) -> Any:
         return self.create_publisher(
@@ -246,7 +219,7 @@ class KinematicsNode(Node):
             if level == "error":
                 logger.error(text)
             elif level == "warn":
-                logger.warn(text)
+                logger.warning(text)
             else:
                 logger.info(text)
 
@@ -259,7 +232,7 @@ class KinematicsNode(Node):
             self.get_logger().error(f"robot_description topic: internal error: {exc!r}")
         self._log_description_events()
         if self._logic.model is not model and self._logic.model is not None:
-            _freeze_heap()
+            freeze_heap()
 
     def _on_joint_state(self, msg: JointState, info: dict[str, Any]) -> None:
         self._last_joint_state = time.monotonic()
@@ -288,7 +261,7 @@ class KinematicsNode(Node):
         if len(self._warned) > 256:
             self._warned.clear()
         self._warned[key] = now
-        self.get_logger().warn(f"{problem} (repeats are not logged for {WARN_PERIOD:g} s)")
+        self.get_logger().warning(f"{problem} (repeats are not logged for {WARN_PERIOD:g} s)")
 
     def _compute_ik(self, request: Any, response: Any) -> Any:
         # The work starts when rclpy hands over the request's header, right after this returns:
@@ -369,22 +342,13 @@ class KinematicsNode(Node):
         finally:
             self._log_description_events()
         if self._logic.model is not model and self._logic.model is not None:
-            _freeze_heap()
+            freeze_heap()
         return SetParametersResult(successful=True)
 
     def destroy_node(self) -> None:
         self._pool.shutdown()  # answers every open job (into the mailbox)
         self._ik_answers.close()
         super().destroy_node()
-
-
-def _freeze_heap() -> None:
-    """Exempt everything allocated so far (numpy, scipy, yourdfpy, rclpy, the model: ~100k
-    objects) from the cyclic garbage collector. A full collection walks every tracked object:
-    60 ms on a quiet machine, 250 ms on a busy one, during which no joint_states are served.
-    What the pose path allocates per message is freed by reference counting anyway."""
-    gc.collect()
-    gc.freeze()
 
 
 def _default_workers() -> int:

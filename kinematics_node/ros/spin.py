@@ -61,7 +61,7 @@ def _spin(
         rclpy.init(args=args, context=context)
         node = make_node()
         kind = node.get_parameter("executor").value if node.has_parameter("executor") else "lean"
-        executor = make_executor(kind, log=node.get_logger().warn)
+        executor = make_executor(kind, log=node.get_logger().warning)
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
