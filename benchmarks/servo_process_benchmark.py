@@ -31,7 +31,6 @@ import argparse
 import json
 import math
 import os
-import signal
 import statistics
 import subprocess
 import sys
@@ -45,11 +44,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from kinematics_node.ros.env import (  # noqa: E402
     clean_dead_shared_memory,
-    executable,
     keep_discovery_local,
     local_ros_env,
     unavailable_reason,
 )
+from kinematics_node.ros.processes import start_node, stop_nodes  # noqa: E402
 
 UR5E = ROOT / "config" / "robots" / "ur5e.urdf"
 READY = [0.0, -1.57, 1.57, -1.57, -1.57, 0.0]  # launch/servo.launch.py's
@@ -98,22 +97,6 @@ def role_shared() -> None:
 
 
 # ============================================================================ the harness
-def _start(argv: list[str], params: dict[str, Any], name: str, directory: Path, env: Any) -> Any:
-    path = directory / f"{name}.yaml"
-    path.write_text(json.dumps({name: {"ros__parameters": params}}))
-    log = (directory / f"{name}.log").open("wb")
-    return subprocess.Popen(
-        [*argv, "--ros-args", "--params-file", str(path)], env=env, stdout=log, stderr=log
-    )
-
-
-def _exe(name: str) -> list[str]:
-    argv = executable(name)
-    if argv is None:
-        raise SystemExit(f"{name} is not built: make ros, then . build/ros/env.sh")
-    return argv
-
-
 class Client:
     """This process's rclpy node: jogs the servo, calls compute_ik, records ee_pose and status."""
 
@@ -210,20 +193,26 @@ def _counter(values: dict[str, str], key: str) -> int:
 def run_layout(
     layout: str, client: Client, seconds: float, directory: Path, env: Any, ik: bool
 ) -> dict:
-    processes = [_start(_exe("sim_arm"), SIM, "sim_arm", directory, env)]
-    if layout == "separate":
-        processes.append(_start(_exe("kinematics_node"), CHAIN, "kinematics_node", directory, env))
-        processes.append(_start(_exe("servo"), SERVO, "servo", directory, env))
-    else:
-        log = (directory / "shared.log").open("wb")
-        processes.append(
-            subprocess.Popen(
-                [sys.executable, __file__, "--role", "shared"], env=env, stdout=log, stderr=log
-            )
-        )
-    try:
+    processes = []
+    try:  # (a node started is stopped, even when the next one cannot start)
+        processes.append(start_node("sim_arm", SIM, directory, env))
+        if layout == "separate":
+            processes.append(start_node("kinematics_node", CHAIN, directory, env))
+            processes.append(start_node("servo", SERVO, directory, env))
+        else:
+            with (directory / "shared.log").open("wb") as log:
+                processes.append(
+                    subprocess.Popen(
+                        [sys.executable, __file__, "--role", "shared"],
+                        env=env,
+                        stdout=log,
+                        stderr=log,
+                    )
+                )
+        # up when this layout's nodes speak (the client keeps what earlier layouts sent)
+        up = len(client.statuses), len(client.poses)
         deadline = time.monotonic() + 30.0
-        while not (client.statuses and client.poses):
+        while not (len(client.statuses) > up[0] and len(client.poses) > up[1]):
             if time.monotonic() > deadline:
                 raise SystemExit(f"{layout}: the nodes did not come up; logs in {directory}")
             time.sleep(0.1)
@@ -244,13 +233,7 @@ def run_layout(
         statuses = client.statuses[s0:]
         poses = [p for p in client.poses[p0:] if t0 <= p[1] <= t1]
     finally:
-        for p in processes:
-            p.send_signal(signal.SIGINT)
-        for p in processes:
-            try:
-                p.wait(10)
-            except subprocess.TimeoutExpired:
-                p.kill()
+        stop_nodes(processes)
     first, last = statuses[0][1], statuses[-1][1]
     cycles = _counter(last, "cycles") - _counter(first, "cycles")
     late = _counter(last, "late_cycles") - _counter(first, "late_cycles")

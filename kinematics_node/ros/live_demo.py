@@ -9,9 +9,6 @@ DDS, prints a short live summary and draws the picture from what arrived (`demo.
 
 from __future__ import annotations
 
-import json
-import signal
-import subprocess
 import sys
 import tempfile
 import threading
@@ -24,19 +21,8 @@ import numpy as np
 from ..core.model import middle_of_limits
 from ..sim.demo import DemoRun, movable_manipulability, plot
 from ..sim.robots import default_chain_links, load_robot, robot_path
-from .env import executable, keep_discovery_local, local_ros_env
-
-
-def _start(name: str, params: dict[str, Any], directory: Path, env: dict[str, str]) -> Any:
-    argv = executable(name)
-    assert argv is not None  # the caller checked `env.unavailable_reason()`
-    path = directory / f"{name}.yaml"
-    # JSON is YAML too: a --params-file with no yaml dependency
-    path.write_text(json.dumps({name: {"ros__parameters": params}}))
-    log = (directory / f"{name}.log").open("wb")
-    return subprocess.Popen(
-        [*argv, "--ros-args", "--params-file", str(path)], env=env, stdout=log, stderr=log
-    )
+from .env import keep_discovery_local, local_ros_env
+from .processes import log_tail, start_node, stop_nodes
 
 
 def run_live(robot: str, duration: float, rate: float, stream: TextIO) -> tuple[DemoRun, list[str]]:
@@ -54,30 +40,20 @@ def run_live(robot: str, duration: float, rate: float, stream: TextIO) -> tuple[
             f"{domain} (discovery on loopback)",
             file=stream,
         )
-        processes = [
-            _start("sim_arm", {"robot": robot, "rate": float(rate)}, directory, env),
-            _start(
-                "kinematics_node",
-                {"robot_description": description, "base_link": base, "tip_link": tip},
-                directory,
-                env,
-            ),
-        ]
-        try:
+        processes = []
+        try:  # (a node started is stopped, even when the next one cannot start)
+            processes.append(
+                start_node("sim_arm", {"robot": robot, "rate": float(rate)}, directory, env)
+            )
+            chain_params = {"robot_description": description, "base_link": base, "tip_link": tip}
+            processes.append(start_node("kinematics_node", chain_params, directory, env))
             run, lines = _listen_and_call(chain, robot, duration, stream)
         finally:
-            for p in processes:
-                p.send_signal(signal.SIGINT)
-            for p in processes:
-                try:
-                    p.wait(10)
-                except subprocess.TimeoutExpired:
-                    p.kill()
-        codes = [p.returncode for p in processes]
+            codes = stop_nodes(processes)
         lines.append(f"both processes stopped on SIGINT with exit codes {codes}")
         for name, code in zip(("sim_arm", "kinematics_node"), codes, strict=True):
             if code != 0:  # say why, before the log goes with the temporary directory
-                tail = (directory / f"{name}.log").read_text(errors="replace").splitlines()[-15:]
+                tail = log_tail(directory, name)
                 lines.extend([f"{name} exited with {code}; the end of its log:", *tail])
     return run, lines
 

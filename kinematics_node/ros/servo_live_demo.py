@@ -14,9 +14,6 @@ version where ROS 2 is not available.
 from __future__ import annotations
 
 import dataclasses
-import json
-import signal
-import subprocess
 import sys
 import tempfile
 import threading
@@ -31,6 +28,7 @@ from ..sim import servo_demo
 from ..sim.robots import default_chain_links, load_robot, robot_path
 from .env import executable, keep_discovery_local, local_ros_env
 from .env import unavailable_reason as node_unavailable_reason
+from .processes import log_tail, start_node, stop_nodes
 
 PROCESSES = ("sim_arm", "kinematics_node", "servo")
 COMMAND_TOPIC = "/forward_position_controller/commands"  # the servo's and the arm's default
@@ -49,18 +47,6 @@ def unavailable_reason() -> str | None:
         if executable(name) is None:
             return f"the {name} executable is not found: run `make ros`, then . build/ros/env.sh"
     return None
-
-
-def _start(name: str, params: dict[str, Any], directory: Path, env: dict[str, str]) -> Any:
-    """Start the package's executable `name` with `params`; its output goes to <name>.log."""
-    argv = executable(name)
-    assert argv is not None  # the caller checked `unavailable_reason()`
-    path = directory / f"{name}.yaml"
-    path.write_text(json.dumps({name: {"ros__parameters": params}}))  # (JSON is YAML too)
-    with (directory / f"{name}.log").open("wb") as log:  # (the child keeps its own descriptor)
-        return subprocess.Popen(
-            [*argv, "--ros-args", "--params-file", str(path)], env=env, stdout=log, stderr=log
-        )
 
 
 def run_live(rate: float, stream: TextIO) -> servo_demo.ServoDemoRun:
@@ -92,22 +78,17 @@ def run_live(rate: float, stream: TextIO) -> servo_demo.ServoDemoRun:
             "kinematics_node": robot,
             "servo": {**robot, "period_s": config.period_s},
         }
-        processes = [_start(name, params[name], directory, env) for name in PROCESSES]
-        try:
+        processes = []
+        try:  # (a node started is stopped, even when the next one cannot start)
+            for name in PROCESSES:
+                processes.append(start_node(name, params[name], directory, env))
             run = _drive_and_record(chain, plan, config, stream)
         finally:
-            for p in processes:
-                p.send_signal(signal.SIGINT)
-            for p in processes:
-                try:
-                    p.wait(10)
-                except subprocess.TimeoutExpired:
-                    p.kill()
-        codes = [p.returncode for p in processes]
+            codes = stop_nodes(processes)
         notes = [f"the three processes stopped on SIGINT with exit codes {codes}"]
         for name, code in zip(PROCESSES, codes, strict=True):
             if code != 0:  # say why, before the log goes with the temporary directory
-                tail = (directory / f"{name}.log").read_text(errors="replace").splitlines()[-15:]
+                tail = log_tail(directory, name)
                 notes.extend([f"{name} exited with {code}; the end of its log:", *tail])
     return dataclasses.replace(run, notes=run.notes + tuple(notes))
 
