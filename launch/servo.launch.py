@@ -7,9 +7,11 @@ Then jog it (README, "Servo"): twists on /servo/delta_twist_cmds, e.g. from the 
 teleop_twist_keyboard, joint velocities on /servo/delta_joint_state_cmds, pose targets on
 /servo/pose_target_cmds; watch /servo/status and /ee_pose.
 
-Starts robot_state_publisher (TF and the robot_description topic), sim_arm in command mode at
-`ready` joint positions (no demo motion: it holds still until the servo commands it), the
-kinematics node (ee_pose, ee_twist) and the servo (config/servo.yaml), all on the same chain.
+Starts what sim_arm.launch.py starts (bundled_robot.py: robot_state_publisher, sim_arm, the
+kinematics node on the chain, RViz on request), with sim_arm in command mode: every moving joint
+without <mimic> simulated (robot_state_publisher needs them all: a Panda's finger too), the
+chain's joints at `READY` positions and taking the servo's commands (`command_joints`), the rest
+holding still; and the servo (config/servo.yaml) on the same chain.
 
 Arguments:
     robot: bundled robot (ur5e, panda, iiwa14, scara, planar3r); default ur5e.
@@ -23,23 +25,31 @@ Arguments:
     rviz: "true" starts RViz with config/sim_arm.rviz.
 """
 
-import os  # noqa: I001  (ruff would sort `launch` as first-party: the repo has a launch/ folder)
+import importlib.util  # noqa: I001  (ruff would sort `launch` as first-party: the repo has a launch/ folder)
+import os
 
 from ament_index_python.packages import get_package_share_directory
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
-from launch.conditions import IfCondition
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
-from launch_ros.parameter_descriptions import ParameterValue
 
-from kinematics_node.sim.robots import default_chain_links
-from kinematics_node.ros.env import fastdds_profile_env
+from kinematics_node.core import SerialChain
+from kinematics_node.core.model import middle_of_limits
+from kinematics_node.sim.arm import urdf_actuated_joints
 
-PACKAGE = "kinematics_service"
+# bundled_robot.py sits beside this file (in share/kinematics_service/launch once installed),
+# which is not on sys.path: loaded by its path
+_spec = importlib.util.spec_from_file_location(
+    "kinematics_service_bundled_robot",
+    os.path.join(os.path.dirname(os.path.abspath(__file__)), "bundled_robot.py"),
+)
+bundled_robot = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(bundled_robot)
 
 #: Joint positions the simulated arm starts at, per bundled robot (its default chain's joints):
 #: well inside the limits and away from singularities, so that jogging starts in every direction.
+#: The joints off the chain (a Panda's finger) start in the middle of their limits.
 READY = {
     "ur5e": [0.0, -1.57, 1.57, -1.57, -1.57, 0.0],
     "panda": [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785],
@@ -50,107 +60,51 @@ READY = {
 
 
 def _nodes(context, *args, **kwargs):
-    share = get_package_share_directory(PACKAGE)
-    robot = LaunchConfiguration("robot").perform(context)
-    robots_dir = os.path.join(share, "config", "robots")
-    description_file = os.path.join(robots_dir, robot + ".urdf")
-    if not os.path.isfile(description_file):
-        names = sorted(f[: -len(".urdf")] for f in os.listdir(robots_dir) if f.endswith(".urdf"))
-        raise RuntimeError(f"unknown robot {robot!r}; bundled robots are: {', '.join(names)}")
-    with open(description_file, encoding="utf-8") as fh:
-        robot_description = ParameterValue(fh.read(), value_type=str)
-    default_base, default_tip = default_chain_links(robot)
-    base_link = LaunchConfiguration("base_link").perform(context) or default_base
-    tip_link = LaunchConfiguration("tip_link").perform(context) or default_tip
+    share = get_package_share_directory(bundled_robot.PACKAGE)
+    robot = bundled_robot.chosen_robot(context, share)
     out_type = LaunchConfiguration("command_out_type").perform(context)
     period = float(LaunchConfiguration("period").perform(context))
-    rate = float(LaunchConfiguration("rate").perform(context))
-    chain = {
-        "robot_description_file": description_file,
-        "base_link": base_link,
-        "tip_link": tip_link,
-    }
-    # the sim simulates the chain's joints, in its order: the servo's Float64MultiArray fits
-    sim = {
-        "robot": robot,
-        "rate": rate,
-        "command_mode": out_type,
-        "base_link": base_link,
-        "tip_link": tip_link,
-    }
-    if (base_link, tip_link) == (default_base, default_tip):
-        sim["initial_positions"] = READY[robot]
-    env = fastdds_profile_env(os.path.join(share, "config", "fastdds_profile.xml"))
-    return [
-        Node(
-            package="robot_state_publisher",
-            executable="robot_state_publisher",
-            name="robot_state_publisher",
-            parameters=[{"robot_description": robot_description}],
-            output="screen",
-            additional_env=env,
-        ),
-        Node(
-            package=PACKAGE,
-            executable="sim_arm",
-            name="sim_arm",
-            parameters=[sim],
-            output="screen",
-            additional_env=env,
-        ),
-        Node(
-            package=PACKAGE,
-            executable="kinematics_node",
-            name="kinematics_node",
-            parameters=[os.path.join(share, "config", "kinematics.yaml"), chain],
-            output="screen",
-            additional_env=env,
-        ),
-        Node(
-            package=PACKAGE,
-            executable="servo",
-            name="servo",
-            parameters=[
-                os.path.join(share, "config", "servo.yaml"),
-                {**chain, "command_out_type": out_type, "period_s": period},
-            ],
-            output="screen",
-            additional_env=env,
-        ),
-        Node(
-            package="rviz2",
-            executable="rviz2",
-            name="rviz2",
-            arguments=["-d", os.path.join(share, "config", "sim_arm.rviz"), "-f", base_link],
-            condition=IfCondition(LaunchConfiguration("rviz")),
-            output="screen",
-            additional_env=env,
-        ),
-    ]
+    description_file = robot["description_file"]
+    chain = SerialChain.from_urdf(description_file, robot["base_link"], robot["tip_link"])
+    # sim_arm simulates every moving joint without <mimic>; the servo's Float64MultiArray holds
+    # the chain's, in chain order: command_joints says which
+    sim = {"command_mode": out_type, "command_joints": " ".join(chain.joint_names)}
+    if robot["default_chain"]:
+        names, lower, upper, _ = urdf_actuated_joints(description_file)
+        ready = dict(zip(chain.joint_names, READY[robot["robot"]], strict=True))
+        middle = middle_of_limits(lower, upper)
+        sim["initial_positions"] = [
+            float(ready.get(name, middle[k])) for k, name in enumerate(names)
+        ]
+    env = bundled_robot.dds_env(share)
+    servo = Node(
+        package=bundled_robot.PACKAGE,
+        executable="servo",
+        name="servo",
+        parameters=[
+            os.path.join(share, "config", "servo.yaml"),
+            {
+                **bundled_robot.chain_parameters(robot),
+                "command_out_type": out_type,
+                "period_s": period,
+            },
+        ],
+        output="screen",
+        additional_env=env,
+    )
+    return [*bundled_robot.robot_nodes(share, robot, sim, env), servo]
 
 
 def generate_launch_description():
     return LaunchDescription(
         [
-            DeclareLaunchArgument(
-                "robot",
-                default_value="ur5e",
-                description="bundled robot: ur5e, panda, iiwa14, scara or planar3r",
-            ),
-            DeclareLaunchArgument(
-                "base_link", default_value="", description="chain root (empty: robot default)"
-            ),
-            DeclareLaunchArgument(
-                "tip_link", default_value="", description="end effector (empty: robot default)"
-            ),
+            *bundled_robot.arguments(),
             DeclareLaunchArgument(
                 "command_out_type",
                 default_value="position",
                 description="joint commands: position, velocity or trajectory",
             ),
             DeclareLaunchArgument("period", default_value="0.001", description="servo period [s]"),
-            DeclareLaunchArgument("rate", default_value="100.0", description="sim rate [Hz]"),
-            DeclareLaunchArgument("rviz", default_value="false", description="start RViz"),
             OpaqueFunction(function=_nodes),
         ]
     )

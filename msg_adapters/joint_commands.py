@@ -6,7 +6,8 @@ and rosbags message classes in the tests:
 * trajectory_msgs/JointTrajectory → `TrajectoryCommand` (waypoint times [s] from
   ``time_from_start``, positions, optional velocities);
 * std_msgs/Float64MultiArray → joint velocity or position vector (order = the published joint
-  names), as ros2_control's forward command controllers take them;
+  names, or the commanded joints given), as ros2_control's forward command controllers take them
+  (their `joints` parameter: e.g. an arm's joints, not its gripper's);
 * simulator state → sensor_msgs/JointState fields (lists of Python floats, as rclpy requires).
 
 Every malformed message raises `InvalidInputError` (or `UnknownNameError` for unknown joints)
@@ -23,7 +24,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from kinematics_node.core.exceptions import InvalidInputError
+from kinematics_node.core.exceptions import InvalidInputError, UnknownNameError
 
 FloatArray = NDArray[np.float64]
 
@@ -34,6 +35,9 @@ class CommandableArm(Protocol):
 
     @property
     def joint_names(self) -> tuple[str, ...]: ...
+
+    @property
+    def q(self) -> FloatArray: ...
 
     def command_trajectory(
         self,
@@ -138,19 +142,58 @@ def apply_trajectory_msg(sim: CommandableArm, msg: Any) -> TrajectoryCommand:
 
 
 def apply_velocity_msg(
-    sim: CommandableArm, msg: Any, topic: str = "joint_velocity_commands"
+    sim: CommandableArm,
+    msg: Any,
+    topic: str = "joint_velocity_commands",
+    joint_names: Sequence[str] | None = None,
 ) -> FloatArray:
-    """Validate a Float64MultiArray velocity command and apply it; returns the velocities."""
-    v = velocity_from_msg(msg, sim.joint_names, topic)
-    sim.command_velocity(v)
+    """Validate a Float64MultiArray velocity command and apply it; returns the velocities.
+
+    `joint_names`: the joints its values are for, in order (as forward_command_controller's
+    `joints` parameter); default: every joint of `sim`. The others get velocity 0.
+
+    Raises:
+        InvalidInputError: wrong number of values or NaN/inf.
+        UnknownNameError: a name in `joint_names` that `sim` lacks.
+    """
+    names = sim.joint_names if joint_names is None else joint_names
+    v = velocity_from_msg(msg, names, topic)
+    full = v
+    if joint_names is not None:
+        full = np.zeros(len(sim.joint_names))
+        full[_columns(sim, joint_names)] = v
+    sim.command_velocity(full)
     return v
 
 
-def apply_position_msg(sim: CommandableArm, msg: Any, topic: str) -> FloatArray:
-    """Validate a Float64MultiArray position command and apply it; returns the positions."""
-    q = position_from_msg(msg, sim.joint_names, topic)
-    sim.command_position(q)
+def apply_position_msg(
+    sim: CommandableArm, msg: Any, topic: str, joint_names: Sequence[str] | None = None
+) -> FloatArray:
+    """Validate a Float64MultiArray position command and apply it; returns the positions.
+
+    `joint_names`: the joints its values are for, in order (as forward_command_controller's
+    `joints` parameter); default: every joint of `sim`. The others hold where they are.
+
+    Raises:
+        InvalidInputError: wrong number of values or NaN/inf.
+        UnknownNameError: a name in `joint_names` that `sim` lacks.
+    """
+    names = sim.joint_names if joint_names is None else joint_names
+    q = position_from_msg(msg, names, topic)
+    full = q
+    if joint_names is not None:
+        full = np.array(sim.q, dtype=np.float64)  # (a copy: the others hold here)
+        full[_columns(sim, joint_names)] = q
+    sim.command_position(full)
     return q
+
+
+def _columns(sim: CommandableArm, joint_names: Sequence[str]) -> list[int]:
+    index = {name: k for k, name in enumerate(sim.joint_names)}
+    missing = [name for name in joint_names if name not in index]
+    if missing:
+        raise UnknownNameError("joint", missing[0], sim.joint_names)
+    return [index[name] for name in joint_names]
 
 
 def fill_joint_state(

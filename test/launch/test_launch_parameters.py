@@ -144,6 +144,8 @@ def test_sim_arm_launch_gives_the_node_the_bundled_file(monkeypatch, robot):
     _check_declared(params)
     assert params["robot_description_file"] == str(ROOT / "config" / "robots" / f"{robot}.urdf")
     assert "robot_description" not in params  # the file, not its text (one source)
+    sim, _ = _node_parameters(nodes, "sim_arm")
+    assert sim == {"robot": robot, "rate": float(arguments["rate"])}  # every joint, demo motion
     (rsp,) = [n for n in nodes if n.kwargs.get("executable") == "robot_state_publisher"]
     (rsp_params,) = rsp.kwargs["parameters"]
     text = rsp_params["robot_description"].parts[0]  # robot_state_publisher takes the XML
@@ -168,13 +170,15 @@ def _node_parameters(nodes: list[_Action], executable: str) -> tuple[dict[str, A
 def test_servo_launch_drives_one_chain_with_sim_arm_kinematics_node_and_servo(
     monkeypatch, robot, out_type
 ):
-    """servo.launch.py: the sim arm takes what the servo sends (same form, same chain: a
-    Float64MultiArray fits), every parameter is declared and valid, and the arm starts
-    well-conditioned at its `READY` positions."""
+    """servo.launch.py: the sim arm simulates every joint robot_state_publisher needs (a Panda's
+    finger too) and takes what the servo sends for the chain's joints (same form, the chain's
+    joints in chain order: a Float64MultiArray fits), every parameter is declared and valid, and
+    the arm starts well-conditioned at its `READY` positions."""
     import numpy as np
 
     from kinematics_node.ros.executables import SIM_ARM_PARAMETERS
     from kinematics_node.service.servo_parameters import SERVO_SPECS, validate_servo_parameters
+    from kinematics_node.sim.arm import urdf_actuated_joints
     from kinematics_node.sim.robots import load_robot
 
     module = _load(monkeypatch, "servo.launch.py")
@@ -195,10 +199,52 @@ def test_servo_launch_drives_one_chain_with_sim_arm_kinematics_node_and_servo(
     assert sim["command_mode"] == servo["command_out_type"] == out_type
     for key in ("robot_description_file", "base_link", "tip_link"):
         assert kinematics[key] == servo[key]
-    assert (sim["base_link"], sim["tip_link"]) == (servo["base_link"], servo["tip_link"])
-    chain = load_robot(robot)
+    # sim_arm: every moving joint without <mimic>, as robot_state_publisher needs them
+    assert "tip_link" not in sim and sim["robot"] == robot
+    names, lower, upper, _ = urdf_actuated_joints(servo["robot_description_file"])
+    chain = load_robot(robot, servo["base_link"], servo["tip_link"])
+    assert sim["command_joints"].split() == list(chain.joint_names)
+    assert len(names) == chain.dof + (robot == "panda")  # the Panda's finger_joint1
     q = np.array(sim["initial_positions"])
-    assert q.shape == (chain.dof,) and chain.within_limits(q, tolerance=-0.1)
-    if chain.dof >= 6:  # every direction can be jogged at once: no singular value near 0
-        sigma = np.linalg.svd(chain.jacobian(q, "world"), compute_uv=False)
-        assert sigma[-1] > 0.1
+    assert q.shape == (len(names),) and np.all((lower <= q) & (q <= upper))
+    q_chain = q[[names.index(n) for n in chain.joint_names]]
+    np.testing.assert_array_equal(q_chain, module.READY[robot])
+    assert chain.within_limits(q_chain, tolerance=-0.1)
+
+
+def test_servo_launch_on_another_chain_commands_that_chain(monkeypatch):
+    """A chain of the user's (the Panda to its flange): the servo's joints are the ones commanded,
+    and the arm starts in the middle of its limits (`READY` is for the default chain)."""
+    module = _load(monkeypatch, "servo.launch.py")
+    monkeypatch.setattr(module, "get_package_share_directory", lambda package: str(ROOT))
+    context = {**_arguments(module), "robot": "panda", "tip_link": "panda_link8"}
+    nodes = module._nodes(context)
+    sim, _ = _node_parameters(nodes, "sim_arm")
+    servo, _ = _node_parameters(nodes, "servo")
+    assert servo["tip_link"] == "panda_link8" and servo["base_link"] == "panda_link0"
+    assert sim["command_joints"].split() == [f"panda_joint{k}" for k in range(1, 8)]
+    assert "initial_positions" not in sim
+
+
+def test_launch_files_find_their_helper_beside_them_wherever_installed(monkeypatch, tmp_path):
+    """`ros2 launch` runs a launch file from share/kinematics_service/launch, which is not on
+    sys.path (nor the working directory): the helper bundled_robot.py is loaded from beside the
+    launch file, not from the repository."""
+    import shutil
+
+    share = tmp_path / "share" / "kinematics_service"
+    shutil.copytree(ROOT / "launch", share / "launch")
+    shutil.copytree(ROOT / "config", share / "config")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", [p for p in sys.path if Path(p or ".").resolve() != ROOT])
+    for filename in ("sim_arm.launch.py", "servo.launch.py"):
+        for name, stand_in in _stand_ins().items():
+            monkeypatch.setitem(sys.modules, name, stand_in)
+        spec = importlib.util.spec_from_file_location("launch_file", share / "launch" / filename)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        assert Path(module.bundled_robot.__file__) == share / "launch" / "bundled_robot.py"
+        monkeypatch.setattr(module, "get_package_share_directory", lambda package: str(share))
+        nodes = module._nodes({**_arguments(module), "robot": "panda"})
+        params = _kinematics_parameters(nodes)
+        assert params["robot_description_file"] == str(share / "config" / "robots" / "panda.urdf")

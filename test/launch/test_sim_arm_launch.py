@@ -1,5 +1,6 @@
-"""launch/sim_arm.launch.py: the files it refers to exist, its RViz config shows what it should,
-and it builds a launch description where ROS 2 launch is installed."""
+"""launch/sim_arm.launch.py (with its helper launch/bundled_robot.py): the files it refers to
+exist, its RViz config shows what it should, and it builds a launch description where ROS 2
+launch is installed."""
 
 from __future__ import annotations
 
@@ -13,12 +14,17 @@ from kinematics_node.sim import robots
 
 REPO = Path(__file__).resolve().parents[2]
 LAUNCH = REPO / "launch" / "sim_arm.launch.py"
+HELPER = REPO / "launch" / "bundled_robot.py"  # its nodes and arguments, shared with servo.launch
 
 
 def _launch_constants() -> set[str]:
-    tree = ast.parse(LAUNCH.read_text(encoding="utf-8"))
-    nodes = ast.walk(tree)
-    return {n.value for n in nodes if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+    strings = set()
+    for path in (LAUNCH, HELPER):
+        nodes = ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+        strings |= {
+            n.value for n in nodes if isinstance(n, ast.Constant) and isinstance(n.value, str)
+        }
+    return strings
 
 
 def test_every_file_the_launch_file_refers_to_exists():

@@ -10,6 +10,7 @@ from kinematics_node.core import InvalidInputError, UnknownNameError
 from kinematics_node.sim import robots
 from kinematics_node.sim.arm import ArmSimulator
 from msg_adapters.joint_commands import (
+    apply_position_msg,
     apply_trajectory_msg,
     apply_velocity_msg,
     fill_joint_state,
@@ -134,6 +135,36 @@ def test_velocity_command_message(sim):
 def test_malformed_velocity_commands_are_refused(sim, values, match):
     with pytest.raises(InvalidInputError, match=match):
         apply_velocity_msg(sim, velocity_msg(values))
+    assert sim.mode == "hold"
+
+
+def test_commands_for_some_joints_leave_the_others_alone(sim):
+    """A Float64MultiArray for the arm's joints only (forward_command_controller's `joints`), in
+    an order of their own, on a Panda whose finger is simulated too: the arm moves as commanded,
+    the finger does not."""
+    arm = [n for n in sim.joint_names if "finger" not in n][::-1]
+    assert len(arm) == 7 and sim.dof == 8
+    col = [sim.joint_names.index(n) for n in arm]
+    finger = sim.joint_names.index("panda_finger_joint1")
+    v = np.linspace(0.05, 0.11, 7)
+    q0 = sim.q
+    apply_velocity_msg(sim, roundtrip(velocity_msg(v), F64MA.__msgtype__), "cmd", arm)
+    _, q, qdot = sim.step()
+    np.testing.assert_allclose(qdot[col], v, atol=1e-12)
+    assert qdot[finger] == 0.0 and q[finger] == q0[finger]
+    target = q[col] + np.linspace(-1e-3, 1e-3, 7)  # within one step's reach
+    apply_position_msg(sim, velocity_msg(target), "cmd", arm)
+    _, q, _ = sim.step()
+    np.testing.assert_allclose(q[col], target, atol=1e-12)
+    assert q[finger] == q0[finger]
+
+
+def test_commands_for_some_joints_are_checked_against_them(sim):
+    arm = [n for n in sim.joint_names if "finger" not in n]
+    with pytest.raises(InvalidInputError, match="has 8 values, expected 7"):
+        apply_position_msg(sim, velocity_msg([0.0] * 8), "cmd", arm)
+    with pytest.raises(UnknownNameError, match="'no_such_joint'.*panda_joint1"):
+        apply_velocity_msg(sim, velocity_msg([0.0] * 7), "cmd", [*arm[:6], "no_such_joint"])
     assert sim.mode == "hold"
 
 

@@ -1,0 +1,134 @@
+"""What sim_arm.launch.py and servo.launch.py share: a bundled robot, simulated, described and
+watched by the kinematics node.
+
+Not a launch file (`ros2 launch` takes *.launch.py). The launch files load it by its path, from
+beside their own (`__file__`; four lines at the top of each): `ros2 launch` loads a launch file
+from share/kinematics_service/launch (CMakeLists.txt installs launch/ whole, this file with it),
+which is not on sys.path (nor is the working directory of `ros2 launch` that folder).
+
+Their common arguments (`arguments`): robot, base_link, tip_link, rate, rviz. Their common nodes
+(`robot_nodes`): robot_state_publisher (TF and the robot_description topic, from the bundled
+file's XML), sim_arm (joint_states of every moving joint without <mimic>, which
+robot_state_publisher needs: a Panda's finger too), the kinematics node on the chosen chain
+(config/kinematics.yaml, then the bundled file and the chain), and RViz on request; all with
+the package's Fast DDS profile (`kinematics_node.ros.env.fastdds_profile_env`).
+"""
+
+import os  # noqa: I001  (ruff would sort `launch` as first-party: the repo has a launch/ folder)
+
+from launch.actions import DeclareLaunchArgument
+from launch.conditions import IfCondition
+from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+from launch_ros.parameter_descriptions import ParameterValue
+
+from kinematics_node.ros.env import fastdds_profile_env
+from kinematics_node.sim.robots import default_chain_links
+
+PACKAGE = "kinematics_service"
+
+
+def arguments():
+    """The launch arguments both launch files declare (robot, base_link, tip_link, rate, rviz)."""
+    return [
+        DeclareLaunchArgument(
+            "robot",
+            default_value="ur5e",
+            description="bundled robot: ur5e, panda, iiwa14, scara or planar3r",
+        ),
+        DeclareLaunchArgument(
+            "base_link", default_value="", description="chain root (empty: robot default)"
+        ),
+        DeclareLaunchArgument(
+            "tip_link", default_value="", description="end effector (empty: robot default)"
+        ),
+        DeclareLaunchArgument("rate", default_value="100.0", description="sim rate [Hz]"),
+        DeclareLaunchArgument("rviz", default_value="false", description="start RViz"),
+    ]
+
+
+def chosen_robot(context, share):
+    """{robot, description_file, base_link, tip_link, default_chain, rate} of the launch
+    arguments; raises RuntimeError naming the bundled robots when `robot` is none of them."""
+    robot = LaunchConfiguration("robot").perform(context)
+    robots_dir = os.path.join(share, "config", "robots")
+    description_file = os.path.join(robots_dir, robot + ".urdf")
+    if not os.path.isfile(description_file):
+        names = sorted(f[: -len(".urdf")] for f in os.listdir(robots_dir) if f.endswith(".urdf"))
+        raise RuntimeError(f"unknown robot {robot!r}; bundled robots are: {', '.join(names)}")
+    default_base, default_tip = default_chain_links(robot)
+    base_link = LaunchConfiguration("base_link").perform(context) or default_base
+    tip_link = LaunchConfiguration("tip_link").perform(context) or default_tip
+    return {
+        "robot": robot,
+        "description_file": description_file,
+        "base_link": base_link,
+        "tip_link": tip_link,
+        "default_chain": (base_link, tip_link) == (default_base, default_tip),
+        "rate": float(LaunchConfiguration("rate").perform(context)),
+    }
+
+
+def chain_parameters(robot):
+    """The description parameters of the nodes that work on the chain (kinematics node, servo)."""
+    return {
+        "robot_description_file": robot["description_file"],
+        "base_link": robot["base_link"],
+        "tip_link": robot["tip_link"],
+    }
+
+
+def dds_env(share):
+    """The environment that gives a node the package's Fast DDS profile (unless the caller's
+    names one)."""
+    return fastdds_profile_env(os.path.join(share, "config", "fastdds_profile.xml"))
+
+
+def robot_nodes(share, robot, sim_parameters, env):
+    """robot_state_publisher, sim_arm (the robot and the rate, then `sim_parameters`), the
+    kinematics node, and RViz where the rviz argument is true, all in the environment `env`."""
+    with open(robot["description_file"], encoding="utf-8") as fh:
+        robot_description = ParameterValue(fh.read(), value_type=str)
+    return [
+        Node(
+            package="robot_state_publisher",
+            executable="robot_state_publisher",
+            name="robot_state_publisher",
+            parameters=[{"robot_description": robot_description}],
+            output="screen",
+            additional_env=env,
+        ),
+        Node(
+            package=PACKAGE,
+            executable="sim_arm",
+            name="sim_arm",
+            parameters=[{"robot": robot["robot"], "rate": robot["rate"], **sim_parameters}],
+            output="screen",
+            additional_env=env,
+        ),
+        Node(
+            package=PACKAGE,
+            executable="kinematics_node",
+            name="kinematics_node",
+            parameters=[
+                os.path.join(share, "config", "kinematics.yaml"),
+                chain_parameters(robot),
+            ],
+            output="screen",
+            additional_env=env,
+        ),
+        Node(
+            package="rviz2",
+            executable="rviz2",
+            name="rviz2",
+            arguments=[
+                "-d",
+                os.path.join(share, "config", "sim_arm.rviz"),
+                "-f",
+                robot["base_link"],
+            ],
+            condition=IfCondition(LaunchConfiguration("rviz")),
+            output="screen",
+            additional_env=env,
+        ),
+    ]
