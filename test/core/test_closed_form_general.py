@@ -285,3 +285,38 @@ def test_a_joint_with_a_range_over_two_turns_gives_every_whole_turn_equivalent()
             assert sols.shape == expected.shape
             gap = np.abs(sols[:, None] - expected[None]).max(axis=2)
             assert gap.min(axis=1).max() < 1e-9 and gap.min(axis=0).max() < 1e-9
+
+
+def test_one_target_with_coinciding_roots_equals_the_stacked_solve(monkeypatch):
+    """The one-lane solve handles roots that coincide (a shared null space, `_clusters`) itself:
+    on the Puma with a 1 mm wrist offset most targets have such a pair. Its sets must equal the
+    stacked (many-target) solve's, and the cluster path must have run."""
+    from kinematics_node.core.closed_form import general_6r
+
+    chain = dh_chain(ARMS["offset Puma"])
+    rng = np.random.default_rng(21)
+    q = rng.uniform(-PI, PI, size=(60, 6))
+    T = chain.fk(q)
+    batch = chain.ik_all_batch(T)
+    calls: dict[str, int] = {"_clusters": 0, "_real_roots": 0}
+
+    def counted(name):
+        real = getattr(general_6r, name)
+
+        def wrapper(*args):
+            calls[name] += 1
+            return real(*args)
+
+        monkeypatch.setattr(general_6r, name, wrapper)
+
+    counted("_clusters")
+    counted("_real_roots")  # the stacked path, which one target no longer falls back to
+    for i in range(len(q)):
+        single = np.asarray(chain.ik_all(T[i]).solutions)
+        assert _contains(single, q[i], 1e-6)
+        expected = batch.solutions_of(i)
+        assert single.shape == expected.shape, i
+        for s in single:
+            assert _contains(expected, s, 1e-7)
+    assert calls["_clusters"] >= 10
+    assert calls["_real_roots"] <= 3

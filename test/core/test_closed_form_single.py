@@ -220,13 +220,25 @@ def test_the_written_out_rigid_check_agrees_with_numpy():
             assert (api._exact_transform(A) is not None) == rigid_on_floats(A.tolist(), 1e-13, 0.0)
 
 
-@pytest.mark.parametrize("arm", ["ur5", "ur5-limited", "ur5 narrow limits", "ur5 mixed limits"])
+@pytest.mark.parametrize(
+    "arm",
+    ["ur5", "ur5-limited", "ur5 narrow limits", "ur5 mixed limits", "general 6R", "offset Puma"],
+)
 def test_ik_closed_form_is_the_weighted_nearest_member_of_the_set(arm):
     """`ik` ranks the candidates by their nearest whole-turn equivalent (with or without a test of
-    the limits per angle): its answer is the member of `ik_all` with the least weighted distance."""
+    the limits per angle): its answer is the member of `ik_all` with the least weighted distance.
+    On general 6R arms `ik` ranks unpolished roots and refines only the one it takes."""
+    from core.test_closed_form_general import ARMS as GENERAL
+    from core.test_closed_form_general import dh_chain
+
     from kinematics_node.core import IKOptions
 
-    chain = ARMS[arm]()
+    if arm == "general 6R":
+        chain = dh_chain(GENERAL["random 3"])
+    elif arm == "offset Puma":
+        chain = dh_chain(GENERAL["offset Puma"])
+    else:
+        chain = ARMS[arm]()
     rng = np.random.default_rng(15)
     w = (3.0, 1.0, 0.5, 1.0, 2.0, 1.0)
     opts = IKOptions(method="closed_form", joint_weights=w)
@@ -265,3 +277,73 @@ def test_check_seed_on_floats_equals_the_array_rules():
     for bad in (np.full(6, np.nan), np.array([0, 0, np.inf, 0, 0, 0.0]), np.zeros(5)):
         with pytest.raises(InvalidInputError):
             check_seed(chain, bad, "q_seed", None)
+
+
+# The Puma 560 (standard DH) with its wrist axes 5 and 6 apart by 1e-10 m: in the spherical-wrist
+# family only to rounding, as rtbdata's URDF of it is (axes meeting to ~1e-10).
+PUMA_ROUNDED = [
+    (0.0, math.pi / 2, 0.0),
+    (0.4318, 0.0, 0.0),
+    (0.0203, -math.pi / 2, 0.15005),
+    (0.0, math.pi / 2, 0.4318),
+    (1e-10, -math.pi / 2, 0.0),
+    (0.0, 0.0, 0.0),
+]
+
+
+def _dh(rows) -> SerialChain:
+    return SerialChain.from_dh(
+        [
+            {"a": a, "alpha": al, "d": d, "theta": 0.0, "type": "R", "lower": -math.pi,
+             "upper": math.pi}
+            for a, al, d in rows
+        ]
+    )  # fmt: skip
+
+
+def test_an_arm_in_its_family_only_to_rounding_keeps_candidates_within_its_defect():
+    rounded = _dh(PUMA_ROUNDED)
+    exact = _dh([(0.0 if k == 4 else a, al, d) for k, (a, al, d) in enumerate(PUMA_ROUNDED)])
+    assert rounded.ik_family == exact.ik_family == "spherical_wrist"
+    s_rounded, s_exact = detection.solver_of(rounded), detection.solver_of(exact)
+    assert s_exact.defect < 1e-13
+    assert 1e-11 < s_rounded.defect < 1e-9  # the candidates miss by about the geometry's error
+    # the floor: round-off on an exact arm, whatever the tolerance; twice the defect on the
+    # rounded one, up to half the tolerance
+    floor = s_exact.refine_floor(1e-9)
+    assert floor == s_exact.refine_floor(1e-6) and floor <= 1e-11
+    assert s_rounded.refine_floor(1e-9) == min(2.0 * s_rounded.defect, 0.5e-9)
+    assert s_rounded.refine_floor(1e-12) == floor
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-math.pi, math.pi, size=(60, 6))
+    worst_default = worst_tight = 0.0
+    for qi in q:
+        T = rounded.fk(qi)
+        for tol in (1e-9, 1e-12):
+            sols = np.asarray(rounded.ik_all(T, tolerance=tol).solutions)
+            assert min(wrapped_gap(s, qi) for s in sols) <= 1e-6
+            errs = [max(chain_solver.fk_errors(s_rounded, s.tolist(), T.tolist())) for s in sols]
+            if tol == 1e-9:
+                worst_default = max(worst_default, max(errs))
+            else:
+                worst_tight = max(worst_tight, max(errs))
+    # unrefined at the default tolerance (off by the defect), refined when the tolerance asks
+    assert 1e-12 < worst_default <= 0.5e-9
+    assert worst_tight <= 1e-12
+
+
+@pytest.mark.parametrize("arm", ["ur5", "puma_rounded"])
+def test_stacked_refinement_equals_one_candidate_at_a_time(arm):
+    chain = ur5(False) if arm == "ur5" else _dh(PUMA_ROUNDED)
+    solver = detection.solver_of(chain)
+    rng = np.random.default_rng(11)
+    T = chain.fk(random_q(chain, rng)).tolist()
+    cands, _ = chain_solver.scalar_candidates(solver, T, solver.default_seed_list, None)
+    start = [[x + 1e-4 * rng.standard_normal() for x in c] for c, _ in cands]
+    steps = [1 + k % 2 for k in range(len(start))]
+    many = chain_solver.refine_many(solver, start, T, steps)
+    for s, n, m in zip(start, steps, many, strict=True):
+        one = chain_solver.refine_one(solver, s, T, n)
+        assert np.abs(np.subtract(one, m)).max() <= 1e-12
+        if n == 2:  # from 1e-4 off, two steps reach round-off
+            assert max(chain_solver.fk_errors(solver, m, T)) <= 1e-11
