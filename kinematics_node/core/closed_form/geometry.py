@@ -15,6 +15,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from math import acos, atan2, ceil, cos, hypot, pi, sin, sqrt
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,6 +37,9 @@ Rows = list[list[float]]
 
 
 INV_TWO_PI = 1.0 / TWO_PI
+
+#: Three floats, or three arrays of one shape (a vector as components: `turn_parts`, …).
+Triple = tuple[Any, Any, Any]
 
 
 def axis_lines(S: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -336,7 +340,7 @@ def rotate_cs(k: Vec, c: float, s: float, x: Vec) -> Vec:
     )
 
 
-def turn_parts(k: Vec, a: Vec, b: Vec) -> tuple[float, float]:
+def turn_parts(k: Vec, a: Triple, b: Triple) -> tuple[Any, Any]:
     """(kᵀ(a × b), aᵀb) of vectors a, b normal to the unit axis k: the angle about k that turns a
     onto b is atan2 of the pair (SP1 once both are projected normal to k). Works on floats and,
     unchanged, on component arrays (a, b as triples of arrays): the families' scalar solvers and
@@ -350,9 +354,7 @@ def turn_parts(k: Vec, a: Vec, b: Vec) -> tuple[float, float]:
     )
 
 
-def sp2_parts(
-    c: float, den: float, n12: float, kp: float, kq: float, pp: float
-) -> tuple[float, float, float]:
+def sp2_parts(c: float, den: float, n12: float, kp: Any, kq: Any, pp: Any) -> tuple[Any, Any, Any]:
     """SP2's (α, β, γ²) with z = α k₁ + β k₂ + γ (k₁ × k₂) (`subproblems.sp2`), from the axes'
     constants c = k₁ᵀk₂, den = c² − 1, n12 = ‖k₁ × k₂‖² and kp = k₂ᵀp, kq = k₁ᵀq, pp = ‖p‖².
     Floats or arrays alike (as `turn_parts`)."""
@@ -361,7 +363,7 @@ def sp2_parts(
     return alpha, beta, (pp - alpha * alpha - beta * beta - 2.0 * alpha * beta * c) / n12
 
 
-def sp2_between(k1: Vec, k2: Vec, k12: Vec, alpha: float, beta: float, gamma: float) -> Vec:
+def sp2_between(k1: Vec, k2: Vec, k12: Vec, alpha: Any, beta: Any, gamma: Any) -> Triple:
     """SP2's intermediate point z = α k₁ + β k₂ + γ (k₁ × k₂) projected normal to k₂: the target
     of the SP1 about k₂ that follows (`turn_parts`). Floats or arrays alike."""
     zx = alpha * k1[0] + beta * k2[0] + gamma * k12[0]
