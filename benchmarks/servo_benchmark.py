@@ -11,8 +11,12 @@ integrator of the commanded positions (period 10 ms):
   rank; the SCARA has no wrist: skipped);
 * pure_rotation: 10 s at 0.5 rad/s about a tilted axis through the tool point, reversing every
   2 s (the first time after 1 s), then 1 s without commands (SCARA: about z);
+* wrist_spin+, wrist_spin-: 10 s at 0.5 rad/s about the same tilted axis of the tool, one way
+  (then the other), from the home with the wrist joint 0.05 rad (2.9°) from where the wrist axes
+  align (UR5e only: its wrist singularity, which the spin passes), then 1 s without commands;
+  the end error is the drift of the tool point;
 * edge_and_back: 0.2 m/s radially outward for 3 s, past the edge of the workspace, then back
-  inward for 3 s;
+  inward for 3 s (its path error is the tool's largest distance from that line);
 * joint_limit: joint 2 (the SCARA's prismatic joint 3) jogged at half its speed limit toward its
   upper limit for 3 s, then back for 2 s;
 * steps: a new random twist every 0.5 s for 4 s (|ω| ≈ 1 rad/s, |v| ≈ 0.25 m/s), each a step.
@@ -269,6 +273,20 @@ def _line_through_wrist(chain: SerialChain, name: str) -> tuple[np.ndarray, np.n
     return None
 
 
+WRIST_START_RAD = 0.05  # the wrist_spin scripts start with the wrist joint this far from 0
+
+
+def _near_wrist_alignment(chain: SerialChain, name: str) -> np.ndarray | None:
+    """The UR5e's home with q5 at `WRIST_START_RAD`, 2.9° from its wrist singularity (joints 4
+    and 6 aligned); None for the other arms (the 7R arms keep their rank where their wrist axes
+    align, and the Panda's q6 = 0 lies outside its limit less the margin)."""
+    if chain.dof != 6:
+        return None
+    q = HOMES[name].copy()
+    q[4] = WRIST_START_RAD
+    return q
+
+
 def scripts(chain: SerialChain, name: str, limits: ServoLimits) -> dict[str, tuple]:
     """name -> (q_start, number of cycles, script, ideal path as a function of the cycle)."""
     home = HOMES[name]
@@ -287,6 +305,16 @@ def scripts(chain: SerialChain, name: str, limits: ServoLimits) -> dict[str, tup
         return ("twist", np.r_[T[:3, :3] @ (0.5 * sign * axis), 0.0, 0.0, 0.0])
 
     out["pure_rotation"] = (home, 1100, rotation, None)
+    near = _near_wrist_alignment(chain, name)
+    if near is not None:
+        for sign, label in ((1.0, "wrist_spin+"), (-1.0, "wrist_spin-")):
+
+            def spin(k: int, T: np.ndarray, s: float = sign) -> Command:
+                if k >= 1000:
+                    return None
+                return ("twist", np.r_[T[:3, :3] @ (0.5 * s * axis), 0.0, 0.0, 0.0])
+
+            out[label] = (near, 1100, spin, None)
     p0 = chain.fk(home)[:3, 3]
     radial = np.r_[p0[:2], 0.0] / np.linalg.norm(p0[:2])
 
