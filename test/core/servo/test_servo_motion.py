@@ -172,9 +172,9 @@ def test_ten_seconds_of_pure_rotation_do_not_move_the_tool_point(name):
 
 _NEAR_WRIST = np.array([0.3, -1.3, 1.6, -1.9, 0.05, 0.4])  # the UR5e's home, q5 2.9° from 0
 _DRIFT_FIXED_ONLY_ONE_WAY = (
-    "issue 23: a 10 s spin one way needs wrist joint speeds the acceleration limits cannot change "
-    "fast enough; the tool leaves the reference, whose bounded error is then discarded (the "
-    "reference is pulled toward the arm) and the tool point is not brought back"
+    "issue 23: the joints cannot change speed as fast as this spin (beside the wrist singularity) "
+    "or its stop (from the home) asks; they fall more than the kept error behind, the commanded "
+    "pose is pulled toward the arm, and the tool point ends off where it began"
 )
 
 
