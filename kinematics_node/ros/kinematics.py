@@ -53,12 +53,6 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import (
-    DurabilityPolicy,
-    HistoryPolicy,
-    QoSProfile,
-    ReliabilityPolicy,
-)
 from rclpy.subscription import Subscription
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
@@ -72,42 +66,26 @@ from ..service.kinematics import KinematicsService, PendingIK, Severity
 from ..service.parameters import PARAMETERS, SPECS, STARTUP_ONLY
 from .deferred import DeferredResponses, waited_since_sent
 from .mailbox import Mailbox
+from .node_log import ThrottledWarnings, log_lines
 from .node_setup import declare_parameters, freeze_heap
+from .qos import (
+    DESCRIPTION_QOS,
+    JOINT_STATES_QOS,
+    NO_PUBLISHER_EVENTS,
+    NO_SUBSCRIPTION_EVENTS,
+)
 from .spin import spin_until_shutdown
-
-try:  # Jazzy and later
-    from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
-except ImportError:  # pragma: no cover - Humble
-    from rclpy.qos_event import PublisherEventCallbacks, SubscriptionEventCallbacks
 
 try:  # not on PyPI: present on a full ROS 2 installation
     from tf2_ros import Buffer, TransformListener
 except ImportError:  # pragma: no cover - depends on the installation
     Buffer = TransformListener = None
 
-#: joint_states: best effort (matches reliable and best-effort publishers, as the sensor-data
-#: profile does) with room for 100 samples: 100 ms at 1 kHz. The sensor-data profile keeps 5, so
-#: any 5 ms hiccup (another process's turn on a busy machine) dropped samples for good.
-JOINT_STATES_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=100,
-    reliability=ReliabilityPolicy.BEST_EFFORT,
-    durability=DurabilityPolicy.VOLATILE,
-)
 #: ee_pose, ee_twist and /diagnostics keep the last 100 messages (100 ms at 1 kHz), so a reliable
 #: subscriber whose process falls a few ms behind gets them resent instead of losing them: with
 #: rclpy's default of 10, a benchmark receiver on the same 2 busy CPUs lost up to 17 % of the
 #: samples published during a long IK solve (benchmarks/node_benchmark.py, "2 s IK call").
 PUBLISHED_DEPTH = 100
-#: Publishers and the joint_states subscription go without rclpy's default QoS-event handlers:
-#: each adds two waitables that the executor sets up again on every turn (~10 µs a turn each, a
-#: turn per joint_states message and more; measured with an idle `spin_once`). They would only
-#: log an incompatible QoS, and there the other side logs it too: our joint_states subscription
-#: (best effort, volatile) is compatible with every publisher, and a subscriber that asks our
-#: publishers for more than they offer gets rclpy's (or rclcpp's) warning itself. The
-#: robot_description subscription keeps them: there the warning explains a model that never loads.
-NO_PUBLISHER_EVENTS = PublisherEventCallbacks(use_default_callbacks=False)
-NO_SUBSCRIPTION_EVENTS = SubscriptionEventCallbacks(use_default_callbacks=False)
 #: joint_states stream when the last one came less than this long ago [s]; then an IK answer
 #: waits up to this long (never past its deadline) for the next message's turn of the executor,
 #: which collects it (`Mailbox`), instead of waking the executor for it. (At 500 Hz one comes
@@ -122,8 +100,6 @@ LATE_ANSWER_WARNING = 0.02
 #: rclpy (Iron and later) hands a two-argument subscription callback the message's info, whose
 #: source_timestamp [ns] says when its publisher sent it; Humble's hands over the message only.
 MESSAGE_INFO = hasattr(Subscription, "CallbackType")
-#: Seconds between two log lines about the same joint_states problem.
-WARN_PERIOD = 5.0
 TF_MISSING = "TF frames need tf2_ros, which is not installed here (it comes with a full ROS 2)"
 
 
@@ -176,13 +152,8 @@ class KinematicsNode(Node):
             callback_group=group,
             event_callbacks=NO_SUBSCRIPTION_EVENTS,
         )
-        latched = QoSProfile(
-            depth=1,
-            durability=DurabilityPolicy.TRANSIENT_LOCAL,
-            reliability=ReliabilityPolicy.RELIABLE,
-        )
         self.create_subscription(
-            String, "robot_description", self._on_description, latched, callback_group=group
+            String, "robot_description", self._on_description, DESCRIPTION_QOS, callback_group=group
         )
         self.create_service(ComputeFK, "compute_fk", self._logic.compute_fk, callback_group=group)
         self.create_service(
@@ -201,7 +172,7 @@ class KinematicsNode(Node):
         self._diag_timer = self.create_timer(
             float(values["diagnostics_period"]), self._publish_diagnostics, callback_group=group
         )
-        self._warned: dict[str, float] = {}  # problem -> when it was last logged
+        self._warn_throttled = ThrottledWarnings(self.get_logger())
         freeze_heap()
 
     def _publisher(self, msg_type: Any, topic: str) -> Any:
@@ -213,15 +184,7 @@ class KinematicsNode(Node):
     def _log_description_events(self) -> None:
         """Log what happened to the robot description (loaded, waiting for a tip and which tips
         there are, refused and why), as the service reports it."""
-        logger = self.get_logger()
-        for level, text in self._logic.take_log():
-            # one call site per severity: rclpy refuses a call site whose severity changes
-            if level == "error":
-                logger.error(text)
-            elif level == "warn":
-                logger.warning(text)
-            else:
-                logger.info(text)
+        log_lines(self.get_logger(), self._logic.take_log())
 
     def _on_description(self, msg: String) -> None:
         # used while robot_description and robot_description_file are empty, else kept for later
@@ -249,19 +212,6 @@ class KinematicsNode(Node):
             self._warn_throttled(out.problem)
         if self._ik_answers:  # IK answers that waited for this turn
             self._deliver_ik_answers()
-
-    def _warn_throttled(self, problem: str, kind: str | None = None) -> None:
-        """Log each distinct problem (or `kind` of problem) at most once per WARN_PERIOD seconds
-        (at 1 kHz a bad stream would otherwise flood the log; rclpy's own throttle would hide all
-        but one kind)."""
-        now = time.monotonic()
-        key = problem if kind is None else kind
-        if now - self._warned.get(key, -math.inf) < WARN_PERIOD:
-            return
-        if len(self._warned) > 256:
-            self._warned.clear()
-        self._warned[key] = now
-        self.get_logger().warning(f"{problem} (repeats are not logged for {WARN_PERIOD:g} s)")
 
     def _compute_ik(self, request: Any, response: Any) -> Any:
         # The work starts when rclpy hands over the request's header, right after this returns:
