@@ -148,21 +148,9 @@ def apply_velocity_msg(
     joint_names: Sequence[str] | None = None,
 ) -> FloatArray:
     """Validate a Float64MultiArray velocity command and apply it; returns the velocities.
-
-    `joint_names`: the joints its values are for, in order (as forward_command_controller's
-    `joints` parameter); default: every joint of `sim`. The others get velocity 0.
-
-    Raises:
-        InvalidInputError: wrong number of values or NaN/inf.
-        UnknownNameError: a name in `joint_names` that `sim` lacks.
-    """
-    names = sim.joint_names if joint_names is None else joint_names
-    v = velocity_from_msg(msg, names, topic)
-    full = v
-    if joint_names is not None:
-        full = np.zeros(len(sim.joint_names))
-        full[_columns(sim, joint_names)] = v
-    sim.command_velocity(full)
+    `joint_names`: the joints they are for (`_for_every_joint`); the others get velocity 0."""
+    v = velocity_from_msg(msg, sim.joint_names if joint_names is None else joint_names, topic)
+    sim.command_velocity(_for_every_joint(sim, v, joint_names, np.zeros(len(sim.joint_names))))
     return v
 
 
@@ -170,30 +158,33 @@ def apply_position_msg(
     sim: CommandableArm, msg: Any, topic: str, joint_names: Sequence[str] | None = None
 ) -> FloatArray:
     """Validate a Float64MultiArray position command and apply it; returns the positions.
-
-    `joint_names`: the joints its values are for, in order (as forward_command_controller's
-    `joints` parameter); default: every joint of `sim`. The others hold where they are.
-
-    Raises:
-        InvalidInputError: wrong number of values or NaN/inf.
-        UnknownNameError: a name in `joint_names` that `sim` lacks.
-    """
-    names = sim.joint_names if joint_names is None else joint_names
-    q = position_from_msg(msg, names, topic)
-    full = q
-    if joint_names is not None:
-        full = np.array(sim.q, dtype=np.float64)  # (a copy: the others hold here)
-        full[_columns(sim, joint_names)] = q
-    sim.command_position(full)
+    `joint_names`: the joints they are for (`_for_every_joint`); the others hold where they are."""
+    q = position_from_msg(msg, sim.joint_names if joint_names is None else joint_names, topic)
+    sim.command_position(_for_every_joint(sim, q, joint_names, np.array(sim.q, dtype=np.float64)))
     return q
 
 
-def _columns(sim: CommandableArm, joint_names: Sequence[str]) -> list[int]:
+def _for_every_joint(
+    sim: CommandableArm,
+    values: FloatArray,
+    joint_names: Sequence[str] | None,
+    others: FloatArray,
+) -> FloatArray:
+    """`values` of `joint_names` (in its order, as forward_command_controller's `joints`
+    parameter; None: every joint of `sim`, in its order) spread over `sim`'s joints, `others`
+    (one per joint of `sim`, overwritten) for the rest.
+
+    Raises:
+        UnknownNameError: a name in `joint_names` that `sim` lacks.
+    """
+    if joint_names is None:
+        return values
     index = {name: k for k, name in enumerate(sim.joint_names)}
-    missing = [name for name in joint_names if name not in index]
-    if missing:
-        raise UnknownNameError("joint", missing[0], sim.joint_names)
-    return [index[name] for name in joint_names]
+    for name in joint_names:
+        if name not in index:
+            raise UnknownNameError("joint", name, sim.joint_names)
+    others[[index[name] for name in joint_names]] = values
+    return others
 
 
 def fill_joint_state(

@@ -29,7 +29,7 @@ from kinematics_node.core.servo import JointJogCommand, PoseCommand, TwistComman
 from kinematics_node.core.so3 import rows_from_quaternion
 
 from .stamps import seconds_from_time
-from .types import rclpy_classes, typestore_classes
+from .types import MessageClasses
 
 #: ROS 2 interface name of each `ServoMessageTypes` field.
 SERVO_MESSAGE_NAMES: dict[str, str] = {
@@ -46,8 +46,10 @@ SERVO_MESSAGE_NAMES: dict[str, str] = {
 
 
 @dataclass(frozen=True)
-class ServoMessageTypes:
+class ServoMessageTypes(MessageClasses):
     """The classes of the servo node's outputs (see `SERVO_MESSAGE_NAMES`)."""
+
+    NAMES = SERVO_MESSAGE_NAMES
 
     Time: Any
     Duration: Any
@@ -58,16 +60,6 @@ class ServoMessageTypes:
     JointTrajectoryPoint: Any
     KeyValue: Any
     DiagnosticStatus: Any
-
-    @classmethod
-    def from_rclpy(cls) -> ServoMessageTypes:
-        """The rclpy-generated classes (needs a sourced ROS 2 installation)."""
-        return cls(**rclpy_classes(SERVO_MESSAGE_NAMES))
-
-    @classmethod
-    def from_typestore(cls, typestore: Any) -> ServoMessageTypes:
-        """The classes of a rosbags typestore."""
-        return cls(**typestore_classes(typestore, SERVO_MESSAGE_NAMES))
 
 
 # ---------------------------------------------------------------------- commands in

@@ -3,8 +3,7 @@
 The adapters never import message packages. The ROS node fills a `MessageTypes` from rclpy's
 generated classes (`MessageTypes.from_rclpy()`); tests fill it from a rosbags typestore
 (`MessageTypes.from_typestore(typestore)`). The servo's classes (`servo_messages.ServoMessageTypes`)
-come from a table of names of their own by the same two look-ups, `rclpy_classes` and
-`typestore_classes`. Adapters always pass every field at construction, because rosbags message
+come from a table of names of their own the same way (`MessageClasses`). Adapters always pass every field at construction, because rosbags message
 dataclasses require it (rclpy classes accept it too).
 """
 
@@ -12,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar, TypeVar
 
 #: ROS 2 interface name of each `MessageTypes` field.
 MESSAGE_NAMES: dict[str, str] = {
@@ -32,10 +31,32 @@ MESSAGE_NAMES: dict[str, str] = {
     "DiagnosticArray": "diagnostic_msgs/msg/DiagnosticArray",
 }
 
+_Classes = TypeVar("_Classes", bound="MessageClasses")
+
+
+class MessageClasses:
+    """Base of a frozen dataclass of message classes, one field per short name of its table
+    `NAMES` ({short name: "package/msg/Name"}): built from rclpy's generated classes or from a
+    rosbags typestore."""
+
+    NAMES: ClassVar[Mapping[str, str]]
+
+    @classmethod
+    def from_rclpy(cls: type[_Classes]) -> _Classes:
+        """The rclpy-generated classes (needs a sourced ROS 2 installation)."""
+        return cls(**rclpy_classes(cls.NAMES))
+
+    @classmethod
+    def from_typestore(cls: type[_Classes], typestore: Any) -> _Classes:
+        """The classes of a rosbags typestore (e.g. ``get_typestore(Stores.ROS2_HUMBLE)``)."""
+        return cls(**typestore_classes(typestore, cls.NAMES))
+
 
 @dataclass(frozen=True)
-class MessageTypes:
+class MessageTypes(MessageClasses):
     """Message classes by short name (see `MESSAGE_NAMES` for the full interface names)."""
+
+    NAMES = MESSAGE_NAMES
 
     Time: Any
     Header: Any
@@ -51,16 +72,6 @@ class MessageTypes:
     KeyValue: Any
     DiagnosticStatus: Any
     DiagnosticArray: Any
-
-    @classmethod
-    def from_rclpy(cls) -> MessageTypes:
-        """The rclpy-generated classes (needs a sourced ROS 2 installation)."""
-        return cls(**rclpy_classes(MESSAGE_NAMES))
-
-    @classmethod
-    def from_typestore(cls, typestore: Any) -> MessageTypes:
-        """The classes of a rosbags typestore (e.g. ``get_typestore(Stores.ROS2_HUMBLE)``)."""
-        return cls(**typestore_classes(typestore, MESSAGE_NAMES))
 
 
 def rclpy_classes(names: Mapping[str, str]) -> dict[str, Any]:
