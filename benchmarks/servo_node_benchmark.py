@@ -3,6 +3,7 @@ run (issue 23, "What must hold": the node's speed).
 
     make ros && . build/ros/env.sh
     python -W ignore benchmarks/servo_node_benchmark.py [--seconds 30] [--json out.json]
+        [--scheduling 0:0,40:50]
 
 Every process is real rclpy over Fast DDS on loopback, in a ROS_DOMAIN_ID of the run's own.
 Phases, one after the other:
@@ -30,7 +31,16 @@ Phases, one after the other:
   period. A cycle is on time when its joint command is published (source timestamp) within the
   period that starts at its scheduled time (`on_time`: the schedule is the node's 1 ms grid, its
   phase read from the publication times); the node's own count of late cycles (its ~/status:
-  a timer callback starting more than 1.5 periods after the previous) is reported beside it.
+  a timer callback that began a period or more after its tick, so that the timer skipped
+  ticks) is reported beside it.
+
+Scheduling, A/B in one run (`--scheduling`, pairs servo:sim_arm of the nodes' `thread_priority`):
+every servo phase runs once per setting, the settings in turns phase by phase (trials A, trials
+B, streaming A, streaming B, ...), and every figure's label says its setting: "default
+scheduling" (0:0, both nodes SCHED_OTHER) or "SCHED_FIFO servo 40, sim_arm 50" (moveit_servo's
+and ros2_control's controller_manager's defaults). The echo nodes, the sender and the receiver
+always run with the default scheduling: the echo is the bare rclpy node the target compares
+with.
 
 A receiver process (on our LeanExecutor, as in node_benchmark.py, so that the harness itself stays
 light on a 2-core machine) records every joint command with its source timestamp and arrival.
@@ -198,33 +208,51 @@ def node_counts(
 ) -> dict[str, int]:
     """The node's own loop counters (~/status: cycles, late_cycles, lost_periods) over the window
     [start, end] [ns]: the last status before it subtracted from the last one inside it ({} when
-    no status carried them in the window)."""
+    no status carried them in the window); and its longest timer callback in the window
+    (step_us_max [µs], where the statuses carry it)."""
     keys = ("cycles", "late_cycles", "lost_periods")
     before = [v for t, v in statuses if t < start_ns and "cycles" in v]
     inside = [v for t, v in statuses if start_ns <= t <= end_ns and "cycles" in v]
     if not inside:
         return {}
     base = before[-1] if before else {k: "0" for k in keys}
-    return {k: int(inside[-1].get(k, 0)) - int(base.get(k, 0)) for k in keys if k in inside[-1]}
+    counts = {k: int(inside[-1].get(k, 0)) - int(base.get(k, 0)) for k in keys if k in inside[-1]}
+    longest = [
+        int(v["step_us_max"]) for t, v in statuses if start_ns <= t <= end_ns and "step_us_max" in v
+    ]
+    if longest:  # the node's longest timer callback in the window [µs]
+        counts["step_us_max"] = max(longest)
+    return counts
 
 
 def node_on_time(counts: dict[str, int]) -> float:
-    """The share of periods on time by the node's own counters: its timer callbacks that came
-    within 1.5 periods of the previous, of every period (those the timer skipped and the node
-    did not make up included)."""
+    """The share of periods on time by the node's own counters: its timer callbacks that began
+    within a period of their tick, of every period (those the timer skipped and the node did
+    not make up included)."""
     periods = counts["cycles"] + counts.get("lost_periods", 0)
     return (counts["cycles"] - counts.get("late_cycles", 0)) / periods if periods else math.nan
 
 
+def _suffix(label: str, base: str) -> str | None:
+    """The setting part of a phase label ("" or " [setting]") when it is `base`'s, else None."""
+    if not label.startswith(base):
+        return None
+    rest = label[len(base) :]
+    return rest if rest == "" or rest.startswith(" [") else None
+
+
 def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bool]]:
-    """Issue 23's node targets for the phases in `results`: (target, measured, met?)."""
+    """Issue 23's node targets for the phases in `results`, per scheduling setting (a label's
+    " [setting]" suffix): (target, measured, met?)."""
     checks: list[tuple[str, str, bool]] = []
-    stream = results.get("servo, 1 kHz streaming")
-    if stream is not None:
+    for label, stream in results.items():
+        setting = _suffix(label, "servo, 1 kHz streaming")
+        if setting is None or "on_time" not in stream:
+            continue
         f = stream["on_time"]["fraction"]
         checks.append(
             (
-                "servo at 1 kHz with the sim arm: ≥ 99.9 % of cycles on time",
+                f"servo at 1 kHz with the sim arm{setting}: ≥ 99.9 % of cycles on time",
                 f"{100 * f:.2f} % ({stream['on_time']['slots'] - stream['on_time']['on_time']} "
                 f"of {stream['on_time']['slots']} late)",
                 f >= 0.999,
@@ -242,23 +270,28 @@ def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bo
                     f >= 0.999,
                 )
             )
-    servo = results.get("servo, command to joint command")
-    if servo is not None:
+    for label, servo in results.items():
+        setting = _suffix(label, "servo, command to joint command")
+        if setting is None:
+            continue
         median = servo["latency"]["median_ms"]
-        for label in ("echo, alone", "echo, beside the servo"):
-            echo = results.get(label)
+        for echo_label in ("echo, alone", "echo, beside the servo" + setting):
+            echo = results.get(echo_label)
             if echo is None:
                 continue
             ratio = median / echo["latency"]["median_ms"]
             checks.append(
                 (
-                    f"command in → joint command out: median ≤ 2× the bare echo's ({label})",
+                    f"command in → joint command out{setting}: median ≤ 2× the bare echo's "
+                    f"({echo_label})",
                     f"{ratio:.2f}× ({median:.2f} vs {echo['latency']['median_ms']:.2f} ms)",
                     ratio <= 2.0,
                 )
             )
         p99 = servo["latency"]["p99_ms"]
-        checks.append(("command in → joint command out: p99 ≤ 5 ms", f"{p99:.2f} ms", p99 <= 5.0))
+        checks.append(
+            (f"command in → joint command out{setting}: p99 ≤ 5 ms", f"{p99:.2f} ms", p99 <= 5.0)
+        )
     return checks
 
 
@@ -435,12 +468,17 @@ def _stop(processes: list[Any]) -> None:
 
 
 def run_phase(
-    kind: str, seconds: float, env: dict[str, str], directory: Path
+    kind: str,
+    seconds: float,
+    env: dict[str, str],
+    directory: Path,
+    priorities: tuple[int, int] = (0, 0),
 ) -> dict[str, dict[str, Any]]:
     """One phase: `kind` "echo" (alone), "trials" (the servo, command to joint command, with the
     echo beside it), "stream" (the servo at 1 kHz) or "unobserved" (the same, with the receiver
-    taking only the servo's ~/status: the node's own count, without the receiver's 1 kHz load).
-    Returns {label: figures}."""
+    taking only the servo's ~/status: the node's own count, without the receiver's 1 kHz load);
+    `priorities`: the thread_priority of the servo and of the sim_arm. Returns {label: figures}
+    (labels without the setting: `main` adds it)."""
     description = ROBOT.read_text(encoding="utf-8")
     if kind == "echo":
         system = [_child(["--role", "echo"], env)]
@@ -455,6 +493,7 @@ def run_phase(
                 "rate": 1.0 / PERIOD_S,
                 "command_mode": "position",
                 "initial_positions": list(HOME),
+                "thread_priority": priorities[1],
             },
             env,
             directory,
@@ -466,6 +505,7 @@ def run_phase(
                 "tip_link": "tool0",
                 "period_s": PERIOD_S,
                 "command_timeout_s": timeout,
+                "thread_priority": priorities[0],
             },
             env,
             directory,
@@ -560,6 +600,26 @@ PHASES = (
 )
 
 
+def setting_name(priorities: tuple[int, int]) -> str:
+    """How a phase label names a scheduling setting (servo, sim_arm thread_priority)."""
+    servo, sim = priorities
+    if servo == sim == 0:
+        return "default scheduling"
+    return f"SCHED_FIFO servo {servo or 'off'}, sim_arm {sim or 'off'}"
+
+
+def parse_scheduling(text: str) -> list[tuple[int, int]]:
+    """'0:0,40:50' -> [(0, 0), (40, 50)] (servo:sim_arm thread_priority pairs)."""
+    settings = []
+    for item in text.split(","):
+        servo, _, sim = item.strip().partition(":")
+        pair = (int(servo), int(sim or servo))
+        if not all(0 <= p <= 99 for p in pair):
+            raise ValueError(f"--scheduling: priorities are 0-99, got {item!r}")
+        settings.append(pair)
+    return settings
+
+
 def report(results: dict[str, dict[str, Any]]) -> None:
     print(
         "| phase | twists | latency median / p99 / max [ms] | to publish median / p99 [ms] | CPU [% core] |"
@@ -597,8 +657,9 @@ def report(results: dict[str, dict[str, Any]]) -> None:
         if counts:
             print(
                 f"{label}: the node's own count (~/status) over the phase: {counts['cycles']} "
-                f"cycles, {counts.get('late_cycles', '?')} late (timer callback > 1.5 periods "
-                f"after the previous), {counts.get('lost_periods', '?')} periods not made up"
+                f"cycles, {counts.get('late_cycles', '?')} late (timer callback a period or "
+                f"more after its tick), {counts.get('lost_periods', '?')} periods not made up; "
+                f"its longest timer callback {counts.get('step_us_max', '?')} µs"
             )
         print(
             f"{label}: the receiver's own process stalled up to "
@@ -625,6 +686,13 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=30.0, help="length of each phase [s]")
     parser.add_argument("--only", default="", help="run only the phases whose label contains this")
     parser.add_argument("--json", help="write every figure to this file")
+    parser.add_argument(
+        "--scheduling",
+        default="0:0,40:50",
+        help="thread_priority settings to compare, servo:sim_arm pairs (0 = default scheduling; "
+        "default: 0:0,40:50, i.e. without and with SCHED_FIFO at moveit_servo's and "
+        "controller_manager's defaults)",
+    )
     args = parser.parse_args()
     if args.role == "echo":
         return role_echo(args.beside)
@@ -642,27 +710,40 @@ def main() -> None:
     env = local_ros_env()
     env["PYTHONWARNINGS"] = "ignore"
     print(clean_dead_shared_memory(), file=sys.stderr)
+    settings = parse_scheduling(args.scheduling)
+    plan: list[tuple[str, str, tuple[int, int] | None]] = []
+    for label, kind in PHASES:
+        if kind == "echo":
+            plan.append((label, kind, None))
+        else:  # each setting in turn, phase by phase (module docstring)
+            plan += [(label, kind, setting) for setting in settings]
     results: dict[str, dict[str, Any]] = {}
     with tempfile.TemporaryDirectory(prefix="servo_node_bench_") as tmp:
         directory = Path(tmp)
-        for label, kind in PHASES:
+        for label, kind, setting in plan:
             if args.only not in label:
                 continue
+            suffix = "" if setting is None else f" [{setting_name(setting)}]"
             for attempt in (1, 2):  # a harness process that crashes gets one more chance
                 try:
                     load_before = os.getloadavg()[0]
-                    measured = run_phase(kind, args.seconds, env, directory)
+                    measured = run_phase(kind, args.seconds, env, directory, setting or (0, 0))
                     # the machine's load (1-minute average) around the phase, the harness's own
                     # processes (the nodes, the sender, the receiver) included
                     for figures in measured.values():
                         figures["load_average"] = (load_before, os.getloadavg()[0])
-                    results.update(measured)
+                    results.update(
+                        {
+                            name if name == "echo, alone" else name + suffix: figures
+                            for name, figures in measured.items()
+                        }
+                    )
                     break
                 except nb.HarnessFailure as exc:
                     if attempt == 2:
                         raise
-                    print(f"  {label}: {exc}; measuring the phase again", file=sys.stderr)
-            print(f"  measured: {label}", file=sys.stderr)
+                    print(f"  {label}{suffix}: {exc}; measuring the phase again", file=sys.stderr)
+            print(f"  measured: {label}{suffix}", file=sys.stderr)
     report(results)
     if args.json:
         Path(args.json).write_text(json.dumps(results, indent=2))

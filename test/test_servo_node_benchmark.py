@@ -212,3 +212,39 @@ def test_the_node_s_own_count_of_cycles_on_time():
             }
         }
     )[1][2]  # 99.93 %: met
+
+
+def test_each_scheduling_setting_is_judged_on_its_own_with_its_own_echo():
+    a, b = " [default scheduling]", " [SCHED_FIFO servo 40, sim_arm 50]"
+    results = {"echo, alone": RESULTS["echo, alone"]}
+    for suffix, median in ((a, 1.2), (b, 0.9)):  # 2.4× and 1.8× the echo beside at 0.5 ms
+        results["echo, beside the servo" + suffix] = {"latency": {"median_ms": 0.5}}
+        results["servo, command to joint command" + suffix] = {
+            "latency": {"median_ms": median, "p99_ms": 3.0}
+        }
+        results["servo, 1 kHz streaming" + suffix] = RESULTS["servo, 1 kHz streaming"]
+    verdicts = _verdicts(results)
+    assert len(verdicts) == 8
+    for target, met in verdicts.items():
+        assert (a in target) != (b in target), target  # every target names its setting
+        if "beside" in target:
+            assert ("echo, beside the servo" + (a if a in target else b)) in target
+            assert met == (b in target)
+
+
+def test_scheduling_settings_parse_and_are_named():
+    assert bench.parse_scheduling("0:0,40:50") == [(0, 0), (40, 50)]
+    assert bench.parse_scheduling("30") == [(30, 30)]
+    with pytest.raises(ValueError, match="0-99"):
+        bench.parse_scheduling("0:100")
+    assert bench.setting_name((0, 0)) == "default scheduling"
+    assert bench.setting_name((40, 0)) == "SCHED_FIFO servo 40, sim_arm off"
+
+
+def test_the_longest_timer_callback_is_the_windows_own():
+    statuses = [
+        (100, {"cycles": "10", "late_cycles": "0", "lost_periods": "0", "step_us_max": "9000"}),
+        (300, {"cycles": "20", "late_cycles": "1", "lost_periods": "0", "step_us_max": "120"}),
+        (400, {"cycles": "30", "late_cycles": "1", "lost_periods": "0", "step_us_max": "1500"}),
+    ]
+    assert bench.node_counts(statuses, 250, 500)["step_us_max"] == 1500

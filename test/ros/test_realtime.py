@@ -1,11 +1,15 @@
-"""`thread_priority` (ros/realtime.py): SCHED_FIFO for the calling thread at start-up, never a
-failure when the system refuses it. Applied in threads of their own, so that the test process
-keeps its scheduling."""
+"""`thread_priority` (ros/realtime.py): SCHED_FIFO for the node's thread (and one below it for the
+process's other threads) at start-up, never a failure when the system refuses it. Applied in a
+process of its own, so that the test process keeps its scheduling."""
 
 from __future__ import annotations
 
+import json
 import os
+import subprocess
+import sys
 import threading
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -13,6 +17,7 @@ import pytest
 from kinematics_node.ros import realtime
 from kinematics_node.ros.realtime import apply_thread_priority
 
+ROOT = Path(__file__).resolve().parents[2]
 linux = pytest.mark.skipif(not hasattr(os, "sched_setscheduler"), reason="Linux scheduling")
 
 
@@ -37,15 +42,38 @@ def test_zero_leaves_the_scheduling_alone():
     assert said is None and policy == os.sched_getscheduler(0)
 
 
+#: In a process of its own (the call raises every thread of its process): a thread that exists
+#: before the call (as the middleware's do), then the call, then each thread's policy/priority.
+_CHILD = """
+import json, os, threading
+from kinematics_node.ros.realtime import apply_thread_priority
+seen, go = {}, threading.Event()
+def other():
+    go.wait()
+    seen["other"] = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
+thread = threading.Thread(target=other)
+thread.start()
+said = apply_thread_priority(7)
+go.set()
+thread.join()
+seen["own"] = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
+print(json.dumps({"said": said, **seen}))
+"""
+
+
 @linux
-def test_a_priority_makes_the_thread_sched_fifo_or_says_why_not():
-    said, policy, priority = _in_a_thread(7)
-    level, text = said
+def test_a_priority_makes_the_threads_sched_fifo_or_says_why_not():
+    out = subprocess.run(
+        [sys.executable, "-c", _CHILD], capture_output=True, text=True, check=True, cwd=ROOT
+    )
+    got = json.loads(out.stdout)
+    level, text = got["said"]
     if level == "info":  # permitted here (root, CAP_SYS_NICE, or an rtprio limit)
-        assert policy == os.SCHED_FIFO and priority == 7
+        assert got["own"] == [os.SCHED_FIFO, 7]
+        assert got["other"] == [os.SCHED_FIFO, 6]  # the middleware's: one below
+        assert "1 of 1 other threads" in text
     else:
-        assert policy != os.SCHED_FIFO and "default scheduling" in text
-    assert os.sched_getscheduler(0) != os.SCHED_FIFO  # only the calling thread
+        assert got["own"][0] != os.SCHED_FIFO and "default scheduling" in text
 
 
 @linux
