@@ -27,7 +27,8 @@ the arm is and to notice an arm that does not follow):
    inside its position limits (`smoothing`).
 
 Stopping: a twist command that times out ramps to zero with the loop closed, so the tool stops on
-its path, and the loop stays closed until the arm is on the commanded pose (at most `_SETTLE_S`);
+its path (a ramp to zero, this one or a zero twist sent, is slowed to what every joint can follow,
+so that the joints decelerate in proportion: `_stretch_stop`), and the loop stays closed until the arm is on the commanded pose (at most `_SETTLE_S`);
 any other stop (a jog or pose timeout, a refused command, pause, the arm not following,
 an unusable measurement) is step 4 with a target velocity of zero: a jerk-limited stop.
 
@@ -71,6 +72,8 @@ _NULLSPACE_SPEED_FRACTION = 0.05  # null-space motion uses at most this share of
 _RESYNC_TOLERANCE = 1e-3  # [rad or m] a command starting from rest starts from the measured
 # positions when they are farther than this from the last command (the arm was moved meanwhile);
 # nearer, from the last command, so that the commanded positions stay continuous
+_STOP_SHARE = 0.5  # a twist's ramp to zero asks each joint for at most this share of its
+# acceleration and jerk limits, in proportion to its velocity (`Servo._stretch_stop`)
 _SETTLE_S = 1.0  # [s] after a twist command's timeout has ramped the twist to zero, the loop stays
 # closed at most this long for the arm to reach the reference (K = 10/s leaves e⁻¹⁰ of a gap)
 
@@ -270,6 +273,10 @@ class Servo:
         ang_a = cfg.max_angular_speed_rad_s / cfg.twist_acceleration_time_s
         acc = np.array((ang_a, ang_a, ang_a, lin_a, lin_a, lin_a))
         self._ramp = VelocityRamp(acc, acc / cfg.jerk_time_s, cfg.period_s)
+        self._ramp_acc: list[float] = acc.tolist()
+        self._ramp_jerk: list[float] = (acc / cfg.jerk_time_s).tolist()
+        self._stop_acc: list[float] = (_STOP_SHARE * lim.acceleration).tolist()
+        self._stop_jerk: list[float] = (_STOP_SHARE * lim.jerk).tolist()
         self._ramp_valid = False
         self._ramp_target: list[float] = [0.0] * 6
         self._last_jacobian: FloatArray | None = None  # the task Jacobian of the last period
@@ -838,11 +845,19 @@ class Servo:
                 R_bf = self.chain.link_pose(self._integrator.q, frame)[:3, :3]
             target = (R_bf @ tw[:3]).tolist() + (R_bf @ tw[3:]).tolist()
         # Ramp the twist within Cartesian acceleration and jerk limits (base axes).
+        ramp = self._ramp
         if not self._ramp_valid:
-            self._ramp.reset(self._tool_twist())
+            ramp.reset(self._tool_twist())
+            if ramp.slowed:
+                ramp.restore()
             self._ramp_valid = True
+        if any(target):
+            if ramp.slowed:
+                ramp.restore()
+        elif not ramp.slowed and any(ramp.v):
+            self._stretch_stop(ramp.v)
         self._ramp_target = target
-        ramped = self._ramp.step(target)
+        ramped = ramp.step(target)
         ramp_acc = self._ramp.a
         # Integrate the commanded pose over the period: R_ref ← exp([ω] dt) R_ref, p_ref += v dt.
         dt = cfg.period_s
@@ -901,6 +916,31 @@ class Servo:
             dist <= cfg.pose_position_tolerance_m and ang <= cfg.pose_orientation_tolerance_rad
         )
         return V
+
+    def _stretch_stop(self, twist: list[float]) -> None:
+        """Slow the ramp of `twist` (base axes) to zero so that every joint can follow it.
+
+        Ramping the twist down by a share s of itself asks each joint for about s times its
+        velocity q̇ₖ: a ramp fast enough for the tool can ask a fast-turning joint for more
+        deceleration (or jerk) than it has. The joints' smoothing then limits them one by one,
+        they stop out of proportion and the tool leaves its point (0.28 mm after 10 s of rotation
+        one way on the UR5e). So the ramp's acceleration and jerk, as a share of the twist per
+        second (per second²), are bounded by each joint's, as a share of its velocity
+        (`_STOP_SHARE` of its limits: the rest is for the changing configuration and the loop's
+        correction), and the whole ramp is slowed alike: every joint decelerates in proportion."""
+        a_tool = j_tool = a_joint = j_joint = math.inf
+        for x, a, j in zip(twist, self._ramp_acc, self._ramp_jerk, strict=True):
+            if x != 0.0:
+                x = abs(x)
+                a_tool = min(a_tool, a / x)
+                j_tool = min(j_tool, j / x)
+        for x, a, j in zip(self._integrator.v_list, self._stop_acc, self._stop_jerk, strict=True):
+            if x != 0.0:
+                x = abs(x)
+                a_joint = min(a_joint, a / x)
+                j_joint = min(j_joint, j / x)
+        if a_joint < a_tool or j_joint < j_tool:
+            self._ramp.slow(min(1.0, a_joint / a_tool), min(1.0, j_joint / j_tool))
 
     def _hold_ramp(self) -> None:
         """The arm is held back (a joint limit, a velocity limit) while the ramped twist has

@@ -328,8 +328,11 @@ class VelocityRamp:
         inp.control_interface = _ruckig.ControlInterface.Velocity
         inp.synchronization = _ruckig.Synchronization.Phase
         inp.max_velocity = [math.inf] * n
-        inp.max_acceleration = [float(x) for x in acceleration]
-        inp.max_jerk = [float(x) for x in jerk]
+        self._acceleration = [float(x) for x in acceleration]
+        self._jerk = [float(x) for x in jerk]
+        inp.max_acceleration = self._acceleration
+        inp.max_jerk = self._jerk
+        self.slowed = False  # the limits are scaled down (`slow`) until `restore`
         inp.current_position = [0.0] * n
         inp.target_acceleration = [0.0] * n
         self._inp: Any = inp
@@ -343,6 +346,22 @@ class VelocityRamp:
         """Start from `velocity` with no acceleration."""
         self.v = [float(x) for x in velocity]
         self.a = self._zeros
+
+    def slow(self, acceleration_factor: float, jerk_factor: float) -> None:
+        """Scale the acceleration and jerk limits by these factors (in (0, 1]) until `restore`:
+        with phase synchronisation every component keeps its share of the change, so the ramp
+        takes longer along the same line."""
+        inp = self._inp
+        inp.max_acceleration = [x * acceleration_factor for x in self._acceleration]
+        inp.max_jerk = [x * jerk_factor for x in self._jerk]
+        self.slowed = True
+
+    def restore(self) -> None:
+        """The acceleration and jerk limits given to the constructor again."""
+        inp = self._inp
+        inp.max_acceleration = self._acceleration
+        inp.max_jerk = self._jerk
+        self.slowed = False
 
     def step(self, target: list[float]) -> list[float]:
         """The velocity one period later, on the way to `target`."""
