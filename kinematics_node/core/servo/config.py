@@ -97,7 +97,8 @@ class ServoConfig:
         tracking_gain_1_per_s: proportional gain K [1/s] on the kept pose error e:
             V = V_cmd + K e.
         max_kept_error_m, max_kept_error_rad: bound on the kept error; beyond it the integrated
-            pose is pulled back towards the arm, so a blocked arm does not wind up.
+            pose is pulled back along its own motion, so a blocked arm does not wind up (an error
+            across that motion is kept, and corrected at most at the bound's speed).
 
     Singularities (damped least squares, see `dls`):
         singular_value_threshold: ε, the singular value below which a direction is damped.

@@ -8,9 +8,11 @@ the arm is and to notice an arm that does not follow):
    (`twist_acceleration_time_s`), and the commanded pose T_ref is integrated from the ramped
    twist (ω, v) [base axes, about the tip origin]; the loop is closed on it: V = V_ramp + K e,
    e = (log(R_ref Rᵀ), p_ref − p). The error kept is bounded (`max_kept_error_*`): beyond it T_ref
-   is pulled back towards the arm, so a blocked arm does not wind up, and a pure rotation does
-   not drift. Pose: V points at the target, at min(K_pose d, v_max, √(2 a d)) for a distance d,
-   which brakes to zero at the target. Jog: the joint velocities as given.
+   is pulled back along its own motion (`_pull_back`), so a blocked arm does not wind up, while
+   an error across that motion is kept (T_ref stays on the commanded path) and corrected with e
+   clipped to the bound, so a pure rotation does not drift. Pose: V points at the target, at
+   min(K_pose d, v_max, √(2 a d)) for a distance d, which brakes to zero at the target. Jog: the
+   joint velocities as given.
 2. The followed rows of V are solved for q̇ by damped least squares (`dls`), which never stops at
    a singularity; from an exact singularity, a command along the lost direction starts a motion
    along the singular joint direction where its second-order effect agrees (`_escape`). A
@@ -132,6 +134,43 @@ def _norm3(x: float, y: float, z: float) -> float:
 def _rotation(t: Sequence[float]) -> FloatArray:
     """The (3, 3) rotation of a pose given as 12 floats (rotation row-major, then position)."""
     return np.array(((t[0], t[1], t[2]), (t[3], t[4], t[5]), (t[6], t[7], t[8])))
+
+
+def _pull_back(
+    error: Sequence[float], norm: float, moving: Sequence[float], bound: float
+) -> tuple[tuple[float, float, float], tuple[float, float, float], float]:
+    """Bound the kept error e (3,) (the commanded pose less the arm's, angular or linear part)
+    by moving the commanded pose back along its own motion `moving` (3,) only.
+
+    The commanded pose runs ahead of an arm held back (a joint limit, the edge of the workspace)
+    along the commanded twist: that part of the error is taken back, so the arm does not wind up.
+    Across the twist the commanded pose does not move: an error there is the arm's own deviation
+    (damped least squares beside a singularity gives up some accuracy), and pulling the commanded
+    pose toward the arm would move it off the commanded path for good (14 mm after a spin beside
+    the UR5e's wrist singularity, 130-282 mm out to the edge of the workspace and back). It is
+    kept, and the loop's correction uses it clipped to the bound.
+
+    Returns (kept error, error for the loop's correction, |kept error|).
+    """
+    e = (error[0], error[1], error[2])
+    if norm <= bound:
+        return e, e, norm
+    mx, my, mz = moving
+    speed = _norm3(mx, my, mz)
+    if speed > 0.0:
+        dx, dy, dz = mx / speed, my / speed, mz / speed
+        along = e[0] * dx + e[1] * dy + e[2] * dz
+        px, py, pz = e[0] - along * dx, e[1] - along * dy, e[2] - along * dz
+        across = _norm3(px, py, pz)
+        room = bound * bound - across * across
+        kept_along = min(abs(along), math.sqrt(room)) if room > 0.0 else 0.0
+        kept_along = kept_along if along >= 0.0 else -kept_along
+        e = (px + kept_along * dx, py + kept_along * dy, pz + kept_along * dz)
+        norm = _norm3(*e)
+    if norm <= bound:
+        return e, e, norm
+    s = bound / norm
+    return e, (e[0] * s, e[1] * s, e[2] * s), norm
 
 
 class Servo:
@@ -797,41 +836,38 @@ class Servo:
         rp = self._ref_p
         ev = (rp[0] - p[0], rp[1] - p[1], rp[2] - p[2])
         e_task: Sequence[float] | FloatArray
+        bw, bv = cfg.max_kept_error_rad, cfg.max_kept_error_m
+        moving = self._ramp.v if self._ramp_valid else self._ramp.zeros
         if self._all_rows and not tip_axes:  # the common case, on floats
             nw, nv = _norm3(*ew), _norm3(*ev)
-            sw = min(1.0, cfg.max_kept_error_rad / nw) if nw > 0 else 1.0
-            sv = min(1.0, cfg.max_kept_error_m / nv) if nv > 0 else 1.0
-            if sw < 1.0 or sv < 1.0:  # bound the kept error (anti wind-up)
-                ew = (ew[0] * sw, ew[1] * sw, ew[2] * sw)
-                ev = (ev[0] * sv, ev[1] * sv, ev[2] * sv)
+            if nw > bw or nv > bv:  # bound the kept error (anti wind-up)
+                ew, fw, nw = _pull_back(ew, nw, moving[:3], bw)
+                ev, fv, nv = _pull_back(ev, nv, moving[3:], bv)
                 self._ref_q = _quat.mul(_quat.from_rotvec(*ew), q_now)
                 self._ref_p = (p[0] + ev[0], p[1] + ev[1], p[2] + ev[2])
-            e_task = ew + ev
+                e_task = fw + fv
+            else:
+                e_task = ew + ev
         elif not tip_axes:  # dropped components, base axes: on floats too
             e_w = tuple(0.0 if drop else x for x, drop in zip(ew, self._dropped[:3], strict=True))
             e_v = tuple(0.0 if drop else x for x, drop in zip(ev, self._dropped[3:], strict=True))
-            # Bound the kept error (anti wind-up): scale each part down to its bound.
-            nw, nv = _norm3(*e_w), _norm3(*e_v)
-            sw = min(1.0, cfg.max_kept_error_rad / nw) if nw > 0 else 1.0
-            sv = min(1.0, cfg.max_kept_error_m / nv) if nv > 0 else 1.0
-            e_w = (e_w[0] * sw, e_w[1] * sw, e_w[2] * sw)
-            e_v = (e_v[0] * sv, e_v[1] * sv, e_v[2] * sv)
+            e_w, f_w, nw = _pull_back(e_w, _norm3(*e_w), moving[:3], bw)
+            e_v, f_v, nv = _pull_back(e_v, _norm3(*e_v), moving[3:], bv)
             self._ref_q = _quat.mul(_quat.from_rotvec(*e_w), q_now)
             self._ref_p = (p[0] + e_v[0], p[1] + e_v[1], p[2] + e_v[2])
-            e_task = e_w + e_v
+            e_task = f_w + f_v
         else:
             e = np.array(ew + ev)
-            e_task, e_base = self._kept_error(R, e, tip_axes)
-            # Bound the kept error (anti wind-up): scale each part down to its bound.
-            nw, nv = _norm3(*e_base[:3].tolist()), _norm3(*e_base[3:].tolist())
-            sw = min(1.0, cfg.max_kept_error_rad / nw) if nw > 0 else 1.0
-            sv = min(1.0, cfg.max_kept_error_m / nv) if nv > 0 else 1.0
-            scale = np.array((sw, sw, sw, sv, sv, sv))
-            e_base = (e_base * scale).tolist()
-            e_task = e_task * scale
-            self._ref_q = _quat.mul(_quat.from_rotvec(*e_base[:3]), q_now)
-            self._ref_p = (p[0] + e_base[3], p[1] + e_base[4], p[2] + e_base[5])
-        details["errors"] = (min(nv, cfg.max_kept_error_m), min(nw, cfg.max_kept_error_rad))
+            e_task, e_base_a = self._kept_error(R, e, tip_axes)
+            e_base = e_base_a.tolist()
+            e_w, f_w, nw = _pull_back(tuple(e_base[:3]), _norm3(*e_base[:3]), moving[:3], bw)
+            e_v, f_v, nv = _pull_back(tuple(e_base[3:]), _norm3(*e_base[3:]), moving[3:], bv)
+            self._ref_q = _quat.mul(_quat.from_rotvec(*e_w), q_now)
+            self._ref_p = (p[0] + e_v[0], p[1] + e_v[1], p[2] + e_v[2])
+            assert R is not None
+            f_base = np.array(f_w + f_v)
+            e_task = np.concatenate((R.T @ f_base[:3], R.T @ f_base[3:]))
+        details["errors"] = (min(nv, bv), min(nw, bw))
         # The commanded twist in base axes.
         frame = self._twist_frame
         tw = self._twist

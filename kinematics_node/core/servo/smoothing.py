@@ -338,6 +338,7 @@ class VelocityRamp:
         self._inp: Any = inp
         self._good_results = (_ruckig.Result.Working, _ruckig.Result.Finished)
         self._zeros = [0.0] * n
+        self.zeros: Sequence[float] = self._zeros  # (read-only by convention)
         self._arrived = False
         self.v: list[float] = self._zeros
         self.a: list[float] = self._zeros
