@@ -67,7 +67,7 @@ from ..service.parameters import PARAMETERS, SPECS, STARTUP_ONLY
 from .deferred import DeferredResponses, waited_since_sent
 from .mailbox import Mailbox
 from .node_log import ThrottledWarnings, log_lines
-from .node_setup import declare_parameters, freeze_heap
+from .node_setup import answer_parameter_change, declare_parameters, freeze_heap
 from .qos import (
     DESCRIPTION_QOS,
     JOINT_STATES_QOS,
@@ -283,17 +283,12 @@ class KinematicsNode(Node):
                 successful=False, reason=f"{', '.join(fixed)}: read at start-up only"
             )
         model = self._logic.model
-        try:
-            self._logic.configure(changes)
-        except KinematicsError as exc:
-            return SetParametersResult(successful=False, reason=str(exc))
-        except Exception as exc:  # noqa: BLE001 - refused, never raised into rclpy
-            return SetParametersResult(successful=False, reason=f"internal error: {exc!r}")
-        finally:
-            self._log_description_events()
+        answer = answer_parameter_change(
+            lambda: self._logic.configure(changes), self._log_description_events
+        )
         if self._logic.model is not model and self._logic.model is not None:
             freeze_heap()
-        return SetParametersResult(successful=True)
+        return answer
 
     def destroy_node(self) -> None:
         self._pool.shutdown()  # answers every open job (into the mailbox)

@@ -1,6 +1,7 @@
-"""What our rclpy nodes (the kinematics node, the servo) do while they are built: declare their
-table of parameters (`service.parameters.ParameterSpec`) with descriptors that say what each takes,
-and freeze the heap once they are built.
+"""How our rclpy nodes (the kinematics node, the servo) set up around their service logic:
+declare their table of parameters (`service.parameters.ParameterSpec`) with descriptors that say
+what each takes, answer a parameter change by what the service's `configure` says of it
+(`answer_parameter_change`), and freeze the heap once they are built.
 
 Descriptors: the description, the choices where there are some, and the range of a number that
 has both bounds (what `ros2 param describe` shows and where rclpy refuses a value itself; the
@@ -12,12 +13,18 @@ inclusive one.
 from __future__ import annotations
 
 import gc
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Any
 
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    SetParametersResult,
+)
 from rclpy.node import Node
 
+from ..core.exceptions import KinematicsError
 from ..service.parameters import ParameterSpec
 
 
@@ -51,6 +58,24 @@ def declare_parameters(node: Node, specs: Iterable[ParameterSpec]) -> dict[str, 
     for spec in specs:
         node.declare_parameter(spec.name, spec.default, descriptor(spec))
     return {spec.name: node.get_parameter(spec.name).value for spec in specs}
+
+
+def answer_parameter_change(
+    configure: Callable[[], object], log: Callable[[], None]
+) -> SetParametersResult:
+    """A set-parameters callback's answer: `configure()` (the service taking the new values)
+    succeeds, or the change is refused with its reason (a `KinematicsError`'s message, or an
+    internal error: never raised into rclpy); `log()` (the service's log lines) runs either
+    way."""
+    try:
+        configure()
+    except KinematicsError as exc:
+        return SetParametersResult(successful=False, reason=str(exc))
+    except Exception as exc:  # noqa: BLE001 - refused, never raised into rclpy
+        return SetParametersResult(successful=False, reason=f"internal error: {exc!r}")
+    finally:
+        log()
+    return SetParametersResult(successful=True)
 
 
 def freeze_heap() -> None:

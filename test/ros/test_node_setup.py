@@ -9,7 +9,8 @@ import pytest
 
 pytest.importorskip("rcl_interfaces.msg", reason="rcl_interfaces is not installed: needs ROS 2")
 
-from kinematics_node.ros.node_setup import descriptor  # noqa: E402
+from kinematics_node.core.exceptions import InvalidInputError  # noqa: E402
+from kinematics_node.ros.node_setup import answer_parameter_change, descriptor  # noqa: E402
 from kinematics_node.service.parameters import PARAMETERS, SPECS, validate  # noqa: E402
 from kinematics_node.service.servo_parameters import (  # noqa: E402
     SERVO_PARAMETERS,
@@ -54,3 +55,24 @@ def test_servo_descriptors_carry_ranges_too():
     for spec in bounded:
         d = descriptor(spec)
         assert len(d.floating_point_range) + len(d.integer_range) == 1
+
+
+def test_a_parameter_change_is_answered_by_what_configure_says():
+    logged: list[str] = []
+
+    def log() -> None:
+        logged.append("log")
+
+    def refuse() -> None:
+        raise InvalidInputError("parameter 'tip_link': no link 'x'")
+
+    def crash() -> None:
+        raise ZeroDivisionError("boom")
+
+    ok = answer_parameter_change(lambda: None, log)
+    refused = answer_parameter_change(refuse, log)
+    crashed = answer_parameter_change(crash, log)
+    assert ok.successful and not refused.successful and not crashed.successful
+    assert refused.reason == "parameter 'tip_link': no link 'x'"
+    assert crashed.reason == "internal error: ZeroDivisionError('boom')"
+    assert logged == ["log"] * 3  # the service's lines, whatever the answer
