@@ -48,6 +48,8 @@ ROS_LAYER_WITHOUT_ROS_AT_IMPORT = (
     "kinematics_node.ros.env",
     "kinematics_node.ros.deferred",
     "kinematics_node.ros.mailbox",
+    "kinematics_node.ros.processes",
+    "kinematics_node.ros.node_log",
 )
 
 
