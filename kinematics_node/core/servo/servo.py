@@ -317,6 +317,7 @@ class Servo:
         self._stop_acc: list[float] = (_STOP_SHARE * lim.acceleration).tolist()
         self._stop_jerk: list[float] = (_STOP_SHARE * lim.jerk).tolist()
         self._ramp_valid = False
+        self._ramp_held = False  # invalidated by `_hold_ramp` (not by a new command)
         self._ramp_target: list[float] = [0.0] * 6
         self._last_jacobian: FloatArray | None = None  # the task Jacobian of the last period
         self._null_ease = 0.0  # share of the null-space speed allowed (eased in per command)
@@ -382,6 +383,7 @@ class Servo:
         self._last_jacobian = None
         self._ref_valid = False
         self._ramp_valid = False
+        self._ramp_held = False
         self._stop = (code, message)
 
     # ------------------------------------------------------------------ commands
@@ -482,6 +484,7 @@ class Servo:
             self._null_ease = 0.0
             self._ref_valid = False
             self._ramp_valid = False
+            self._ramp_held = False
         self._mode = mode
         self._stamp = stamp
         self._winding_down = False
@@ -837,7 +840,7 @@ class Servo:
         ev = (rp[0] - p[0], rp[1] - p[1], rp[2] - p[2])
         e_task: Sequence[float] | FloatArray
         bw, bv = cfg.max_kept_error_rad, cfg.max_kept_error_m
-        moving = self._ramp.v if self._ramp_valid else self._ramp.zeros
+        moving = self._ramp.v if self._ramp_valid or self._ramp_held else self._ramp.zeros
         if self._all_rows and not tip_axes:  # the common case, on floats
             nw, nv = _norm3(*ew), _norm3(*ev)
             if nw > bw or nv > bv:  # bound the kept error (anti wind-up)
@@ -883,7 +886,18 @@ class Servo:
         # Ramp the twist within Cartesian acceleration and jerk limits (base axes).
         ramp = self._ramp
         if not self._ramp_valid:
-            ramp.reset(self._tool_twist())
+            tool = self._tool_twist()
+            if self._ramp_held:
+                # Restart from the share of the command the arm does: the whole tool twist
+                # would integrate into the commanded pose what the arm does besides the command
+                # (its corrections), and move that pose off the commanded path.
+                self._ramp_held = False
+                tt = float(np.dot(target, target))
+                share = float(np.dot(tool, target)) / tt if tt > 0.0 else 0.0
+                share = 0.0 if share < 0.0 else 1.0 if share > 1.0 else share
+                ramp.reset([share * x for x in target])
+            else:
+                ramp.reset(tool)
             if ramp.slowed:
                 ramp.restore()
             self._ramp_valid = True
@@ -980,11 +994,12 @@ class Servo:
 
     def _hold_ramp(self) -> None:
         """The arm is held back (a joint limit, a velocity limit) while the ramped twist has
-        reached the command: restart the ramp from what the arm does, so that it does not run
-        ahead of the arm (wind up). A ramp still on its way (the command changed, e.g. reversed
+        reached the command: restart the ramp from the share of the command the arm does, so
+        that it does not run ahead of the arm (wind up). A ramp still on its way (the command changed, e.g. reversed
         to leave the limit) goes on."""
         if self._mode == "twist" and self._ramp.v == self._ramp_target:
             self._ramp_valid = False
+            self._ramp_held = True
 
     def _tool_twist(self) -> FloatArray:
         """The tip's twist (ω, v) [base axes] at the commanded joint velocities."""

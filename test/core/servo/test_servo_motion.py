@@ -173,23 +173,31 @@ def test_ten_seconds_of_pure_rotation_do_not_move_the_tool_point(name):
 _NEAR_WRIST = np.array([0.3, -1.3, 1.6, -1.9, 0.05, 0.4])  # the UR5e's home, q5 2.9° from 0
 
 
+_TILTED = (1.0, 1.0, 1.0)
+
+
 @pytest.mark.parametrize(
-    ("q0", "sign"),
+    ("q0", "axis", "sign"),
     [
-        pytest.param(HOMES["ur5e"], 1.0, id="home+"),
-        pytest.param(HOMES["ur5e"], -1.0, id="home-"),
-        pytest.param(_NEAR_WRIST, 1.0, id="near_wrist+"),
-        pytest.param(_NEAR_WRIST, -1.0, id="near_wrist-"),
+        pytest.param(HOMES["ur5e"], _TILTED, 1.0, id="home+"),
+        pytest.param(HOMES["ur5e"], _TILTED, -1.0, id="home-"),
+        pytest.param(_NEAR_WRIST, _TILTED, 1.0, id="near_wrist+"),
+        pytest.param(_NEAR_WRIST, _TILTED, -1.0, id="near_wrist-"),
+        # the joints' velocity limits slow these spins (the ramp restarts from what the arm does)
+        pytest.param(HOMES["ur5e"], (0.0, 1.0, 0.0), 1.0, id="home_y+"),
+        pytest.param(HOMES["ur5e"], (0.0, 1.0, 0.0), -1.0, id="home_y-"),
+        pytest.param(_NEAR_WRIST, (1.0, 0.0, 0.0), -1.0, id="near_wrist_x-"),
     ],
 )
-def test_ten_seconds_of_rotation_one_way_leave_the_tool_point_where_it_was(q0, sign):
+def test_ten_seconds_of_rotation_one_way_leave_the_tool_point_where_it_was(q0, axis, sign):
     """Issue 23's drift bound on a spin that never reverses, from a well-conditioned start and from
     2.9° beside the wrist singularity (which the spin passes): after 10 s at 0.5 rad/s about a
-    tilted tool axis, the timeout's stop and rest, the tool point is within 0.1 mm of where it
-    began."""
+    tool axis, the timeout's stop and rest, the tool point is within 0.1 mm of where it began
+    (14-25 mm off while falling more than the kept error behind pulled the commanded pose toward
+    the arm)."""
     chain = robot("ur5e")
     servo = Servo(chain, q0)
-    w = sign * 0.5 * np.ones(3) / np.sqrt(3.0)
+    w = sign * 0.5 * np.array(axis) / np.linalg.norm(axis)
     trace = run(servo, _twist(tuple(w), (0.0, 0.0, 0.0), chain.tip_link), 10.0)
     rest = run(servo, lambda k, t: [], 2.0, t0=trace.t[-1] + trace.dt)  # timeout, stop, rest
     assert limit_violations(servo.limits, joined(trace, rest)) == []
@@ -229,7 +237,7 @@ def test_a_fast_spin_ramped_to_zero_stops_with_the_joints_in_proportion(stop):
 @pytest.mark.parametrize("name", ["ur5e", "panda", "iiwa14"])
 @pytest.mark.xfail(
     strict=True,
-    reason="issue 23: near the edge the arm leaves the line by 31-88 mm (damped least squares, "
+    reason="issue 23: near the edge the arm leaves the line by 41-88 mm (damped least squares, "
     "the Panda's and iiwa14's change of branch) before the loop brings it back",
 )
 def test_out_to_the_edge_of_the_workspace_and_back_stays_on_the_line(name):
