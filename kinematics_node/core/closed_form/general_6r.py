@@ -84,6 +84,8 @@ _FIT = np.random.default_rng(20240624).uniform(-1.5, 1.5, size=(80, 6))
 # The fixed right-hand side of inverse iteration (any vector with a component along every null
 # vector; fixed so that results are repeatable).
 _B = np.random.default_rng(7).standard_normal(12)
+_B_STACK = np.ascontiguousarray(np.broadcast_to(_B[:, None], (BRANCHES + 8, 12, 1)))
+_DIAG = np.arange(12)
 # Entries of v = (x₄ⁱ x₅ʲ) (index 3i + j) that x₄ (+3), x₅ (+1) or both map into v: i ≤ 2; j ≤ 1.
 _X4_BASE = np.array([3 * i + j for i in range(3) for j in range(3)])
 _X5_BASE = np.array([3 * i + j for i in range(4) for j in range(2)])
@@ -620,9 +622,10 @@ def _solve_one(
     near = [b - a <= CLUSTER * (1.0 + abs(b)) for a, b in zip(xs[:-1], xs[1:], strict=True)]
     x = np.array(xs)[:, None, None]
     Fx = F[:, :9] + x * (F[:, 9:18] + x * F[:, 18:])  # (R, 6, 9)
-    Sig = (1e-15 * size) * np.broadcast_to(_EYE12, (R, 12, 12))  # (`_real_roots`)
-    Sig[:, :6, :9] += Fx
+    Sig = np.zeros((R, 12, 12))  # Σ(x₃) + 1e-15‖Σ‖ I (`_real_roots`)
+    Sig[:, :6, :9] = Fx
     Sig[:, 6:, 3:] += Fx
+    Sig[:, _DIAG, _DIAG] += 1e-15 * size
     if R <= 3:  # inverse iteration (`_real_roots`), LAPACK per root
         vs = []
         for M in Sig:
@@ -631,7 +634,7 @@ def _solve_one(
         V = np.array(vs)
     else:
         try:
-            V = np.linalg.solve(Sig, np.broadcast_to(_B[:, None], (R, 12, 1)))[..., 0]
+            V = np.linalg.solve(Sig, _B_STACK[:R])[..., 0]
         except np.linalg.LinAlgError:  # one Σ(x₃) exactly singular: its null vector by SVD
             V = np.empty((R, 12))
             for i, M in enumerate(Sig):
