@@ -330,6 +330,18 @@ def test_an_arm_in_its_family_only_to_rounding_keeps_candidates_within_its_defec
     # unrefined at the default tolerance (off by the defect), refined when the tolerance asks
     assert 1e-12 < worst_default <= 0.5e-9
     assert worst_tight <= 1e-12
+    # the batched path applies the same floor
+    T = rounded.fk(q)
+    for tol, lo, hi in ((1e-9, 1e-12, 0.5e-9), (1e-12, 0.0, 1e-12)):
+        out = rounded.ik_all_batch(T, tolerance=tol)
+        for i, qi in enumerate(q):
+            assert min(wrapped_gap(s, qi) for s in out.solutions_of(i)) <= 1e-6
+        owner = np.repeat(np.arange(len(q)), out.count)
+        errs = [
+            max(chain_solver.fk_errors(s_rounded, s.tolist(), T[k].tolist()))
+            for s, k in zip(out.solutions, owner, strict=True)
+        ]
+        assert lo < max(errs) <= hi
 
 
 @pytest.mark.parametrize("arm", ["ur5", "puma_rounded"])

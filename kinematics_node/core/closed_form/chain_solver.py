@@ -207,12 +207,13 @@ class ChainSolver(JointLimits):
         return worst
 
     def refine_floor(self, tol: float) -> float:
-        """`solve_single` refines a candidate whose error (position / scale, rotation [rad])
-        exceeds this: `_REFINE_ABOVE`, or on an arm in its family only to rounding, twice its
-        `defect` up to half the tolerance. Such an arm's candidates are all off by about the
-        defect, and refining each (a Gauss–Newton step and an FK check: ~15 µs) doubled `ik_all`
-        on the Puma 560 for digits below the tolerance; near a singularity, where a subproblem
-        loses digits, the error grows beyond the floor and the candidate is refined as before."""
+        """`solve_single` and `solve_arrays` refine a candidate whose error (position / scale,
+        rotation [rad]) exceeds this: `_REFINE_ABOVE`, or on an arm in its family only to
+        rounding, twice its `defect` up to half the tolerance. Such an arm's candidates are all
+        off by about the defect, and refining each (a Gauss–Newton step and an FK check: ~15 µs)
+        doubled `ik_all` on the Puma 560 for digits below the tolerance; near a singularity,
+        where a subproblem loses digits, the error grows beyond the floor and the candidate is
+        refined as before."""
         return max(_REFINE_ABOVE, min(2.0 * self.defect, 0.5 * tol))
 
     def _held_moves(self) -> dict[str, list[bool]] | None:
@@ -458,16 +459,21 @@ def _batch_fk_errors(
 
 
 def fk_check(
-    solver: ChainSolver, Q: FloatArray, T_t: FloatArray, fix: Callable[[FloatArray], FloatArray]
+    solver: ChainSolver,
+    Q: FloatArray,
+    T_t: FloatArray,
+    fix: Callable[[FloatArray], FloatArray],
+    floor: float = _REFINE_ABOVE,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Candidates Q (k, n) checked against their targets T_t (k, 4, 4) by forward kinematics:
-    near misses refined (kept only where that helps; `fix` maps refined rows back into the
-    candidates' range), and the position [m] and rotation [rad] errors."""
+    near misses (off by more than `floor`: position / scale, rotation [rad]; `refine_floor`)
+    refined (kept only where that helps; `fix` maps refined rows back into the candidates'
+    range), and the position [m] and rotation [rad] errors."""
     chain = solver.chain
     Q = Q.copy()
     ep, er = _batch_fk_errors(solver, Q, T_t)
     redo = (
-        ((ep > _REFINE_ABOVE * solver.scale) | (er > _REFINE_ABOVE))
+        ((ep > floor * solver.scale) | (er > floor))
         & (ep < REFINE_BELOW * solver.scale)
         & (er < REFINE_BELOW)
     )
@@ -634,7 +640,9 @@ def _solve_arrays_once(
     idx = np.flatnonzero(ok.reshape(-1))
     acc = np.zeros(L * B, dtype=bool)
     if idx.size:
-        Qc, ep, er = fk_check(solver, flat_Q[idx], T[flat_owner[idx]], wrap_angles)
+        Qc, ep, er = fk_check(
+            solver, flat_Q[idx], T[flat_owner[idx]], wrap_angles, solver.refine_floor(tol)
+        )
         flat_Q[idx] = Qc
         acc[idx] = (ep <= tol) & (er <= tol)
     acc2 = acc.reshape(L, B)
