@@ -78,6 +78,7 @@ from kinematics_node.ros.env import (  # noqa: E402
     local_ros_env,
     unavailable_reason,
 )
+from kinematics_node.ros.processes import start_node, stop_nodes  # noqa: E402
 
 ROBOT = ROOT / "config" / "robots" / "ur5e.urdf"
 HOME = (0.3, -1.3, 1.6, -1.9, 1.2, 0.4)  # [rad] well inside the limits, away from singularities
@@ -442,31 +443,6 @@ def _child(args: list[str], env: dict[str, str]) -> subprocess.Popen:
     )
 
 
-def _node(name: str, params: dict[str, Any], env: dict[str, str], directory: Path) -> Any:
-    argv = executable(name)
-    assert argv is not None  # checked by unavailable_reason
-    path = directory / f"{name}.yaml"
-    path.write_text(json.dumps({name: {"ros__parameters": params}}))  # JSON is YAML
-    log = directory / f"{name}.log"
-    with log.open("wb") as handle:
-        return subprocess.Popen(
-            [*argv, "--ros-args", "--params-file", str(path)],
-            env=env,
-            stdout=handle,
-            stderr=subprocess.STDOUT,
-        )
-
-
-def _stop(processes: list[Any]) -> None:
-    for p in processes:
-        p.send_signal(signal.SIGINT)
-    for p in processes:
-        try:
-            p.wait(10)
-        except subprocess.TimeoutExpired:
-            p.kill()
-
-
 def run_phase(
     kind: str,
     seconds: float,
@@ -485,7 +461,7 @@ def run_phase(
         measured = {"echo": system[0]}
     else:
         timeout = TRIAL_TIMEOUT_S if kind == "trials" else 0.1
-        sim = _node(
+        sim = start_node(
             "sim_arm",
             {
                 "robot_description": description,
@@ -495,10 +471,10 @@ def run_phase(
                 "initial_positions": list(HOME),
                 "thread_priority": priorities[1],
             },
-            env,
             directory,
+            env,
         )
-        servo = _node(
+        servo = start_node(
             "servo",
             {
                 "robot_description": description,
@@ -507,8 +483,8 @@ def run_phase(
                 "command_timeout_s": timeout,
                 "thread_priority": priorities[0],
             },
-            env,
             directory,
+            env,
         )
         system = [sim, servo]
         measured = {"servo": servo, "sim_arm": sim}
@@ -555,7 +531,7 @@ def run_phase(
             if process.returncode != 0 or not out.exists():
                 raise nb.HarnessFailure(f"the {role} failed (exit code {process.returncode})")
     finally:
-        _stop(system)
+        stop_nodes(system)
     sends = json.loads(send_out.read_text())["stamps"]
     got = json.loads(recv_out.read_text())
     outputs = [(data, source, arrival) for data, source, arrival in got["outputs"]]

@@ -52,14 +52,12 @@ smoothness, not speed.)
 
 from __future__ import annotations
 
-import gc
-import math
 import time
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, TwistStamped
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
@@ -73,17 +71,14 @@ from trajectory_msgs.msg import JointTrajectory
 from msg_adapters import MessageTypes
 from msg_adapters.servo_messages import ServoMessageTypes
 
-from ..core.exceptions import InvalidInputError, KinematicsError
-from ..service.parameters import ParameterSpec
+from ..core.exceptions import InvalidInputError
 from ..service.servo import ServoService
 from ..service.servo_parameters import SERVO_PARAMETERS, SERVO_SPECS
+from .node_log import ThrottledWarnings, log_lines
+from .node_setup import answer_parameter_change, declare_parameters, freeze_heap
+from .qos import DESCRIPTION_QOS, JOINT_STATES_QOS, NO_PUBLISHER_EVENTS, NO_SUBSCRIPTION_EVENTS
 from .realtime import apply_thread_priority
 from .spin import spin_until_shutdown
-
-try:  # Jazzy and later
-    from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
-except ImportError:  # pragma: no cover - Humble
-    from rclpy.qos_event import PublisherEventCallbacks, SubscriptionEventCallbacks
 
 try:  # not on PyPI: present on a full ROS 2 installation
     from control_msgs.msg import JointJog
@@ -97,21 +92,8 @@ COMMAND_QOS = QoSProfile(
     reliability=ReliabilityPolicy.BEST_EFFORT,
     durability=DurabilityPolicy.VOLATILE,
 )
-#: joint_states: as the kinematics node takes them (best effort, room for 100 ms at 1 kHz).
-JOINT_STATES_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=100,
-    reliability=ReliabilityPolicy.BEST_EFFORT,
-    durability=DurabilityPolicy.VOLATILE,
-)
 #: Joint commands: reliable (as ros2_control's controllers subscribe), the newest 10.
 COMMAND_OUT_DEPTH = 10
-#: The default QoS-event handlers add two waitables per entity that the executor sets up again
-#: on every turn: not on the 1 kHz entities (see ros/kinematics.py, which measured it).
-NO_PUBLISHER_EVENTS = PublisherEventCallbacks(use_default_callbacks=False)
-NO_SUBSCRIPTION_EVENTS = SubscriptionEventCallbacks(use_default_callbacks=False)
-#: Seconds between two log lines about the same problem.
-WARN_PERIOD = 5.0
 
 
 class ServoNode(Node):
@@ -119,9 +101,7 @@ class ServoNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("servo", **kwargs)
-        for spec in SERVO_PARAMETERS:
-            self.declare_parameter(spec.name, spec.default, _descriptor(spec))
-        values = {spec.name: self.get_parameter(spec.name).value for spec in SERVO_PARAMETERS}
+        values = declare_parameters(self, SERVO_PARAMETERS)
         self._logic = ServoService(
             MessageTypes.from_rclpy(),
             ServoMessageTypes.from_rclpy(),
@@ -130,7 +110,7 @@ class ServoNode(Node):
         )
         self._log_events()
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        self._warned: dict[str, float] = {}
+        self._warn_throttled = ThrottledWarnings(self.get_logger())
         self._step_max = 0.0  # [s], since the last status
 
         group = ReentrantCallbackGroup()
@@ -160,13 +140,8 @@ class ServoNode(Node):
                 "offered; jog with ~/delta_joint_state_cmds (sensor_msgs/JointState: name, "
                 "velocity) instead"
             )
-        latched = QoSProfile(
-            depth=1,
-            durability=DurabilityPolicy.TRANSIENT_LOCAL,
-            reliability=ReliabilityPolicy.RELIABLE,
-        )
         self.create_subscription(
-            String, "robot_description", self._on_description, latched, callback_group=group
+            String, "robot_description", self._on_description, DESCRIPTION_QOS, callback_group=group
         )
         self.create_service(SetBool, "~/pause_servo", self._pause, callback_group=group)
         self.create_service(Trigger, "~/unpause_servo", self._unpause, callback_group=group)
@@ -177,17 +152,11 @@ class ServoNode(Node):
             f"({self._logic.command_out_type}) on {self._logic.command_out_topic}"
         )
         self._apply_thread_priority(int(self._logic.params["thread_priority"]))
-        _freeze_heap()
+        freeze_heap()
 
     def _apply_thread_priority(self, priority: int) -> None:
         said = apply_thread_priority(priority)  # (the range: checked by ServoService)
-        if said is None:
-            return
-        level, text = said
-        if level == "info":
-            self.get_logger().info(text)
-        else:
-            self.get_logger().warn(text)
+        log_lines(self.get_logger(), [said] if said is not None else [])
 
     def _subscribe(self, msg_type: Any, topic: str, callback: Any, qos: Any, group: Any) -> None:
         self.create_subscription(
@@ -274,55 +243,17 @@ class ServoNode(Node):
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
         changes = {p.name: p.value for p in params if p.name in SERVO_SPECS}
         period = self._logic.period_s
-        try:
-            self._logic.configure(changes)
-        except KinematicsError as exc:
-            return SetParametersResult(successful=False, reason=str(exc))
-        except Exception as exc:  # noqa: BLE001 - refused, never raised into rclpy
-            return SetParametersResult(successful=False, reason=f"internal error: {exc!r}")
-        finally:
-            self._log_events()
+        answer = answer_parameter_change(lambda: self._logic.configure(changes), self._log_events)
         if self._logic.period_s != period:
             self.destroy_timer(self._timer)
             self._timer = self.create_timer(
                 self._logic.period_s, self._on_timer, callback_group=self._group
             )
-        return SetParametersResult(successful=True)
+        return answer
 
     # -------------------------------------------------------------- logs
     def _log_events(self) -> None:
-        logger = self.get_logger()
-        for level, text in self._logic.take_log():
-            # one call site per severity: rclpy refuses a call site whose severity changes
-            if level == "error":
-                logger.error(text)
-            elif level == "warn":
-                logger.warn(text)
-            else:
-                logger.info(text)
-
-    def _warn_throttled(self, problem: str) -> None:
-        now = time.monotonic()
-        if now - self._warned.get(problem, -math.inf) < WARN_PERIOD:
-            return
-        if len(self._warned) > 256:
-            self._warned.clear()
-        self._warned[problem] = now
-        self.get_logger().warn(f"{problem} (repeats are not logged for {WARN_PERIOD:g} s)")
-
-
-def _descriptor(spec: ParameterSpec) -> ParameterDescriptor:
-    text = spec.description
-    if spec.choices:
-        text += f" One of: {', '.join(spec.choices)}."
-    return ParameterDescriptor(description=text)
-
-
-def _freeze_heap() -> None:
-    """Exempt what is allocated so far from the cyclic garbage collector (whose full passes
-    would stall the 1 kHz loop for tens of ms; see ros/kinematics.py)."""
-    gc.collect()
-    gc.freeze()
+        log_lines(self.get_logger(), self._logic.take_log())
 
 
 def main(args: list[str] | None = None) -> int:

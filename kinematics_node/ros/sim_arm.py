@@ -51,6 +51,7 @@ from trajectory_msgs.msg import JointTrajectory
 from kinematics_node.core import SerialChain
 from kinematics_node.core.exceptions import KinematicsError
 from kinematics_node.ros.executables import SIM_ARM_PARAMETERS
+from kinematics_node.ros.node_log import log_lines
 from kinematics_node.ros.realtime import apply_thread_priority
 from kinematics_node.ros.spin import spin_until_shutdown
 from kinematics_node.service.description_file import read_description_file
@@ -131,12 +132,7 @@ class SimArmNode(Node):
             + commanded
         )
         said = apply_thread_priority(priority)
-        if said is not None:
-            level, text = said
-            if level == "info":
-                self.get_logger().info(text)
-            else:
-                self.get_logger().warn(text)
+        log_lines(self.get_logger(), [said] if said is not None else [])
 
     def _declare_parameters(self) -> dict:
         values = {}
