@@ -385,28 +385,16 @@ class ServoService:
             )
         retiring = self._retiring
         if retiring is not None:
-            problem = _read_positions(names, positions, retiring.index, retiring.q)
+            problem, _ = _read_positions(names, positions, retiring.index, retiring.q)
             if problem is not None:
                 return problem
-        found = []
-        for name, value in zip(names, positions, strict=True):
-            i = index.get(name)
-            if i is not None:
-                v = float(value)
-                if not math.isfinite(v):
-                    return f"joint_states gives joint {name!r} the position {v}; sample ignored"
-                found.append((i, v))
-        if not found:
-            return None
         q = self._q
-        for i, v in found:
-            q[i] = v
-        if self._measured is None:
-            if not all(math.isfinite(v) for v in q):
-                return None
-            self._measured = np.array(q)
-        else:
-            self._measured = np.array(q)
+        problem, found = _read_positions(names, positions, index, q)
+        if problem is not None or not found:
+            return problem
+        if self._measured is None and not all(math.isfinite(v) for v in q):
+            return None  # (until every chain joint has been named once)
+        self._measured = np.array(q)
         if self._servo is None and self._build_problem is None and self._retiring is None:
             self._build()
         return None
@@ -702,20 +690,21 @@ def _chain_name(chain: SerialChain | None) -> str:
 
 def _read_positions(
     names: Any, positions: Any, index: Mapping[str, int], q: list[float]
-) -> str | None:
-    """Set q[index[name]] from a JointState's names and positions (other joints ignored); a
-    problem to log (nothing set) when one of them is not finite."""
+) -> tuple[str | None, int]:
+    """Set q[index[name]] from a JointState's names and positions (other joints ignored).
+    Returns a problem to log (and nothing set) when one of them is not finite, and how many
+    positions were set."""
     found = []
     for name, value in zip(names, positions, strict=True):
         i = index.get(name)
         if i is not None:
             v = float(value)
             if not math.isfinite(v):
-                return f"joint_states gives joint {name!r} the position {v}; sample ignored"
+                return f"joint_states gives joint {name!r} the position {v}; sample ignored", 0
             found.append((i, v))
     for i, v in found:
         q[i] = v
-    return None
+    return None, len(found)
 
 
 def _fixed_to_base(model: RobotModel, link: str) -> FloatArray | None:
