@@ -49,8 +49,14 @@ class ServoStatus:
         condition_number: σ_max / σ_min of the followed rows of the Jacobian (∞ at a singularity).
         joints_at_limit: joints held (or braking) at a position limit while asked to go further.
         dropped_axes: twist components the arm does not follow (`ServoConfig.task_axes`).
-        position_error_m, orientation_error_rad: pose targets: the distance to the target; twists:
-            the kept error between the integrated commanded pose and the arm (bounded).
+        position_error_m, orientation_error_rad: how far the arm (the servo's last commanded
+            joint positions, which this step starts from) is from where it is asked to be, in the
+            followed directions (`ServoConfig.task_axes`): pose targets: the distance [m] and
+            rotation angle [rad] to the target; twists: to the integrated commanded pose. Along
+            the commanded motion that pose is pulled back to within `max_kept_error_*` of the arm
+            (a blocked arm does not wind up); across it, it stays on the commanded path, so an
+            arm held off the path (near a singularity, at the edge of the workspace) reports its
+            whole deviation, which may exceed those bounds.
         target_reached: a pose target is within the tolerances of `ServoConfig`.
         velocity_scaled: the command was slowed to respect a speed or joint velocity limit.
     """

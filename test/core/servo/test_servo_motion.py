@@ -263,6 +263,37 @@ def test_out_to_the_edge_of_the_workspace_and_back_stays_on_the_line(name):
     assert along[-1] < along.max() - 0.2  # back inward
 
 
+@pytest.mark.parametrize("name", ["ur5e", "panda", "iiwa14"])
+def test_an_arm_held_off_its_path_reports_its_whole_error(name):
+    """0.2 m/s radially outward for 3 s, into the edge: the arm leaves the line by several times
+    the kept error bound, and the status says how far it is from the commanded pose (not the
+    bound). The commanded pose stays on the line at the start's orientation (the twist has no
+    rotation), and ahead of or behind the arm along the line by at most the bound, so: the
+    orientation error is the arm's angle from the start's orientation, and the position error
+    lies between the arm's distance from the line and hypot(that distance, the bound)."""
+    chain = robot(name)
+    servo = _servo(name)
+    bound_m, bound_rad = servo.config.max_kept_error_m, servo.config.max_kept_error_rad
+    T0 = chain.fk(HOMES[name])
+    radial = np.r_[T0[:2, 3], 0.0] / np.linalg.norm(T0[:2, 3])
+    trace = run(servo, _twist((0, 0, 0), tuple(0.2 * radial), chain.base_link), 3.0)
+    assert limit_violations(servo.limits, trace) == []
+    # a step's error is that of the pose its step started from: the previous command
+    T = chain.fk(np.vstack([trace.q_start[None], trace.q[:-1]]))
+    rel = T[:, :3, 3] - T0[:3, 3]
+    off_line = np.linalg.norm(rel - np.outer(rel @ radial, radial), axis=1)
+    position = np.array([s.position_error_m for s in trace.statuses])
+    orientation = np.array([s.orientation_error_rad for s in trace.statuses])
+    assert off_line.max() > 3 * bound_m  # the arm is held off its path
+    assert np.all(position >= off_line - 1e-12)
+    assert np.all(position <= np.hypot(off_line, bound_m) + 1e-12)
+    assert position.max() > 3 * bound_m
+    turned = rotation_angle(T0[:3, :3][None], T[:, :3, :3])
+    np.testing.assert_allclose(orientation, turned, rtol=0, atol=1e-12)
+    if name != "panda":  # the Panda's tool turns less than the bound (0.03 rad) on this line
+        assert orientation.max() > 2 * bound_rad
+
+
 @pytest.mark.parametrize("name", ARMS)
 def test_a_well_conditioned_line_is_followed_within_a_millimetre(name):
     chain = robot(name)
