@@ -974,6 +974,22 @@ def fk_errors(solver: ChainSolver, q: list[float], T: list[list[float]]) -> tupl
     return dp, chord_angle(f)
 
 
+def _residual(
+    t: tuple[float, ...], a: list[float], b: list[float], c: list[float]
+) -> tuple[float, float, float, float, float, float]:
+    """(ω_err, Δp) of the generated FK's pose t (row-major R, then p) against the target rows
+    a, b, c: A = R_t Rᵀ (row i of R_t against row k of R), ω_err = vee((A − Aᵀ)/2) to first
+    order, Δp = p_t − p. The right-hand side of `refine_one`'s and `refine_many`'s steps."""
+    A = [
+        [r[0] * t[3 * k] + r[1] * t[3 * k + 1] + r[2] * t[3 * k + 2] for k in range(3)]
+        for r in (a, b, c)
+    ]
+    return (
+        0.5 * (A[2][1] - A[1][2]), 0.5 * (A[0][2] - A[2][0]), 0.5 * (A[1][0] - A[0][1]),
+        a[3] - t[9], b[3] - t[10], c[3] - t[11],
+    )  # fmt: skip
+
+
 def refine_one(
     solver: ChainSolver, q: list[float], T: list[list[float]], steps: int = 2
 ) -> list[float]:
@@ -991,15 +1007,7 @@ def refine_one(
     a, b, c = T[0], T[1], T[2]
     for _ in range(steps):
         t, cols = solver.fk_world(q)
-        # A = R_t Rᵀ (row i of R_t against row k of R); ω_err = vee((A − Aᵀ)/2) to first order
-        A = [
-            [r[0] * t[3 * k] + r[1] * t[3 * k + 1] + r[2] * t[3 * k + 2] for k in range(3)]
-            for r in (a, b, c)
-        ]
-        e = np.array([
-            0.5 * (A[2][1] - A[1][2]), 0.5 * (A[0][2] - A[2][0]), 0.5 * (A[1][0] - A[0][1]),
-            a[3] - t[9], b[3] - t[10], c[3] - t[11],
-        ])  # fmt: skip
+        e = np.array(_residual(t, a, b, c))
         J = np.array([cols[i] for i in kept]).T  # (6, k)
         _, y, info = dposv(J @ J.T + _DAMP, e)  # J Jᵀ + 1e-12 I: positive definite
         if info != 0:
@@ -1037,15 +1045,7 @@ def refine_many(
         errs, cols = [], []
         for i in idx:
             t, col = fk_world(out[i])
-            # A = R_t Rᵀ; ω_err = vee((A − Aᵀ)/2) to first order (as `refine_one`)
-            A = [
-                [r[0] * t[3 * m] + r[1] * t[3 * m + 1] + r[2] * t[3 * m + 2] for m in range(3)]
-                for r in (a, b, c)
-            ]
-            errs.append((
-                0.5 * (A[2][1] - A[1][2]), 0.5 * (A[0][2] - A[2][0]), 0.5 * (A[1][0] - A[0][1]),
-                a[3] - t[9], b[3] - t[10], c[3] - t[11],
-            ))  # fmt: skip
+            errs.append(_residual(t, a, b, c))
             cols.append(col)
         Jt = np.array(cols)  # (k, n, 6): Jᵀ per candidate
         if held is not None:
