@@ -18,11 +18,11 @@ for the measured reason. Both layouts run here, alternately, under the same load
   amounts to: one Python thread, one GIL, for the pose path, the IK requests and the servo.
 
 Reported per layout (the median over rounds): the share of the 1 ms ticks served by a cycle on
-time (a cycle is late when its timer callback comes 1.5 periods or more after the previous one;
-from the servo's own status: cycles, late_cycles, lost_periods = periods not made up even by
-the catch-up steps of a late cycle), its longest callback, and the
-kinematics node's ee_pose: the share of joint_states answered and the latency (arrival − stamp)
-median and p99, as this process receives them. The machine is shared: run it on a quiet one.
+time (from the servo's own status: cycles; late_cycles, the timer callbacks that started a
+period or more after their tick on the timer's grid, each of which made up the periods it skipped
+before publishing; lost_periods, the periods not made up even so; step_us_max, its longest
+timer callback), and the kinematics node's ee_pose: the share of joint_states answered and the
+latency (arrival − stamp) median and p99, as this process receives them. The machine is shared: run it on a quiet one.
 """
 
 from __future__ import annotations

@@ -108,8 +108,9 @@ def loop_counts(statuses: list[tuple[float, dict[str, str]]], t_start: float) ->
         return str(int(last[key]) - int(base.get(key, 0)))
 
     return (
-        f"{delta('cycles')} cycles, {delta('late_cycles')} late (> 1.5 periods after the "
-        f"previous; the periods they missed made up), {delta('lost_periods')} periods lost"
+        f"{delta('cycles')} cycles, {delta('late_cycles')} late (started a period or more "
+        f"after their tick; the periods they skipped made up), {delta('lost_periods')} periods "
+        "lost"
     )
 
 

@@ -167,9 +167,9 @@ class ServoDemoRun:
         notes: extra lines for the summary (live: transport figures, the processes' exit).
         command_sequence, command_time: (K,) the joint commands' publication sequence numbers
             and times [s] where known (live: DDS's); a command lost in transport, or one
-            published more than 1.5 periods after the one before (a late cycle), is a gap in
-            the stream, and the derivatives that would span it are left out
-            (`command_derivatives`).
+            published more than 1.5 periods after the one before (likely a late cycle, see
+            `command_gaps`), is a gap in the stream, and the derivatives that would span it are
+            left out (`command_derivatives`).
     """
 
     chain: SerialChain
@@ -266,10 +266,17 @@ def _peak(values: FloatArray, limit: FloatArray, names: tuple[str, ...]) -> Peak
 def command_gaps(
     period_s: float, sequence: NDArray[np.int64] | None, times: FloatArray | None
 ) -> NDArray[np.bool_] | None:
-    """(K,) True where a joint command does not follow the one before it by one period: a
+    """(K,) True where a joint command may not follow the one before it by one period: a
     missing publication `sequence` number, or a publication time more than 1.5 periods after
-    the previous (a late cycle: the node may have stepped the servo more than once before it
-    published). None when neither is known."""
+    the previous. None when neither is known.
+
+    The times stand in for the node's late cycles, which it counts but does not mark on its
+    commands: a cycle is late when its timer callback starts a period or more after its tick on
+    the timer's grid; it then steps the servo for the periods it skipped too and publishes only
+    the last (`ServoService.step`), so that command comes at least two periods, less the
+    previous callback's delay within its own period, after the one before. 1.5 periods catches
+    every late cycle whose previous callback was under half a period late, and also marks some
+    pairs only jitter put that far apart (their derivatives are left out, not wrong)."""
     gap = None
     if sequence is not None:
         gap = np.r_[False, np.diff(np.asarray(sequence)) != 1]
@@ -470,9 +477,10 @@ def summary(run: ServoDemoRun, fig: ServoDemoFigures) -> str:
     ]
     if fig.command_gaps:
         lines.append(
-            f"  ({fig.command_gaps} of {len(run.q_command)} joint commands came more than one "
-            "period after the one before (lost, or a late cycle): the derivatives across them "
-            "are left out)"
+            f"  ({fig.command_gaps} of {len(run.q_command)} joint commands did not follow the "
+            "one before by one period (lost, or published more than 1.5 periods after it: "
+            "likely a late cycle, whose skipped periods the node made up): the derivatives "
+            "across them are left out)"
         )
     if run.status_counts:
         counts = ", ".join(
