@@ -2,6 +2,7 @@
 
     ros2 launch kinematics_service servo.launch.py                 # the UR5e, servo at 1 kHz
     ros2 launch kinematics_service servo.launch.py robot:=panda command_out_type:=trajectory
+    ros2 launch kinematics_service servo.launch.py thread_priority:=40   # SCHED_FIFO (1 kHz)
 
 Then jog it (README, "Servo"): twists on /servo/delta_twist_cmds, e.g. from the keyboard with
 teleop_twist_keyboard, joint velocities on /servo/delta_joint_state_cmds, pose targets on
@@ -21,6 +22,13 @@ Arguments:
         (trajectory_msgs/JointTrajectory, as joint_trajectory_controller); sim_arm takes the
         same, on the same topic.
     period: the servo's period [s] (default 0.001: 1 kHz).
+    thread_priority: SCHED_FIFO priority (1-99) of the servo's thread, and that plus 10 (at most
+        99) of sim_arm's, which stands in for ros2_control's controller_manager, whose loop runs
+        above the servo (their defaults: moveit_servo 40, controller_manager 50); 0 (default)
+        leaves the scheduling alone. On a busy machine the default scheduling lets the 1 kHz
+        loop's thread wait behind other processes for periods at a time; 40 (servo 40, sim_arm
+        50) is what docs/performance.md measured. Where SCHED_FIFO is not permitted (no
+        CAP_SYS_NICE, no rtprio limit) both nodes say so in their log and run as before.
     rate: sim_arm's integration and joint_states rate [Hz] (default 100.0).
     rviz: "true" starts RViz with config/sim_arm.rviz.
 """
@@ -59,16 +67,42 @@ READY = {
 }
 
 
+#: sim_arm's thread_priority is the servo's plus this (at most 99): ros2_control's
+#: controller_manager (default 50) runs above moveit_servo (default 40).
+SIM_PRIORITY_ABOVE = 10
+
+
+def thread_priorities(text):
+    """(servo, sim_arm) thread_priority from the launch argument `text`; raises RuntimeError
+    naming the argument unless it is an integer 0-99."""
+    try:
+        priority = int(text)
+    except ValueError:
+        priority = -1
+    if not 0 <= priority <= 99:
+        raise RuntimeError(
+            f"thread_priority must be an integer 0-99 (0: the default scheduling), got {text!r}"
+        )
+    return priority, (min(priority + SIM_PRIORITY_ABOVE, 99) if priority else 0)
+
+
 def _nodes(context, *args, **kwargs):
     share = get_package_share_directory(bundled_robot.PACKAGE)
     robot = bundled_robot.chosen_robot(context, share)
     out_type = LaunchConfiguration("command_out_type").perform(context)
     period = float(LaunchConfiguration("period").perform(context))
+    servo_priority, sim_priority = thread_priorities(
+        LaunchConfiguration("thread_priority").perform(context)
+    )
     description_file = robot["description_file"]
     chain = SerialChain.from_urdf(description_file, robot["base_link"], robot["tip_link"])
     # sim_arm simulates every moving joint without <mimic>; the servo's Float64MultiArray holds
     # the chain's, in chain order: command_joints says which
-    sim = {"command_mode": out_type, "command_joints": " ".join(chain.joint_names)}
+    sim = {
+        "command_mode": out_type,
+        "command_joints": " ".join(chain.joint_names),
+        "thread_priority": sim_priority,
+    }
     if robot["default_chain"]:
         names, lower, upper, _ = urdf_actuated_joints(description_file)
         ready = dict(zip(chain.joint_names, READY[robot["robot"]], strict=True))
@@ -87,6 +121,7 @@ def _nodes(context, *args, **kwargs):
                 **bundled_robot.chain_parameters(robot),
                 "command_out_type": out_type,
                 "period_s": period,
+                "thread_priority": servo_priority,
             },
         ],
         output="screen",
@@ -105,6 +140,12 @@ def generate_launch_description():
                 description="joint commands: position, velocity or trajectory",
             ),
             DeclareLaunchArgument("period", default_value="0.001", description="servo period [s]"),
+            DeclareLaunchArgument(
+                "thread_priority",
+                default_value="0",
+                description="SCHED_FIFO priority of the servo (sim_arm: 10 above, at most 99); "
+                "0: the default scheduling",
+            ),
             OpaqueFunction(function=_nodes),
         ]
     )

@@ -195,6 +195,7 @@ def test_servo_launch_drives_one_chain_with_sim_arm_kinematics_node_and_servo(
     assert files == [os.path.join(str(ROOT), "config", "servo.yaml")] and os.path.isfile(files[0])
     assert servo["period_s"] == float(arguments["period"]) <= 0.001  # 1 kHz by default
     sim, _ = _node_parameters(nodes, "sim_arm")
+    assert servo["thread_priority"] == sim["thread_priority"] == 0  # the default scheduling
     assert set(sim) <= {spec.name for spec in SIM_ARM_PARAMETERS}
     assert sim["command_mode"] == servo["command_out_type"] == out_type
     for key in ("robot_description_file", "base_link", "tip_link"):
@@ -210,6 +211,41 @@ def test_servo_launch_drives_one_chain_with_sim_arm_kinematics_node_and_servo(
     q_chain = q[[names.index(n) for n in chain.joint_names]]
     np.testing.assert_array_equal(q_chain, module.READY[robot])
     assert chain.within_limits(q_chain, tolerance=-0.1)
+
+
+@pytest.mark.parametrize(
+    ("given", "servo_priority", "sim_priority"),
+    [("40", 40, 50), ("1", 1, 11), ("95", 95, 99), ("99", 99, 99)],
+)
+def test_servo_launch_thread_priority_raises_the_servo_and_the_sim_arm_above_it(
+    monkeypatch, given, servo_priority, sim_priority
+):
+    """thread_priority:=N: the servo's thread SCHED_FIFO at N, sim_arm's (controller_manager's
+    stand-in) 10 above it within 99, both values the nodes accept."""
+    from kinematics_node.ros.executables import SIM_ARM_PARAMETERS
+    from kinematics_node.service.servo_parameters import validate_servo_parameters
+
+    module = _load(monkeypatch, "servo.launch.py")
+    monkeypatch.setattr(module, "get_package_share_directory", lambda package: str(ROOT))
+    arguments = _arguments(module)
+    assert arguments["thread_priority"] == "0"
+    nodes = module._nodes({**arguments, "thread_priority": given})
+    servo, _ = _node_parameters(nodes, "servo")
+    sim, _ = _node_parameters(nodes, "sim_arm")
+    assert (servo["thread_priority"], sim["thread_priority"]) == (servo_priority, sim_priority)
+    assert validate_servo_parameters(servo) is None
+    (spec,) = [s for s in SIM_ARM_PARAMETERS if s.name == "thread_priority"]
+    assert spec.minimum <= sim["thread_priority"] <= spec.maximum
+    kinematics = _kinematics_parameters(nodes)
+    assert "thread_priority" not in kinematics  # the kinematics node keeps the default
+
+
+@pytest.mark.parametrize("given", ["-1", "100", "forty", "4.5", ""])
+def test_servo_launch_refuses_a_bad_thread_priority_naming_it(monkeypatch, given):
+    module = _load(monkeypatch, "servo.launch.py")
+    monkeypatch.setattr(module, "get_package_share_directory", lambda package: str(ROOT))
+    with pytest.raises(RuntimeError, match="thread_priority must be an integer 0-99"):
+        module._nodes({**_arguments(module), "thread_priority": given})
 
 
 def test_servo_launch_on_another_chain_commands_that_chain(monkeypatch):
