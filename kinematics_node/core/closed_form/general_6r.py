@@ -512,11 +512,20 @@ def _clusters(
     need = (ends - starts > 1) | (np.add.reduceat(bad, starts) > 0)
     for start, end in zip(starts[need].tolist(), ends[need].tolist(), strict=True):
         m = end - start
-        U = np.linalg.svd(Sig[start:end].mean(axis=0))[2][-m:].T  # (12, m)
+        # LAPACK directly where it succeeds (NumPy's wrappers cost ~10 µs a call more: most
+        # targets of an arm whose wrist nearly meets have such a pair), NumPy's where it fails
+        S = Sig[start:end].mean(axis=0)
+        _, _, vt, info = lapack.dgesdd(S)
+        U = (vt if info == 0 else np.linalg.svd(S)[2])[-m:].T  # (12, m)
         c = 0.5772156649015329  # any constant: x₄ + c x₅ also separates roots sharing x₄
-        W = np.linalg.lstsq(U[_BASE], U[_BASE + 3] + c * U[_BASE + 1], rcond=None)[0]
-        v = U @ np.linalg.eig(W)[1]  # (12, m)
-        if np.iscomplexobj(v):  # (a complex pair, not a double root: the FK check rejects)
+        Ub, rhs = U[_BASE], U[_BASE + 3] + c * U[_BASE + 1]
+        _, X, info = lapack.dgels(Ub, rhs)
+        W = X[:m] if info == 0 else np.linalg.lstsq(Ub, rhs, rcond=None)[0]
+        _, wi, _, vr, info = lapack.dgeev(W, compute_vl=0)
+        if info == 0 and not wi.any():
+            v = U @ vr  # (12, m)
+        else:  # (a complex pair, not a double root: the FK check rejects)
+            v = U @ np.linalg.eig(W)[1]
             top = v[np.abs(v).argmax(axis=0), np.arange(m)]
             v = (v * (np.abs(top) / np.where(top == 0, 1.0, top))).real
         th4[start:end], th5[start:end] = _shift_ratios(np.ascontiguousarray(v.T))
