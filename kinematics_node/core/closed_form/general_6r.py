@@ -30,9 +30,11 @@ solutions. At x₃ = ±i only the vector equations' rotation by θ₃ survives, 
 per vector equation, so Σ(±i) has a null space V (12 × 4) that depends on the arm alone; M's
 invariant subspace of ±i is then spanned by (V, ±iV), and with an orthonormal complement Q₂
 (24 × 16, per arm) the 16 genuine roots are the eigenvalues of Q₂ᵀ M Q₂: a 16 × 16 problem
-(a third of the 24 × 24's time), eigenvalues only. Each real root x₃ then gives (x₄, x₅) from the
-null vector of Σ(x₃) (one step of inverse iteration; roots that coincide to within `CLUSTER`
-share a null space of their multiplicity, split by the shift x₄ + c x₅ of the monomials). Each
+(a third of the 24 × 24's time). Each real root x₃ then gives (x₄, x₅) from the null vector of
+Σ(x₃): for one target, from the 16 × 16 problem's eigenvector (`_null_vectors`: M acts on the
+±i subspace as a known rotation, so M's eigenvector follows by products); for stacked lanes, by
+one step of inverse iteration; roots that coincide to within `CLUSTER` share a null space of
+their multiplicity, split by the shift x₄ + c x₅ of the monomials. Each
 root is polished by one Gauss–Newton step on the six eliminated equations in (cos, sin) of θ₃, θ₄,
 θ₅ (a near-double root, found to ε / gap, comes back to ε), m₁₂ follows from the 14 equations by
 least squares (θ₁, θ₂), and θ₆ from the orientation through coefficients of R₂ᵀR₁ᵀ and (R₃R₄R₅)ᵀ
@@ -97,6 +99,13 @@ _PROD_SUM = np.zeros((34, 4))
 for _k, (_a, _b) in enumerate(((0, 9), (9, 18), (18, 26), (26, 34))):
     _PROD_SUM[_a:_b, _k] = 1.0
 _EYE12 = np.eye(12)
+# M on the ±i subspace's basis (real, imaginary parts of (V, iV)): M Re = −Im, M Im = Re.
+_J = np.block([[np.zeros((4, 4)), np.eye(4)], [-np.eye(4), np.zeros((4, 4))]])
+# (1, cos θ, sin θ) as cos(kθ − φ) for k = (0, 1, 1), φ = (0, 0, π/2): one call of np.cos.
+_K3 = np.array([0.0, 1.0, 1.0])
+_PH3 = np.array([0.0, 0.0, 0.5 * math.pi])
+# m₁₂'s entries θ₁, θ₂ are read from: c₂, s₂, c₁, s₁.
+_M12_SEL = np.array([0, 1, 2, 5])
 _EYE3 = np.eye(3)
 #: The largest polishing step [rad] taken (`_angles`): larger ones mean a root far from exact.
 _POLISH_LIMIT = 0.1
@@ -216,13 +225,24 @@ class Arm:
         self.Bay = np.concatenate(
             (np.einsum("li,lnij->lnj", a, R345), np.einsum("li,lnij->lnj", self.x6, R345)), axis=2
         )
-        self.Q2, self.S, self.W = _deflating_basis(self.P)
+        self.Q2, self.S, self.W, Wi = _deflating_basis(self.P)
         # lane 0's arrays for `_solve_one` (contiguous 2-D: one lane's products skip the stacks)
         self.one = (
             np.concatenate((self.G[0][0], self.Pf[0].T), axis=1),  # (14, 54): Σ's and Pfᵀ
             np.ascontiguousarray(self.W[0]),
             np.ascontiguousarray(self.S[0]),
             np.ascontiguousarray(self.Q2[0, 12:].T),
+        )
+        # `_null_vectors`: Wᵢ (24, 8), the ±i subspace's orthonormal basis, on which M acts as J;
+        # with y = Wᵢ a + Q₂ z, a = (x I − J)⁻¹ Wᵢᵀ M Q₂ z and Wᵢᵀ M Q₂ = Wᵢ[:12]ᵀ Q₂[12:] −
+        # Wᵢ[12:]ᵀ Y: the rows of that and of J times it, and the top rows of [Wᵢ Q₂]
+        Wt, Wb, Q2t, Q2b = Wi[0, :12], Wi[0, 12:], self.Q2[0, :12], self.Q2[0, 12:]
+        self.null = (
+            np.concatenate((Wt.T @ Q2b, _J @ Wt.T @ Q2b)),  # (16, 16)
+            np.concatenate((Wb.T, _J @ Wb.T)),  # (16, 12)
+            np.ascontiguousarray(Wt),  # (12, 8)
+            np.ascontiguousarray(Q2t),  # (12, 16)
+            np.concatenate((self.Pf[0], self.Bay[0]), axis=1),  # (27, 20): `_angles_one`
         )
         # one lane's constants as floats (`target_side`)
         self.floats = (
@@ -307,10 +327,13 @@ def _right_hand_side(M12: FloatArray, g: FloatArray, h: FloatArray) -> FloatArra
     return rhs.reshape(rhs.shape[:-2] + (126,))
 
 
-def _deflating_basis(P: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+def _deflating_basis(
+    P: FloatArray,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Q₂ (L, 24, 16), orthonormal, spanning the complement of the companion matrix's invariant
-    subspace of the spurious roots ±i; Q₂[:12]ᵀ Q₂[12:] (L, 16, 16); and the rows of Q₂ that
-    `_companion` multiplies [F₀ F₁] by, W (L, 18, 32).
+    subspace of the spurious roots ±i; Q₂[:12]ᵀ Q₂[12:] (L, 16, 16); the rows of Q₂ that
+    `_companion` multiplies [F₀ F₁] by, W (L, 18, 32); and that invariant subspace's basis
+    (L, 24, 8), on which M acts as J = [[0, I], [−I, 0]] (`_null_vectors`).
 
     At x₃ = ±i, Σ = N (Pc ± i Ps) in the half-angle monomials of x₄, x₅ (the constant and q₀
     terms carry the factor 1 + x₃²). V = {v: K v[:9] = 0, K v[3:] = 0} with K = Pc + i Ps lies in
@@ -344,7 +367,7 @@ def _deflating_basis(P: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]
         ),
         axis=2,
     )
-    return Q2, Q2[:, :12].swapaxes(1, 2) @ Q2[:, 12:], rows
+    return Q2, Q2[:, :12].swapaxes(1, 2) @ Q2[:, 12:], rows, W
 
 
 # -- LAPACK on one lane (direct: NumPy's stacked wrappers cost ~10 µs a call more), NumPy on many
@@ -597,8 +620,10 @@ def _solve_one(
     """`solve_general_6r` of one target of a 6R arm (Q (14, 8), q₀ (14,), u = R_G x₆ (1, 3)):
     the same steps on 2-D arrays with LAPACK called directly, about half the time of the stacked
     form on one lane. The solutions (R, 6); None where the stacked form must decide (C₂ near
-    singular). Roots that coincide share a null space as in `_real_roots`; a Σ(x₃) that is exactly singular (an arm with many zero
-    offsets: 5 % of xArm 6 targets) gives its null vector by SVD here, as `_clusters` does."""
+    singular). The null vectors of Σ(x₃) come from the deflated matrix's eigenvectors, computed
+    in the same LAPACK call as its eigenvalues (`_null_vectors`), not by inverse iteration per
+    root; roots that coincide share a null space as in `_real_roots` (`_clusters`). Without
+    `polish`, the angles by `_angles_one`."""
     GP, W0, S0, Q2bT = arm.one
     U, S, Vt, info = lapack.dgesdd(Q)
     if info:
@@ -618,44 +643,74 @@ def _solve_one(
     size = float(np.abs(F).max())
     if info or not float(np.abs(Y).max()) < _C2_CONDITION * size:
         return None
-    wr, wi, _, _, info = lapack.dgeev(S0 - Q2bT @ Y, compute_vl=0, compute_vr=0)
+    wr, wi, _, vr, info = lapack.dgeev(S0 - Q2bT @ Y, compute_vl=0)
     if info:
         return None
-    xs = sorted(
-        x for x, y in zip(wr.tolist(), wi.tolist(), strict=True)
-        if abs(y) <= REAL_ROOT * (1.0 + x * x + y * y)
-    )  # fmt: skip
-    R = len(xs)
+    wl, il = wr.tolist(), wi.tolist()
+    idx = [i for i in range(16) if abs(il[i]) <= REAL_ROOT * (1.0 + wl[i] ** 2 + il[i] ** 2)]
+    idx.sort(key=wl.__getitem__)
+    R = len(idx)
     if not R:
         return np.empty((0, 6))
-    near = [b - a <= CLUSTER * (1.0 + abs(b)) for a, b in zip(xs[:-1], xs[1:], strict=True)]
-    x = np.array(xs)[:, None, None]
-    Fx = F[:, :9] + x * (F[:, 9:18] + x * F[:, 18:])  # (R, 6, 9)
-    Sig = np.zeros((R, 12, 12))  # Σ(x₃) + 1e-15‖Σ‖ I (`_real_roots`)
-    Sig[:, :6, :9] = Fx
-    Sig[:, 6:, 3:] += Fx
-    Sig[:, _DIAG, _DIAG] += 1e-15 * size
-    if R <= 3:  # inverse iteration (`_real_roots`), LAPACK per root
-        vs = []
-        for M in Sig:
-            _, _, v, info = lapack.dgesv(M, _B)
-            vs.append(np.linalg.svd(M)[2][-1] if info else v)  # (exactly singular: SVD)
-        V = np.array(vs)
-    else:
-        try:
-            V = np.linalg.solve(Sig, _B_STACK[:R])[..., 0]
-        except np.linalg.LinAlgError:  # one Σ(x₃) exactly singular: its null vector by SVD
-            V = np.empty((R, 12))
-            for i, M in enumerate(Sig):
-                _, _, v, info = lapack.dgesv(M, _B)
-                V[i] = np.linalg.svd(M)[2][-1] if info else v
-    th4, th5 = _shift_ratios(V)
+    xs = wr[idx]
+    th4, th5 = _shift_ratios(_null_vectors(arm, Y, xs, vr[:, idx]))
+    xl = [wl[i] for i in idx]
+    near = [b - a <= CLUSTER * (1.0 + abs(b)) for a, b in zip(xl[:-1], xl[1:], strict=True)]
     if any(near):  # roots that coincide: their shared null space (`_clusters`)
+        x = xs[:, None, None]
+        Fx = F[:, :9] + x * (F[:, 9:18] + x * F[:, 18:])  # (R, 6, 9)
+        Sig = np.zeros((R, 12, 12))  # Σ(x₃) + 1e-15‖Σ‖ I (`_real_roots`)
+        Sig[:, :6, :9] = Fx
+        Sig[:, 6:, 3:] += Fx
+        Sig[:, _DIAG, _DIAG] += 1e-15 * size
         _clusters(Sig, np.array(near), np.zeros(R, dtype=bool), th4, th5)
-    th3 = THETA3_OFFSET + 2.0 * np.arctan(x[:, 0, 0])
+    th3 = THETA3_OFFSET + 2.0 * np.arctan(xs)
+    if not polish:
+        return _angles_one(arm, th3, th4, th5, u[0], q0, Q_pinv)
     lane = np.zeros(R, dtype=np.int64)
     eqs = (H[None, :, 27:], Nq[None])
     return _angles(arm, lane, th3, th4, th5, u, q0[None], Q_pinv[None], eqs, polish)
+
+
+def _null_vectors(arm: Arm, Y: FloatArray, x: FloatArray, Z: FloatArray) -> FloatArray:
+    """The null vectors v (R, 12) of Σ(x₃) at real roots x (R,) of one lane, from the
+    eigenvectors Z (16, R) of the deflated matrix Q₂ᵀ M Q₂ (`_solve_one`; Y = C₂⁻¹[C₀ C₁] Q₂'s
+    bottom rows, so that M Q₂ = [Q₂[12:]; −Y]). M's eigenvector is y = (v, x v) = Wᵢ a + Q₂ z
+    with Wᵢ the orthonormal basis of the ±i subspace (Q₂ ⟂ Wᵢ); its rows along Wᵢ give
+    (x I − J) a = Wᵢᵀ M Q₂ z, and J² = −I makes (x I − J)⁻¹ = (x I + J) / (1 + x²). Only products:
+    no solve per root (inverse iteration's), and no exactly singular Σ(x₃) to fall back from."""
+    A, B, Wt, Q2t, _ = arm.null
+    P = (A - B @ Y) @ Z  # (16, R): Wᵢᵀ M Q₂ z and J times it
+    a = (P[:8] * x + P[8:]) / (1.0 + x * x)
+    return (Wt @ a + Q2t @ Z).T
+
+
+def _angles_one(
+    arm: Arm,
+    th3: FloatArray,
+    th4: FloatArray,
+    th5: FloatArray,
+    u: FloatArray,
+    q0: FloatArray,
+    Q_pinv: FloatArray,
+) -> FloatArray:
+    """`_angles` without the polish on one lane's roots (R,): the same θ₁, θ₂, θ₆ in fewer
+    array operations (θ₁, θ₂'s four entries of m₁₂ only; Pf and Bay as one product; the rows
+    (1, cos θ, sin θ) from one call of np.cos). u = R_G x₆ (3,), q₀ (14,), Q_pinv (8, 14)."""
+    R = th3.size
+    q = np.empty((R, 6))
+    q[:, 2], q[:, 3], q[:, 4] = th3, th4, th5
+    t = np.cos(q[:, 2:5, None] * _K3 - _PH3)  # (R, 3, 3)
+    m345 = (t[:, 0, :, None, None] * t[:, 1, None, :, None] * t[:, 2, None, None, :]).reshape(R, 27)
+    lhs = m345 @ arm.null[4]  # (R, 20): P's 14 equations, then Bay's 6 functionals
+    m12 = (lhs[:, :14] - q0) @ Q_pinv[_M12_SEL].T  # (R, 4): c₂, s₂, c₁, s₁
+    q[:, 1::-1] = np.arctan2(m12[:, 1::2], m12[:, 0::2])  # θ₂, θ₁
+    t12 = np.cos(q[:, :2, None] * _K3 - _PH3)  # (R, 2, 3)
+    m12f = (t12[:, 0, :, None] * t12[:, 1, None, :]).reshape(R, 9)
+    w12 = m12f @ (arm.B12[0] @ u)  # (R, 3): R₂ᵀR₁ᵀ u
+    yw = (lhs[:, 14:].reshape(R, 2, 3) * w12[:, None, :]).sum(axis=2)
+    q[:, 5] = np.arctan2(yw[:, 0], yw[:, 1])
+    return q
 
 
 def _angles(
