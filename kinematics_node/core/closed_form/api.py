@@ -21,6 +21,7 @@ from .chain_solver import (
     ChainSolver,
     fk_check,
     fk_errors,
+    general_solutions,
     refine_one,
     scalar_candidates,
     solve_arrays,
@@ -29,9 +30,15 @@ from .chain_solver import (
     steps_for,
 )
 from .detection import require_solver, solver_of
-from .geometry import INV_TWO_PI, BoolArray, FloatArray, pose_errors_list
+from .geometry import INV_TWO_PI, BoolArray, FloatArray, Stages, pose_errors_list
 from .held import DEFAULT_HELD_SAMPLES, held_order_one, held_values_of
-from .solution_set import ClosedFormBatchResult, ClosedFormResult, empty_reason, rank_candidates
+from .solution_set import (
+    ClosedFormBatchResult,
+    ClosedFormResult,
+    empty_reason,
+    rank_array,
+    rank_candidates,
+)
 
 
 def _orthonormal(T: FloatArray) -> FloatArray:
@@ -319,9 +326,16 @@ def _nearest_at(
     """`nearest` for one value of the held joint (None for a 6R arm): the solutions with their
     (position, rotation) errors, and why there are none ("" if there are)."""
     # The general 6R solver's roots unpolished: only the one taken is checked, and refined if
-    # off (its polish step costs a third of the solve, for every root).
-    cands, stages = scalar_candidates(solver, Tl, seed, held_value, polish=False)
-    ranked = rank_candidates(cands, seed, solver, w)
+    # off (its polish step costs a third of the solve, for every root); ranked as an array.
+    Q1 = general_solutions(solver, Tl, polish=False) if held_value is None else None
+    if Q1 is not None:
+        stages = Stages(("reach",))
+        stages.passed["reach"] = n_cands = Q1.shape[0]
+        ranked = rank_array(Q1, seed, solver, w)
+    else:
+        cands, stages = scalar_candidates(solver, Tl, seed, held_value, polish=False)
+        ranked = rank_candidates(cands, seed, solver, w)
+        n_cands = len(cands)
     found: list[tuple[FloatArray, tuple[float, float]]] = []
     for _, q in ranked:
         if any(np.abs(np.asarray(q) - f).max() <= separation for f, _ in found):
@@ -349,8 +363,8 @@ def _nearest_at(
         return found, ""
     if stages.first_dead() is not None:
         return found, empty_reason(stages.first_dead(), 0)
-    if len(ranked) < len(cands):
-        return found, empty_reason(None, len(cands) - len(ranked))
+    if len(ranked) < n_cands:
+        return found, empty_reason(None, n_cands - len(ranked))
     return found, "no closed-form candidate reproduced the target to the tolerances"
 
 

@@ -792,14 +792,10 @@ def _general_candidates(
     """`scalar_candidates` of the general 6R solver: its one-target form (`solve_one_target`) for
     a 6R arm read from the base, else its vectorised form on one lane."""
     stages = Stages(_STAGE_ORDER["general_6r"])
-    if solver.general is not None and held_value is None:
-        R, p = _times_inverse_home(T, solver.M_inv_rows)
-        Ra, pa = np.array(R), np.array(p)
-        if solver.structure.reversed:  # G⁻¹ = e^{−[S₆]q₆} ⋯ e^{−[S₁]q₁}
-            Ra, pa = Ra.T, -(Ra.T @ pa)
-        Q1 = solve_one_target(solver.general, Ra, pa, polish)
+    if held_value is None:
+        Q1 = general_solutions(solver, T, polish)
         if Q1 is not None:
-            rows = wrap_angles(-Q1[:, ::-1] if solver.structure.reversed else Q1).tolist()
+            rows = wrap_angles(Q1).tolist()
             stages.passed["reach"] = len(rows)
             return [(q, ()) for q in rows], stages
     held = None if held_value is None else np.array([held_value])
@@ -807,6 +803,24 @@ def _general_candidates(
     rows = Q[0][ok[0]].tolist()
     stages.passed["reach"] = len(rows)
     return [(q, ()) for q in rows], stages
+
+
+def general_solutions(
+    solver: ChainSolver, T: list[list[float]], polish: bool = True
+) -> FloatArray | None:
+    """The general 6R solver's solutions (k, 6) of one target T (rows) of a 6R arm, by its
+    one-target form (`solve_one_target`), angles not wrapped; None where that form does not
+    decide (or the arm is not a 6R arm of that family): then `scalar_candidates` does."""
+    if solver.general is None:
+        return None
+    R, p = _times_inverse_home(T, solver.M_inv_rows)
+    Ra, pa = np.array(R), np.array(p)
+    if solver.structure.reversed:  # G⁻¹ = e^{−[S₆]q₆} ⋯ e^{−[S₁]q₁}
+        Ra, pa = Ra.T, -(Ra.T @ pa)
+    Q1 = solve_one_target(solver.general, Ra, pa, polish)
+    if Q1 is None or not solver.structure.reversed:
+        return Q1
+    return -Q1[:, ::-1]
 
 
 def _times_inverse_home(T: list[list[float]], Mi: list[list[float]]) -> tuple[Mat, Vec]:

@@ -478,6 +478,33 @@ def _nearest_turn(
     return out
 
 
+def rank_array(
+    Q: FloatArray, seed: list[float], solver: JointLimits, w: list[float]
+) -> list[tuple[float, list[float]]]:
+    """`rank_candidates` of candidates given as an array Q (R, n) (any angles, not only those in
+    (−π, π]): the same equivalents, distances and order, on arrays (a general 6R arm's up to 16
+    roots cost ~10 array operations here instead of a Python loop over every angle). Each angle
+    is taken to its whole-turn equivalent nearest the seed; a row with one outside the limits
+    goes through `_nearest_turn`."""
+    s = np.asarray(seed)
+    X = Q + TWO_PI * np.round((s - Q) * INV_TWO_PI)
+    inside = np.asarray(((X >= solver.lower_arr) & (X <= solver.upper_arr)).all(axis=1))
+    D = X - s
+    dist = (D * D) @ np.asarray(w)
+    keep: list[bool] = inside.tolist()
+    ranked = [(d, x) for d, x, i in zip(dist.tolist(), X.tolist(), keep, strict=True) if i]
+    if not inside.all():
+        lo, hi = solver.lower, solver.upper
+        for q in Q[~inside].tolist():
+            qn = _nearest_turn(q, seed, lo, hi)
+            if qn is not None:
+                ranked.append(
+                    (sum(wj * (a - b) ** 2 for wj, a, b in zip(w, qn, seed, strict=True)), qn)
+                )
+    ranked.sort(key=lambda item: item[0])
+    return ranked
+
+
 def rank_candidates(
     cands: list[Candidate], seed: list[float], solver: JointLimits, w: list[float]
 ) -> list[tuple[float, list[float]]]:
