@@ -177,6 +177,34 @@ def test_order_within_targets_equals_lexsort():
     np.testing.assert_array_equal(order, expected)
 
 
+def test_rank_array_equals_rank_candidates():
+    """`rank_array` (a general 6R arm's roots, as an array) gives `rank_candidates`' equivalents,
+    distances and order: limits finite, unbounded, wider than a turn and narrow, angles anywhere
+    (the solver's θ₃ is not wrapped), weights uneven; candidates without an equivalent left out."""
+    rng = np.random.default_rng(31)
+    base = ur5(True)
+    lower = np.array([-2 * np.pi, -1.0, -np.inf, -2.0, -np.pi, -3.0])
+    upper = np.array([2 * np.pi, 2.0, np.inf, 0.5, np.pi, 7.0])
+    for lo, hi in ((lower, upper), (np.full(6, -np.pi), np.full(6, np.pi))):
+        chain = SerialChain.from_poe(np.asarray(base.S), np.asarray(base.M), lower=lo, upper=hi)
+        limits = solution_set.JointLimits(chain)
+        dropped = 0
+        for _ in range(200):
+            Q = rng.uniform(-2.5 * np.pi, 2.5 * np.pi, (int(rng.integers(0, 17)), 6))
+            seed = rng.uniform(np.maximum(lo, -3.0), np.minimum(hi, 3.0)).tolist()
+            w = rng.uniform(0.2, 3.0, 6).tolist()
+            got = solution_set.rank_array(Q, seed, limits, w)
+            want = solution_set.rank_candidates(
+                [(q, ()) for q in scalar.wrap_angles(Q).tolist()], seed, limits, w
+            )
+            assert len(got) == len(want)
+            dropped += Q.shape[0] - len(got)
+            for (dg, qg), (dw, qw) in zip(got, want, strict=True):
+                assert dg == pytest.approx(dw, abs=1e-9)
+                np.testing.assert_allclose(qg, qw, atol=1e-9)
+        assert dropped > 0 or lo[0] == -np.pi  # the narrow limits leave some out
+
+
 def test_the_written_out_rigid_check_agrees_with_numpy():
     """`rigid_on_floats` (written out on floats) against the same criteria in NumPy: finite, last
     row (0, 0, 0, 1) within the row tolerance, |RᵀR − I| within the rotation tolerance, det R > 0;
