@@ -497,7 +497,7 @@ def rank_array(
     X = np.minimum(np.maximum(Q + TWO_PI * k, lo), hi)
     D = X - s
     dist = (D * D) @ np.asarray(w)
-    keep: list[bool] = (k_lo <= k_hi).all(axis=1).tolist()
+    keep: list[bool] = np.asarray((k_lo <= k_hi).all(axis=1)).tolist()
     ranked = [(d, x) for d, x, i in zip(dist.tolist(), X.tolist(), keep, strict=True) if i]
     ranked.sort(key=lambda item: item[0])
     return ranked
