@@ -517,12 +517,16 @@ class KinematicsService:
             what = "a base_link"
             how = (
                 f"ros2 param set {node} base_link <link> ('' = its root link "
-                f"{tree.root_link!r}), then tip_link"
+                f"{tree.root_link!r}), then tip_link (without ros2cli: start the node with "
+                "--ros-args -p base_link:=<link> -p tip_link:=<link>)"
             )
         else:
             candidates = tree.tips_below(base)
             what = "a tip"
-            how = f"ros2 param set {node} tip_link <link>"
+            how = (
+                f"ros2 param set {node} tip_link <link> (without ros2cli: start the node with "
+                "--ros-args -p tip_link:=<link>)"
+            )
         tips = ", ".join(candidates) if candidates else "none (no leaf below it moves)"
         message = (
             f"robot {robot!r} from {held.source} is waiting for {what}: {reason}. Candidate tips "

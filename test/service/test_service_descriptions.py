@@ -108,6 +108,8 @@ def test_a_panda_with_its_hand_is_held_waiting_and_says_which_tips_there_are(
         assert resp.success is False
         assert "no robot description loaded" not in resp.message
         assert "'panda'" in resp.message and SET_TIP in resp.message
+        # ros2cli is not on PyPI: the restart that works without it is named too
+        assert "--ros-args -p tip_link:=<link>" in resp.message
         for tip in tips:
             assert tip in resp.message
         check_message(ros, resp)
@@ -231,6 +233,7 @@ def test_a_stale_base_link_makes_the_new_robot_wait_for_a_base(ros, clock, panda
     assert svc.status.state == "waiting"
     assert "base_link 'panda_link0' is not a link of 'ur5e'" in svc.status.message
     assert "ros2 param set /kinematics_node base_link" in svc.status.message
+    assert "--ros-args -p base_link:=<link> -p tip_link:=<link>" in svc.status.message
     svc.configure({"tip_link": "tool0"})  # accepted (a UR5e link), still waiting for the base
     assert svc.status.state == "waiting" and "base_link 'panda_link0'" in svc.status.message
     svc.configure({"base_link": ""})
