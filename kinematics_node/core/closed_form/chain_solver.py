@@ -19,7 +19,7 @@ import numpy as np
 from scipy.linalg.lapack import dposv
 
 from ..model import TWO_PI, KinematicChain
-from .general_6r import Arm, solve_general_6r_shifted, solve_one_target
+from .general_6r import Arm, solve_general_6r_shifted, solve_one_rows
 from .geometry import (
     INV_TWO_PI,
     BoolArray,
@@ -720,7 +720,7 @@ def scalar_candidates(
     """The (≤ 8) candidate solutions of one target by the scalar solvers: full configurations with
     angles in (−π, π] (a 7R arm's held joint at `held_value`), unchecked, with the reasons of the
     angles the target left free (taken from `seed`), and the stages the branches passed. Without
-    `polish`, the general 6R solver's roots skip their Gauss–Newton polish (`solve_one_target`)."""
+    `polish`, the general 6R solver's roots skip their Gauss–Newton polish (`solve_one_rows`)."""
     st = solver.structure
     if st.kind == "general_6r":
         return _general_candidates(solver, T, seed, held_value, polish)
@@ -789,7 +789,7 @@ def _general_candidates(
     held_value: float | None,
     polish: bool = True,
 ) -> tuple[list[Candidate], Stages]:
-    """`scalar_candidates` of the general 6R solver: its one-target form (`solve_one_target`) for
+    """`scalar_candidates` of the general 6R solver: its one-target form (`solve_one_rows`) for
     a 6R arm read from the base, else its vectorised form on one lane."""
     stages = Stages(_STAGE_ORDER["general_6r"])
     if held_value is None:
@@ -809,18 +809,20 @@ def general_solutions(
     solver: ChainSolver, T: list[list[float]], polish: bool = True
 ) -> FloatArray | None:
     """The general 6R solver's solutions (k, 6) of one target T (rows) of a 6R arm, by its
-    one-target form (`solve_one_target`), angles not wrapped; None where that form does not
+    one-target form (`solve_one_rows`), angles not wrapped; None where that form does not
     decide (or the arm is not a 6R arm of that family): then `scalar_candidates` does."""
-    if solver.general is None:
+    arm = solver.general
+    if arm is None:
         return None
     R, p = _times_inverse_home(T, solver.M_inv_rows)
-    Ra, pa = np.array(R), np.array(p)
-    if solver.structure.reversed:  # G⁻¹ = e^{−[S₆]q₆} ⋯ e^{−[S₁]q₁}
-        Ra, pa = Ra.T, -(Ra.T @ pa)
-    Q1 = solve_one_target(solver.general, Ra, pa, polish)
-    if Q1 is None or not solver.structure.reversed:
-        return Q1
-    return -Q1[:, ::-1]
+    if arm.K is None or not solver.structure.reversed:
+        return solve_one_rows(arm, R, p, polish) if arm.K is not None else None
+    # G⁻¹ = e^{−[S₆]q₆} ⋯ e^{−[S₁]q₁} = (Rᵀ, −Rᵀp)
+    (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = R
+    Rt = ((a0, b0, c0), (a1, b1, c1), (a2, b2, c2))
+    pt = tuple(-(r[0] * p[0] + r[1] * p[1] + r[2] * p[2]) for r in Rt)
+    Q1 = solve_one_rows(arm, Rt, pt, polish)
+    return None if Q1 is None else -Q1[:, ::-1]
 
 
 def _times_inverse_home(T: list[list[float]], Mi: list[list[float]]) -> tuple[Mat, Vec]:

@@ -49,6 +49,7 @@ of NumPy's per-call cost on these sizes). Lengths are scaled by the arm's size f
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from scipy.linalg import lapack
@@ -279,6 +280,28 @@ class Arm:
         out.lanes = self.lanes * n
         return out
 
+    def target_floats(
+        self, R: Sequence[Sequence[float]], t: Sequence[float]
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """`target_side` of one target of a fitted one-lane arm, from its rotation's rows R and
+        translation t as floats: Q (14, 8), q₀ (14,), R_G x₆ (1, 3)."""
+        assert self.K is not None
+        (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = R
+        t0, t1, t2 = t
+        (r0, r1, r2), (w0, w1, w2), (o0, o1, o2), (x0, x1, x2) = self.floats
+        k = 1.0 / self.scale
+        # G′ x′ = (R (s x′ + o) + t − o) / s
+        g0 = a0 * r0 + a1 * r1 + a2 * r2 + (a0 * o0 + a1 * o1 + a2 * o2 + t0 - o0) * k
+        g1 = b0 * r0 + b1 * r1 + b2 * r2 + (b0 * o0 + b1 * o1 + b2 * o2 + t1 - o1) * k
+        g2 = c0 * r0 + c1 * r1 + c2 * r2 + (c0 * o0 + c1 * o1 + c2 * o2 + t2 - o2) * k
+        h = (1.0, a0 * w0 + a1 * w1 + a2 * w2, b0 * w0 + b1 * w1 + b2 * w2,
+             c0 * w0 + c1 * w1 + c2 * w2)  # fmt: skip
+        mu = (1.0, g0, g1, g2, g0 * g0, g0 * g1, g0 * g2, g1 * g1, g1 * g2, g2 * g2)
+        rhs = (np.array([m * e for m in mu for e in h]) @ self.K[0]).reshape(14, 9)
+        u = np.array([[a0 * x0 + a1 * x1 + a2 * x2, b0 * x0 + b1 * x1 + b2 * x2,
+                       c0 * x0 + c1 * x1 + c2 * x2]])  # fmt: skip
+        return rhs[:, 1:], rhs[:, 0], u
+
     def target_side(
         self, R: FloatArray, t: FloatArray
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
@@ -286,22 +309,8 @@ class Arm:
         Q (L, 14, 8) over m₁₂ and q₀ (L, 14); and R_G x₆ (L, 3) (for θ₆)."""
         L = R.shape[0]
         if L == 1 and self.K is not None:  # on floats: a tenth of the array operations' time
-            (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = R[0].tolist()
-            t0, t1, t2 = t[0].tolist()
-            (r0, r1, r2), (w0, w1, w2), (o0, o1, o2), (x0, x1, x2) = self.floats
-            k = 1.0 / self.scale
-            # G′ x′ = (R (s x′ + o) + t − o) / s
-            g0 = a0 * r0 + a1 * r1 + a2 * r2 + (a0 * o0 + a1 * o1 + a2 * o2 + t0 - o0) * k
-            g1 = b0 * r0 + b1 * r1 + b2 * r2 + (b0 * o0 + b1 * o1 + b2 * o2 + t1 - o1) * k
-            g2 = c0 * r0 + c1 * r1 + c2 * r2 + (c0 * o0 + c1 * o1 + c2 * o2 + t2 - o2) * k
-            h = (1.0, a0 * w0 + a1 * w1 + a2 * w2, b0 * w0 + b1 * w1 + b2 * w2,
-                 c0 * w0 + c1 * w1 + c2 * w2)  # fmt: skip
-            mu = (1.0, g0, g1, g2, g0 * g0, g0 * g1, g0 * g2, g1 * g1, g1 * g2, g2 * g2)
-            f = np.array([m * e for m in mu for e in h])
-            rhs = (f @ self.K[0]).reshape(1, 14, 9)
-            u = np.array([[a0 * x0 + a1 * x1 + a2 * x2, b0 * x0 + b1 * x1 + b2 * x2,
-                           c0 * x0 + c1 * x1 + c2 * x2]])  # fmt: skip
-            return rhs[:, :, 1:], rhs[:, :, 0], u
+            Q, q0, u = self.target_floats(R[0].tolist(), t[0].tolist())
+            return Q[None], q0[None], u
         # G in the solver's coordinates: G′ x′ = (R (s x′ + o) + t − o) / s
         ts = np.einsum("lij,lj->li", R, np.broadcast_to(self.origin, (L, 3))) + t - self.origin
         g = np.einsum("lij,lj->li", R, np.broadcast_to(self.r[:, 5], (L, 3))) + ts / self.scale
@@ -519,7 +528,8 @@ def _shift_ratios(v: FloatArray) -> tuple[FloatArray, FloatArray]:
     least-squares ratio of the entries x₄ⁱ⁺¹ x₅ʲ to x₄ⁱ x₅ʲ (i ≤ 2), x₅ that of x₄ⁱ x₅ʲ⁺¹ to
     x₄ⁱ x₅ʲ (j ≤ 1); θ = 2 atan2(num, den) with den ≥ 0, which also takes x = ±∞ (θ = π)."""
     s = (v[:, _PROD_A] * v[:, _PROD_B]) @ _PROD_SUM  # (R, 4): num₄, den₄, num₅, den₅
-    return 2.0 * np.arctan2(s[:, 0], s[:, 1]), 2.0 * np.arctan2(s[:, 2], s[:, 3])
+    th = 2.0 * np.arctan2(s[:, 0::2], s[:, 1::2])
+    return th[:, 0], th[:, 1]
 
 
 def _clusters(
@@ -607,10 +617,24 @@ def solve_one_target(
     angles in (−π, π]; None where `solve_general_6r` must decide (`_solve_one`). Without
     `polish` the roots skip `_angles`' Gauss–Newton step: for a caller that checks (and refines)
     by forward kinematics only the one solution it takes (`ik`)."""
-    Q, q0, u = arm.target_side(R[None], t[None])
-    q = _solve_one(arm, Q[0], q0[0], u, polish)
-    if q is None:
-        return None
+    if arm.K is None:
+        Q, q0, u = arm.target_side(R[None], t[None])
+        q = _solve_one(arm, Q[0], q0[0], u, polish)
+    else:
+        q = _solve_one(arm, *arm.target_floats(R.tolist(), t.tolist()), polish)
+    if q is None or np.isfinite(q).all():
+        return q
+    return q[np.isfinite(q).all(axis=1)]
+
+
+def solve_one_rows(
+    arm: Arm, R: Sequence[Sequence[float]], t: Sequence[float], polish: bool = True
+) -> FloatArray | None:
+    """`solve_one_target` of a fitted arm with the target's rotation rows R and translation t as
+    floats (`ik`'s form: no arrays to build and take apart again)."""
+    q = _solve_one(arm, *arm.target_floats(R, t), polish)
+    if q is None or np.isfinite(q).all():
+        return q
     return q[np.isfinite(q).all(axis=1)]
 
 
