@@ -320,3 +320,45 @@ def test_one_target_with_coinciding_roots_equals_the_stacked_solve(monkeypatch):
             assert _contains(expected, s, 1e-7)
     assert calls["_clusters"] >= 10
     assert calls["_real_roots"] <= 3
+
+
+@pytest.mark.parametrize("name", ["random 0", "90° twists", "parallel pairs"])
+def test_one_target_by_qr_and_eigenvectors_equals_the_svd_and_the_stacked_solve(name, monkeypatch):
+    """One target's elimination by QR (`_null_and_pinv`) gives the sets of the SVD it falls back
+    to (forced here), and its null vectors from the deflated problem's eigenvectors
+    (`_null_vectors`) give the stacked solve's roots (inverse iteration): unpolished to 1e-7 of
+    the polished ones, which reproduce the target to 1e-9."""
+    from kinematics_node.core.closed_form import general_6r as g6
+    from kinematics_node.core.closed_form.detection import solver_of
+
+    chain = dh_chain(ARMS[name])
+    solver = solver_of(chain)
+    assert not solver.structure.reversed
+    arm = solver.general
+    rng = np.random.default_rng(8)
+    q = rng.uniform(-PI, PI, size=(30, 6))
+    T = chain.fk(q) @ solver.M_inv  # G = T M⁻¹, what the solver's joints produce from home
+    stacked, ok = g6.solve_general_6r(arm, T[:, :3, :3], T[:, :3, 3], g6.Trace())
+    qr_calls = {"n": 0}
+    real = g6.lapack.dtrcon
+
+    def counted(*args):
+        qr_calls["n"] += 1
+        return real(*args)
+
+    monkeypatch.setattr(g6.lapack, "dtrcon", counted)
+    for i in range(len(q)):
+        R, t = T[i, :3, :3], T[i, :3, 3]
+        polished = g6.solve_one_target(arm, R, t)
+        unpolished = g6.solve_one_target(arm, R, t, polish=False)
+        with monkeypatch.context() as m:
+            m.setattr(g6, "_Q_RCOND", np.inf)
+            by_svd = g6.solve_one_target(arm, R, t)
+        assert polished is not None and unpolished is not None and by_svd is not None
+        expected = stacked[i][ok[i]]
+        assert polished.shape == by_svd.shape == unpolished.shape == expected.shape, i
+        for s in polished:
+            assert _contains(by_svd, s, 1e-9) and _contains(expected, s, 1e-9)
+            assert _contains(unpolished, s, 1e-7)
+        assert _contains(polished, q[i], 1e-6)
+    assert qr_calls["n"] >= 2 * len(q)  # the QR path ran (and the SVD's when forced)
