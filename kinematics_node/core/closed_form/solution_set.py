@@ -488,12 +488,15 @@ def rank_array(
     to those within the (widened) limits, rows without one left out."""
     s = np.asarray(seed)
     lo, hi = solver.lower_arr, solver.upper_arr  # unbounded sides: seed ± π (`_nearest_turn`)
+    lo_w, hi_w = solver.lo_wide, solver.hi_wide
     if not solver.all_finite:
         lo = np.where(np.isfinite(lo), lo, s - math.pi)
         hi = np.where(np.isfinite(hi), hi, s + math.pi)
-    k_lo = np.ceil((lo - 1e-10 - Q) * INV_TWO_PI)
-    k_hi = np.floor((hi + 1e-10 - Q) * INV_TWO_PI)
-    k = np.minimum(np.maximum(np.round((s - Q) * INV_TWO_PI), k_lo), k_hi)
+        lo_w, hi_w = lo - 1e-10, hi + 1e-10
+    k_lo = np.ceil((lo_w - Q) * INV_TWO_PI)
+    k_hi = np.floor((hi_w - Q) * INV_TWO_PI)
+    # (np.rint, a ufunc, rounds halves to even as Python's `round` does)
+    k = np.minimum(np.maximum(np.rint((s - Q) * INV_TWO_PI), k_lo), k_hi)
     X = np.minimum(np.maximum(Q + TWO_PI * k, lo), hi)
     D = X - s
     dist = (D * D) @ np.asarray(w)
