@@ -103,6 +103,7 @@ _PROD_B = np.concatenate((_X4_BASE, _X4_BASE, _X5_BASE, _X5_BASE))
 _PROD_SUM = np.zeros((34, 4))
 for _k, (_a, _b) in enumerate(((0, 9), (9, 18), (18, 26), (26, 34))):
     _PROD_SUM[_a:_b, _k] = 1.0
+_PROD_SUM_T = np.ascontiguousarray(_PROD_SUM.T)
 _EYE12 = np.eye(12)
 # M on the ±i subspace's basis (real, imaginary parts of (V, iV)): M Re = −Im, M Im = Re.
 _J = np.block([[np.zeros((4, 4)), np.eye(4)], [-np.eye(4), np.zeros((4, 4))]])
@@ -671,13 +672,16 @@ def _solve_one(
     if info:
         return None
     wl, il = wr.tolist(), wi.tolist()
-    idx = [i for i in range(16) if abs(il[i]) <= REAL_ROOT * (1.0 + wl[i] ** 2 + il[i] ** 2)]
+    idx = [
+        i for i, y in enumerate(il)
+        if y == 0.0 or abs(y) <= REAL_ROOT * (1.0 + wl[i] ** 2 + y * y)
+    ]  # fmt: skip
     idx.sort(key=wl.__getitem__)
     R = len(idx)
     if not R:
         return np.empty((0, 6))
     xs = wr[idx]
-    th4, th5 = _shift_ratios(_null_vectors(arm, Y, xs, vr[:, idx]))
+    th4, th5 = _column_shift_ratios(_null_vectors(arm, Y, xs, vr[:, idx]))
     xl = [wl[i] for i in idx]
     near = [b - a <= CLUSTER * (1.0 + abs(b)) for a, b in zip(xl[:-1], xl[1:], strict=True)]
     if any(near):  # roots that coincide: their shared null space (`_clusters`)
@@ -722,7 +726,7 @@ def _null_and_pinv(Q: FloatArray) -> tuple[FloatArray, FloatArray] | None:
 
 
 def _null_vectors(arm: Arm, Y: FloatArray, x: FloatArray, Z: FloatArray) -> FloatArray:
-    """The null vectors v (R, 12) of Σ(x₃) at real roots x (R,) of one lane, from the
+    """The null vectors v (12, R) of Σ(x₃) at real roots x (R,) of one lane, from the
     eigenvectors Z (16, R) of the deflated matrix Q₂ᵀ M Q₂ (`_solve_one`; Y = C₂⁻¹[C₀ C₁] Q₂'s
     bottom rows, so that M Q₂ = [Q₂[12:]; −Y]). M's eigenvector is y = (v, x v) = Wᵢ a + Q₂ z
     with Wᵢ the orthonormal basis of the ±i subspace (Q₂ ⟂ Wᵢ); its rows along Wᵢ give
@@ -731,7 +735,15 @@ def _null_vectors(arm: Arm, Y: FloatArray, x: FloatArray, Z: FloatArray) -> Floa
     A, B, Wt, Q2t, _ = arm.null
     P = (A - B @ Y) @ Z  # (16, R): Wᵢᵀ M Q₂ z and J times it
     a = (P[:8] * x + P[8:]) / (1.0 + x * x)
-    return (Wt @ a + Q2t @ Z).T
+    return Wt @ a + Q2t @ Z
+
+
+def _column_shift_ratios(V: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """`_shift_ratios` of null vectors as the columns of V (12, R) (`_null_vectors`' form: no
+    transposed copy, and θ₄, θ₅ come back as contiguous rows)."""
+    s = _PROD_SUM_T @ (V[_PROD_A] * V[_PROD_B])  # (4, R): num₄, den₄, num₅, den₅
+    th = 2.0 * np.arctan2(s[0::2], s[1::2])
+    return th[0], th[1]
 
 
 def _angles_one(
@@ -757,8 +769,8 @@ def _angles_one(
     t12 = np.cos(q[:, :2, None] * _K3 - _PH3)  # (R, 2, 3)
     m12f = (t12[:, 0, :, None] * t12[:, 1, None, :]).reshape(R, 9)
     w12 = m12f @ (arm.B12[0] @ u)  # (R, 3): R₂ᵀR₁ᵀ u
-    yw = (lhs[:, 14:].reshape(R, 2, 3) * w12[:, None, :]).sum(axis=2)
-    q[:, 5] = np.arctan2(yw[:, 0], yw[:, 1])
+    yw = lhs[:, 14:].reshape(R, 2, 3) @ w12[:, :, None]  # ((ω₆ × x₆)·y, x₆·y)
+    q[:, 5] = np.arctan2(yw[:, 0, 0], yw[:, 1, 0])
     return q
 
 
