@@ -75,6 +75,7 @@ _C2_CONDITION = 1e10
 #: One target's Q (14 × 8) is decomposed by QR where the reciprocal condition number of its R is
 #: above this, else by the SVD (`_null_and_pinv`).
 _Q_RCOND = 1e-10
+_UPPER8 = np.triu(np.ones((8, 8)))
 
 # Angles 0, 2π/3, 4π/3: f(θ) = a + b cos θ + c sin θ from its three values, (a, b, c) = V⁻¹ f.
 _SAMPLES = np.array([0.0, 2.0 * math.pi / 3.0, 4.0 * math.pi / 3.0])
@@ -702,7 +703,7 @@ def _solve_one(
 
 def _null_and_pinv(Q: FloatArray) -> tuple[FloatArray, FloatArray] | None:
     """The left null space N (6, 14) of one target's Q (14, 8) (orthonormal rows) and its
-    pseudo-inverse (8, 14); None if LAPACK fails. By QR (`dgeqrf`, `dorgqr`, `dtrtrs`: ~9 µs
+    pseudo-inverse (8, 14); None if LAPACK fails. By QR (`dgeqrf`, `dorgqr`, `dtrtri`: ~9 µs
     against the SVD's ~16) where R's reciprocal condition number is above `_Q_RCOND`; else by
     the SVD, singular values below 1e-12 of the largest taken as zero (a Q of lower rank). Any
     orthonormal basis of the null space gives the same Σ(x₃) up to an orthogonal mix of its
@@ -713,9 +714,12 @@ def _null_and_pinv(Q: FloatArray) -> tuple[FloatArray, FloatArray] | None:
         A[:, :8] = qr
         Qf, _, info = lapack.dorgqr(A, tau)
         if info == 0:
-            Q_pinv, info = lapack.dtrtrs(qr[:8], Qf[:, :8].T)
+            # R⁻¹ by `dtrtri` (its strictly lower part still holds the reflectors), not
+            # `dtrsm` through `dtrtrs`: OpenBLAS may run that on threads, and on a busy machine
+            # a call then waits milliseconds for the second one
+            Rinv, info = lapack.dtrtri(qr[:8])
             if info == 0:
-                return Qf[:, 8:].T, Q_pinv
+                return Qf[:, 8:].T, (Rinv * _UPPER8) @ Qf[:, :8].T
     U, S, Vt, info = lapack.dgesdd(Q)
     if info:
         return None
