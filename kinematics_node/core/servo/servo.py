@@ -14,7 +14,8 @@ the arm is and to notice an arm that does not follow):
    min(K_pose d, v_max, √(2 a d)) for a distance d, which brakes to zero at the target. Jog: the
    joint velocities as given.
 2. The followed rows of V are solved for q̇ by damped least squares (`dls`), which never stops at
-   a singularity; from an exact singularity, a command along the lost direction starts a motion
+   a singularity; near the edge of the workspace a commanded motion along the lost direction is
+   braked within what the joints can follow (`_brake`); from an exact singularity, a command along the lost direction starts a motion
    along the singular joint direction where its second-order effect agrees (`_escape`). A
    redundant arm adds null-space motion away from its joint limits.
 3. Joint limits: a joint near a position limit may move towards it no faster than it can still
@@ -76,6 +77,16 @@ _RESYNC_TOLERANCE = 1e-3  # [rad or m] a command starting from rest starts from 
 # nearer, from the last command, so that the commanded positions stay continuous
 _STOP_SHARE = 0.5  # a twist's ramp to zero asks each joint for at most this share of its
 # acceleration and jerk limits, in proportion to its velocity (`Servo._stretch_stop`)
+_BRAKE_FROM_SIGMA = 0.08  # [m] a commanded motion toward a boundary singularity (σ_min falling,
+# u_min mostly linear) is slowed along u_min from this σ_min (`Servo._brake`) ...
+_BRAKE_TO_SIGMA = 0.02  # [m] ... to nothing at this one (0.03-0.04, 0.1-0.12 measured: no better)
+_BRAKE_CHECK_SIGMA = 0.2  # [m] below this σ_min the motion along u_min is kept within what the
+# joints' acceleration can follow (q̇ = r/σ along v_min), toward the singularity or away from it
+_LEAVE_SPEED = 0.1  # [m/s] leaving a singularity, the task speed along u_min is never held below
+# this (0.02-0.05 left the iiwa14's straight elbow in 0.53 s, against the test's 0.5 s)
+_COMMANDED_SPEED = 0.01  # [m/s] only a commanded linear speed along u_min above this is braked
+_SLOPE_RATE = 0.05  # [rad/s] joint speed along v_min above which dσ/dθ is read off J̇
+_BRAKE_LINEAR_SHARE = 0.5  # only where u_min is mostly linear (|u_lin|² ≥ this): not a wrist
 _SETTLE_S = 1.0  # [s] after a twist command's timeout has ramped the twist to zero, the loop stays
 # closed at most this long for the arm to reach the reference (K = 10/s leaves e⁻¹⁰ of a gap)
 
@@ -214,6 +225,7 @@ class Servo:
         rows, dropped = select_axes(chain, cfg)
         self._rows = np.array(rows)
         self._all_rows = len(rows) == 6
+        self._linear_rows = np.array([i >= 3 for i in rows])
         self.task_axes: tuple[str, ...] = tuple(TWIST_AXES[i] for i in rows)
         self.dropped_axes: tuple[str, ...] = dropped
         self._dropped_note = (
@@ -232,6 +244,7 @@ class Servo:
         # _velocity_box); beyond this distance from a bound it never limits a joint's speed.
         self._plan_acceleration = 0.5 * lim.acceleration
         self._plan_jerk = 0.5 * lim.jerk
+        self._plan_acceleration_list: list[float] = self._plan_acceleration.tolist()
         zone = braking_distance(lim.velocity, self._plan_acceleration, self._plan_jerk) + (
             2.0 * cfg.period_s * lim.velocity
         )
@@ -799,6 +812,8 @@ class Servo:
             x = x[self._rows]
             if "task_acceleration" in details:
                 details["task_acceleration"] = details["task_acceleration"][self._rows]
+            if "commanded" in details:
+                details["commanded"] = np.asarray(details["commanded"])[self._rows]
         return self._solve(Jt, x, details)
 
     def _kept_error(
@@ -925,7 +940,9 @@ class Servo:
             Rt = R.T
             details["task_acceleration"] = np.concatenate((Rt @ ramp_acc[:3], Rt @ ramp_acc[3:]))
             V_task = np.concatenate((Rt @ ramped[:3], Rt @ ramped[3:]))
+            details["commanded"] = V_task
             return V_task + K * np.asarray(e_task)
+        details["commanded"] = ramped
         details["task_acceleration"] = np.array(ramp_acc)
         if isinstance(e_task, np.ndarray):
             return np.array(ramped) + K * e_task
@@ -1048,6 +1065,17 @@ class Servo:
         eps, lam = cfg.singular_value_threshold, cfg.max_damping
         lo, hi, limited = self._velocity_box()
         sol = dls.solve(Jt, x, eps, lam)
+        commanded = x  # the escape from an exact singularity goes by the whole command
+        if float(sol.singular_values[-1]) < _BRAKE_CHECK_SIGMA and "commanded" in details:
+            braked = self._brake(Jt, x, sol, details["commanded"])
+            if braked is not None:
+                x, scale, u = braked
+                sol = dls.solve(Jt, x, eps, lam)
+                task_acc = details.get("task_acceleration")
+                if task_acc is not None:
+                    details["task_acceleration"] = (
+                        task_acc - (1.0 - scale) * float(u.dot(task_acc)) * u
+                    )
         s = sol.singular_values
         s_first, s_last = float(s[0]), float(s[-1])
         details["condition"] = (s_first / s_last if s_last > 0 else math.inf, s_last)
@@ -1056,7 +1084,7 @@ class Servo:
         undamped, damped, rows = sol.undamped, sol.damped, sol.row_basis
         exact = s_last >= eps  # no damped part (zeros)
         if s_last < lam and s.shape[0] == Jt.shape[0]:
-            damped = damped + self._escape(x, sol, details)
+            damped = damped + self._escape(commanded, sol, details)
             exact = False
         fixed: FloatArray | float = 0.0
         active = None  # all joints
@@ -1104,6 +1132,91 @@ class Servo:
         return [
             a if b < a else c if b > c else b for b, a, c in zip(base.tolist(), lo, hi, strict=True)
         ]
+
+    def _task_jacobian(self, q: list[float]) -> FloatArray:
+        """The task Jacobian (the followed rows, task axes) at joint values `q`."""
+        t, cols = self._fk_world(q if self._to_internal is None else self._to_internal(q))
+        J = (
+            np.fromiter(_concat.from_iterable(cols), np.float64, 6 * self._n_internal)
+            .reshape(-1, 6)
+            .T
+        )
+        if self._G is not None:
+            J = J @ self._G
+        if self.config.task_axes_frame == "tip":
+            J = task_jacobian_rows(J, _rotation(t), "tip")
+        return J if self._all_rows else J[self._rows]
+
+    def _brake(
+        self, Jt: FloatArray, x: FloatArray, sol: dls.DLSSolution, commanded: Any
+    ) -> tuple[FloatArray, float, FloatArray] | None:
+        """Brake a commanded motion along the least-singular output direction u_min near a
+        boundary singularity (the edge of the workspace: u_min mostly linear).
+
+        Damped least squares alone lets an arm reach the edge at full speed: the joints along
+        v_min (q̇ = r/σ for a task speed r = u_minᵀ x) then need more acceleration than they have,
+        lag their solution, and the tool leaves its line (52-88 mm out to the edge and back);
+        the Panda and iiwa14 went through the singularity onto their other branch. Two bounds:
+
+        * toward the singularity (σ_min falling along the motion), r is scaled down linearly
+          from σ_min = `_BRAKE_FROM_SIGMA` to nothing at `_BRAKE_TO_SIGMA` (a velocity damper:
+          the arm stops short of the edge, on its branch);
+        * either way, r² |dσ/dθ| / σ³ (how fast q̇ = r/σ must change) stays within the joints'
+          planning acceleration along v_min; leaving, r is never held below `_LEAVE_SPEED`, so a
+          singular configuration is always left.
+
+        The rest of x is slowed by the share of x along u_min, so a motion straight out stops on
+        its line, and one along the edge goes on. Only where the commanded twist (not just the
+        loop's correction) has a linear part along u_min: a wrist singularity (u_min rotational)
+        and a pure rotation are left to damped least squares as before.
+
+        Returns (the task velocity braked, the scale of its u_min part, u_min), or None.
+        """
+        u, v, sigma = sol.left[:, -1], sol.row_basis[-1], float(sol.singular_values[-1])
+        lin = float(np.dot(u[self._linear_rows], u[self._linear_rows]))
+        if lin < _BRAKE_LINEAR_SHARE:
+            return None  # a loss of rotation (a wrist): damped least squares crosses it
+        r = float(u.dot(x))
+        cmd_lin = float(u[self._linear_rows].dot(np.asarray(commanded)[self._linear_rows]))
+        if r == 0.0 or abs(cmd_lin) < _COMMANDED_SPEED:
+            return None  # only the commanded motion is braked, not the loop's correction
+        gain = float(sol.gains[-1])
+        along = float(v.dot(sol.undamped + sol.damped))
+        motion = 1.0 if (along if along != 0.0 else gain * r) >= 0.0 else -1.0  # along v_min
+        v_list = v.tolist()
+        # dσ/dθ along the motion: from σ̇ = u_minᵀ J̇ v_min (first-order perturbation, J̇ from the
+        # last period's Jacobian) where the joints already move along v_min, else by a step of
+        # the forward kinematics
+        prev = self._last_jacobian
+        rate = float(v.dot(self._integrator.v)) * motion
+        if prev is not None and prev.shape == Jt.shape and rate > _SLOPE_RATE:
+            slope = float(u.dot((Jt - prev).dot(v))) / (self.config.period_s * rate)
+        else:
+            h = 1e-4
+            q = [
+                qk + motion * h * vk for qk, vk in zip(self._integrator.q_list, v_list, strict=True)
+            ]
+            slope = (float(dls.svd(self._task_jacobian(q))[1][-1]) - sigma) / h
+        # q̇ = r/σ along v_min changes at r² |dσ/dθ| / σ³: keep that within the joints'
+        # acceleration along v_min (half their limits, as the velocity planning does)
+        acc = min(
+            a / abs(vk) if vk != 0.0 else math.inf
+            for a, vk in zip(self._plan_acceleration_list, v_list, strict=True)
+        )
+        r_acc = math.sqrt(acc * sigma**3 / abs(slope)) if slope != 0.0 else math.inf
+        if slope < 0.0:  # toward the singularity: down to nothing at _BRAKE_TO_SIGMA
+            damper = (sigma - _BRAKE_TO_SIGMA) / (_BRAKE_FROM_SIGMA - _BRAKE_TO_SIGMA)
+            damper = 0.0 if damper < 0.0 else 1.0 if damper > 1.0 else damper
+            scale = min(damper, r_acc / abs(r))
+        else:  # away from it: never below _LEAVE_SPEED, so a singularity is always left
+            scale = min(1.0, max(r_acc, _LEAVE_SPEED) / abs(r))
+        if scale >= 1.0:
+            return None
+        # The rest of the motion is slowed by the share of it that leads out (|r| / |x|): a
+        # motion straight out stops on its line, one along the edge goes on.
+        share = abs(r) / float(np.linalg.norm(x))
+        whole = 1.0 - (1.0 - scale) * share
+        return whole * x + (scale - whole) * r * u, scale, u
 
     def _escape(self, x: FloatArray, sol: dls.DLSSolution, details: dict[str, Any]) -> FloatArray:
         """Motion along the singular joint direction v_min that leaves a singularity the way the

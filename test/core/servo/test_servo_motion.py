@@ -237,8 +237,9 @@ def test_a_fast_spin_ramped_to_zero_stops_with_the_joints_in_proportion(stop):
 @pytest.mark.parametrize("name", ["ur5e", "panda", "iiwa14"])
 @pytest.mark.xfail(
     strict=True,
-    reason="issue 23: near the edge the arm leaves the line by 41-88 mm (damped least squares, "
-    "the Panda's and iiwa14's change of branch) before the loop brings it back",
+    reason="issue 23: braked at the edge (`Servo._brake`) the arm still leaves the line by "
+    "13-15 mm (the iiwa14 on the way out, the UR5e and Panda as they leave the edge) against "
+    "the kept error's 10",
 )
 def test_out_to_the_edge_of_the_workspace_and_back_stays_on_the_line(name):
     """0.2 m/s radially outward for 3 s, past the edge, then back for 3 s. The commanded pose
@@ -263,11 +264,12 @@ def test_out_to_the_edge_of_the_workspace_and_back_stays_on_the_line(name):
     assert along[-1] < along.max() - 0.2  # back inward
 
 
-@pytest.mark.parametrize("name", ["ur5e", "panda", "iiwa14"])
+@pytest.mark.parametrize("name", ["ur5e", "iiwa14"])
 def test_an_arm_held_off_its_path_reports_its_whole_error(name):
-    """0.2 m/s radially outward for 3 s, into the edge: the arm leaves the line by several times
-    the kept error bound, and the status says how far it is from the commanded pose (not the
-    bound). The commanded pose stays on the line at the start's orientation (the twist has no
+    """0.2 m/s radially outward for 3 s, into the edge: the arm leaves the line by more than the
+    kept error bound (13 mm on the UR5e and iiwa14 as it is braked at the edge; the Panda 9.5 mm,
+    within the bound, so it is left out), and the status says how far it is from the commanded
+    pose (not the bound). The commanded pose stays on the line at the start's orientation (the twist has no
     rotation), and ahead of or behind the arm along the line by at most the bound, so: the
     orientation error is the arm's angle from the start's orientation, and the position error
     lies between the arm's distance from the line and hypot(that distance, the bound)."""
@@ -284,14 +286,13 @@ def test_an_arm_held_off_its_path_reports_its_whole_error(name):
     off_line = np.linalg.norm(rel - np.outer(rel @ radial, radial), axis=1)
     position = np.array([s.position_error_m for s in trace.statuses])
     orientation = np.array([s.orientation_error_rad for s in trace.statuses])
-    assert off_line.max() > 3 * bound_m  # the arm is held off its path
+    assert off_line.max() > bound_m  # the arm is held off its path
     assert np.all(position >= off_line - 1e-12)
     assert np.all(position <= np.hypot(off_line, bound_m) + 1e-12)
-    assert position.max() > 3 * bound_m
+    assert position.max() > bound_m
     turned = rotation_angle(T0[:3, :3][None], T[:, :3, :3])
     np.testing.assert_allclose(orientation, turned, rtol=0, atol=1e-12)
-    if name != "panda":  # the Panda's tool turns less than the bound (0.03 rad) on this line
-        assert orientation.max() > 2 * bound_rad
+    assert orientation.max() > 0.2 * bound_rad  # it turned (0.017-0.020 rad)
 
 
 @pytest.mark.parametrize("name", ARMS)
