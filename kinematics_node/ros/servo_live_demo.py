@@ -191,11 +191,16 @@ def _drive_and_record(
             if time.monotonic() - t0 > READY_TIMEOUT_S:
                 raise RuntimeError(
                     f"the nodes were not ready within {READY_TIMEOUT_S:g} s (ee_pose: "
-                    f"{len(poses)} arrived, servo status: {statuses[-1][1] if statuses else 'none'})"
+                    f"{len(poses)} arrived, joint_states naming the chain's joints: "
+                    f"{len(states)}, servo status: {statuses[-1][1] if statuses else 'none'})"
                 )
             time.sleep(0.05)
             codes = [s.get("code_name") for _, s in statuses]
-            ready = bool(poses) and any(c not in (None, "NOT_READY") for c in codes)
+            # (each subscription of ours is matched on its own: ee_pose and the servo's status
+            # can arrive before the first joint_states does)
+            ready = (
+                bool(poses) and bool(states) and any(c not in (None, "NOT_READY") for c in codes)
+            )
         q_now = np.array(states[max(states)])
         print(
             f"nodes ready after {time.monotonic() - t0:.1f} s (the arm at the first corner to "
