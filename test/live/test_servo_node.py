@@ -158,10 +158,16 @@ def rig(client: Client) -> Iterator[Rig]:
     with tempfile.TemporaryDirectory(prefix="kinematics_servo_live_") as tmp:
         rig = Rig(client, Path(tmp))
         try:
+            # (and the servo subscribed to our twists: a twist sent before DDS matched the two
+            # is lost, and the tests time the motion from their first twist on)
             wait_until(
-                lambda: any(code_name(s) == "IDLE" for s in rig.statuses) and len(rig.poses) > 5,
+                lambda: (
+                    any(code_name(s) == "IDLE" for s in rig.statuses)
+                    and len(rig.poses) > 5
+                    and rig.twist_pub.get_subscription_count() > 0
+                ),
                 30.0,
-                "the servo ready (status IDLE) and ee_pose flowing",
+                "the servo ready (status IDLE), ee_pose flowing and our twists matched",
             )
         except AssertionError:
             rig.stop()
