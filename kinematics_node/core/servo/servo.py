@@ -778,17 +778,7 @@ class Servo:
     # ------------------------------------------------------------------ twist and pose
     def _task_target(self, details: dict[str, Any]) -> list[float]:
         cfg = self.config
-        q = self._integrator.q_list
-        t, cols = self._fk_world(q if self._to_internal is None else self._to_internal(q))
-        # (6, n): rows (ω, v) of the tip origin, base axes (from the n columns, flattened first:
-        # faster than from the tuples)
-        J = (
-            np.fromiter(_concat.from_iterable(cols), np.float64, 6 * self._n_internal)
-            .reshape(-1, 6)
-            .T
-        )
-        if self._G is not None:
-            J = J @ self._G
+        t, J = self._world_jacobian(self._integrator.q_list)
         self._tip_pose = t
         p = (t[9], t[10], t[11])
         q_now = so3.quaternion_from_rows(t)
@@ -1133,8 +1123,10 @@ class Servo:
             a if b < a else c if b > c else b for b, a, c in zip(base.tolist(), lo, hi, strict=True)
         ]
 
-    def _task_jacobian(self, q: list[float]) -> FloatArray:
-        """The task Jacobian (the followed rows, task axes) at joint values `q`."""
+    def _world_jacobian(self, q: list[float]) -> tuple[Any, FloatArray]:
+        """The tip's pose (12 floats: rotation rows, then position) and the (6, m) Jacobian at
+        joint values `q`: rows (ω, v) of the tip origin in base axes, one column per moving
+        joint (built from the n columns flattened first: faster than from the tuples)."""
         t, cols = self._fk_world(q if self._to_internal is None else self._to_internal(q))
         J = (
             np.fromiter(_concat.from_iterable(cols), np.float64, 6 * self._n_internal)
@@ -1143,6 +1135,11 @@ class Servo:
         )
         if self._G is not None:
             J = J @ self._G
+        return t, J
+
+    def _task_jacobian(self, q: list[float]) -> FloatArray:
+        """The task Jacobian (the followed rows, task axes) at joint values `q`."""
+        t, J = self._world_jacobian(q)
         if self.config.task_axes_frame == "tip":
             J = task_jacobian_rows(J, _rotation(t), "tip")
         return J if self._all_rows else J[self._rows]
