@@ -40,14 +40,9 @@ the node runs on).
 
 Why a process of its own and not inside the kinematics node: one Python thread runs one callback
 at a time; the kinematics node's pose path carries joint_states at up to 1 kHz (and its IK
-requests), and in its thread the servo's 1 ms ticks queue behind them, while the pose path's
-latency grows by the servo's steps. Measured with benchmarks/servo_process_benchmark.py (sim_arm
-at 1 kHz, servo at 1 kHz, both layouts alternately; 4 runs on a 2-core machine busy with other
-work, load average 2-5): alone, the servo ran 1.2-2.4x the cycles per second of the shared layout
-(e.g. 606 against 253 per second) and served more of its ticks on time in every run (54 % against
-13 % in that run), and the kinematics node's ee_pose latency median was 0.7-1.1 ms against
-1.5-2.1 ms. (A late cycle makes up the periods it missed, `ServoService.step`, so lateness costs
-smoothness, not speed.)
+requests), and in its thread the servo's 1 ms ticks would queue behind them, while the pose
+path's latency grew by the servo's steps (measured with benchmarks/servo_process_benchmark.py:
+docs/performance.md, "Why the servo is a process of its own").
 """
 
 from __future__ import annotations
