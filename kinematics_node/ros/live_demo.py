@@ -104,9 +104,14 @@ def _listen_and_call(
             "ik": node.create_client(ComputeIK, "compute_ik"),
         }
         t_start = time.monotonic()
-        while not poses:
+        # (each subscription of ours is matched on its own: ee_pose can arrive before the first
+        # joint_states does, and the services are called on a configuration of joint_states)
+        while not (poses and states):
             if time.monotonic() - t_start > 60:
-                raise RuntimeError("no ee_pose arrived within 60 s; see the processes' logs")
+                raise RuntimeError(
+                    f"within 60 s: {len(poses)} ee_pose and {len(states)} joint_states naming "
+                    "the chain's joints arrived, where both are needed; see the processes' logs"
+                )
             time.sleep(0.05)
         print(
             f"first ee_pose after {time.monotonic() - t_start:.1f} s; listening for {duration:g} s",
@@ -128,7 +133,11 @@ def _listen_and_call(
             return future.result(), (time.perf_counter() - t0) * 1e3
 
         # The services, on the last configuration that arrived
-        last_stamp = max(s for s in states if s <= got_poses[-1][0])
+        if not got_poses:
+            raise RuntimeError(f"no ee_pose arrived in the {duration:g} s listened")
+        last_stamp = max(
+            (s for s in list(states) if s <= got_poses[-1][0]), default=min(list(states))
+        )
         q_last = np.array(states[last_stamp])
         fk = ComputeFK.Request()
         fk.joint_state.name = list(chain.joint_names)
