@@ -539,7 +539,9 @@ class ServoService:
         the periods in between are made up first, up to `MAX_CATCH_UP` of them, each at its own
         grid time, so that the arm keeps to the commanded speed in real time; the status counts
         such cycles (late_cycles) and the periods not made up (lost_periods). A callback that is
-        late within its own period makes up nothing.
+        late within its own period makes up nothing. Those periods do not judge the command
+        timeout (`Servo.step`'s held_up): the commands sent while the process was held up are
+        still queued, and are taken after this call.
 
         Only the last step's command is published: the made-up ones are already due by the time
         they could go out; a forward position or velocity controller applies only the newest
@@ -563,8 +565,9 @@ class ServoService:
             slot = self._last_slot
             assert slot is not None
             for k in range(extra, 0, -1):
-                servo.step(slot - k * period, self._measured)
-        out = servo.step(now, self._measured)
+                servo.step(slot - k * period, self._measured, held_up=True)
+        # (held up: the twists sent meanwhile are taken after this callback; Servo.step)
+        out = servo.step(now, self._measured, held_up=bool(missed))
         status = out.status
         code = int(status.code)
         self._last_code = code

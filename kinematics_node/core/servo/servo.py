@@ -404,7 +404,10 @@ class Servo:
         """Take a new command (it replaces the active one) or refuse it.
 
         A refused command also ends the active one: the arm stops smoothly, and every `step`
-        reports the refusal until a command is accepted. Never raises.
+        reports the refusal until a command is accepted. A stale one (COMMAND_STALE) is the
+        exception: it says nothing about now, so it leaves the active command to its own timeout
+        (commands queued while the receiver was held up arrive stale, with fresh ones behind them).
+        Never raises.
 
         Args:
             command: a `TwistCommand`, `JointJogCommand` or `PoseCommand`.
@@ -419,7 +422,7 @@ class Servo:
             problem = self._accept(command, float(now_s))
         if problem is not None:
             code, message = problem
-            if not self._paused:
+            if not self._paused and code != StatusCode.COMMAND_STALE:
                 self._end(code, message)
             return ServoStatus(code, message, dropped_axes=self.dropped_axes)
         accepted = self._accepted.get(type(command))
@@ -610,7 +613,9 @@ class Servo:
         return None
 
     # ------------------------------------------------------------------ the period
-    def step(self, now_s: float, measured_positions: ArrayLike | None = None) -> ServoOutput:
+    def step(
+        self, now_s: float, measured_positions: ArrayLike | None = None, held_up: bool = False
+    ) -> ServoOutput:
         """The joint command for the period starting at `now_s`. Never raises; never non-finite.
 
         Args:
@@ -618,6 +623,10 @@ class Servo:
             measured_positions: (n,) the arm's joint positions now, chain order, if known. Used to
                 start from where the arm is and to notice an arm that does not follow; the
                 servo's trajectory itself continues from its own commanded state.
+            held_up: the caller was held up before this period (a late period, or one made up
+                after it): commands sent meanwhile may still wait to be taken, so the command
+                timeout is not judged on it. The next period judges it; a sender that did stop
+                has the arm move on for the hold-up and one more period.
         """
         cfg = self.config
         integ = self._integrator
@@ -632,6 +641,7 @@ class Servo:
         if (
             self._mode is not None
             and not self._winding_down
+            and not held_up
             and now - self._stamp > cfg.command_timeout_s
         ):
             message = (

@@ -62,11 +62,13 @@ def run(
     lag_s: float | None = None,
     blocked: bool = False,
     corrupt: Callable[[int, np.ndarray], object] | None = None,
+    held_up: bool = False,
 ) -> Trace:
     """Step `servo` for `seconds`; before each step, submit the commands `script(k, t)` returns.
 
     The arm: perfect integrator (lag_s None), first-order lag, or blocked (never moves).
-    `corrupt(k, measured)` may replace what the step is told was measured.
+    `corrupt(k, measured)` may replace what the step is told was measured; `held_up` is passed
+    to every step (periods a held-up caller makes up).
     """
     dt = servo.config.period_s
     n = servo.chain.dof
@@ -82,7 +84,7 @@ def run(
         for cmd in script(k, t):
             servo.submit(cmd, t)
         meas[k] = measured
-        out = servo.step(t, measured if corrupt is None else corrupt(k, measured))
+        out = servo.step(t, measured if corrupt is None else corrupt(k, measured), held_up)
         out_q[k], out_v[k], out_a[k] = out.positions, out.velocities, out.accelerations
         statuses.append(out.status)
         if blocked:

@@ -500,6 +500,36 @@ def test_a_timeout_begins_a_smooth_stop_within_one_period(name):
     assert trace.statuses[-1].message.startswith("stopped")
 
 
+def test_periods_of_a_held_up_caller_leave_the_timeout_to_the_next_one():
+    """A caller held up (its process off the CPU) makes up the periods it missed before it takes
+    the commands sent meanwhile: those periods do not time out the command; the next does."""
+    chain = robot("ur5e")
+    twist = _twist((0, 0, 0), (0.05, 0.0, 0.0), chain.base_link)
+    hold = 0.2  # [s], twice the timeout, with no command taken
+    for fresh in (True, False):  # a fresh twist was queued meanwhile, or the sender stopped
+        servo = _servo("ur5e")
+
+        def tool_speed(trace):  # [m/s], of the commanded positions, cycle to cycle
+            p = np.array([chain.fk(q)[:3, 3] for q in trace.q])
+            return np.linalg.norm(np.diff(p, axis=0), axis=1) / trace.dt
+
+        before = run(servo, twist, 1.0)
+        assert tool_speed(before)[-1] == pytest.approx(0.05, rel=1e-3)
+        made_up = run(servo, lambda k, t: [], hold, t0=before.t[-1] + before.dt, held_up=True)
+        assert set(made_up.codes) == {"OK"}
+        assert tool_speed(made_up) == pytest.approx(0.05, rel=1e-3)
+        after = run(
+            servo, twist if fresh else (lambda k, t: []), 1.0, t0=made_up.t[-1] + made_up.dt
+        )
+        if fresh:  # taken now: the motion goes on without a stop
+            assert set(after.codes) == {"OK"}
+            assert tool_speed(after) == pytest.approx(0.05, rel=1e-3)
+        else:  # the first period not held up stops it
+            assert after.codes[0] == "TIMEOUT_STOP" and not after.v[-1].any()
+        whole = joined(joined(before, made_up), after)
+        assert limit_violations(servo.limits, whole) == []
+
+
 # ---------------------------------------------------------------------- redundancy, fewer joints
 @pytest.mark.parametrize(
     ("name", "q0"),
