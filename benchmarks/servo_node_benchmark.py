@@ -187,10 +187,12 @@ def summarize_latency(
     found: Sequence[tuple[int, int, int]], unanswered: int = 0
 ) -> dict[str, float]:
     """Median, p99 and max [ms] of send → arrival, the `unanswered` counted as slower than any
-    (inf); the median and p99 of the part until the node published (send → source timestamp,
-    answered only) and of the rest (source → arrival); the counts."""
+    (inf); the median and p99 of send → the node's publication (DDS source timestamp: "out"),
+    the unanswered counted likewise; of the part until the node published (answered only) and
+    of the rest (source → arrival); the counts."""
     total = [(a - s) * 1e-6 for s, _, a in found] + [math.inf] * unanswered
     inside = [(o - s) * 1e-6 for s, o, _ in found]
+    out = inside + [math.inf] * unanswered
     after = [(a - o) * 1e-6 for _, o, a in found]
     return {
         "count": len(found),
@@ -198,6 +200,8 @@ def summarize_latency(
         "median_ms": statistics.median(total) if total else math.nan,
         "p99_ms": nb._percentile(total, 0.99),
         "max_ms": max(total, default=math.nan),
+        "out_median_ms": statistics.median(out) if out else math.nan,
+        "out_p99_ms": nb._percentile(out, 0.99),
         "to_publish_median_ms": statistics.median(inside) if inside else math.nan,
         "to_publish_p99_ms": nb._percentile(inside, 0.99),
         "transport_median_ms": statistics.median(after) if after else math.nan,
@@ -244,7 +248,15 @@ def _suffix(label: str, base: str) -> str | None:
 
 def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bool]]:
     """Issue 23's node targets for the phases in `results`, per scheduling setting (a label's
-    " [setting]" suffix): (target, measured, met?)."""
+    " [setting]" suffix): (target, measured, met?).
+
+    The latency targets are judged from command in to joint command *out*: the twist's send time
+    to the node's publication of its answer (DDS source timestamp), for the servo and the echo
+    alike. The arrival at the receiver (shown beside) adds the delivery to the harness's own
+    process, which runs with the default scheduling: with the nodes on SCHED_FIFO it waits
+    behind them, and the echo beside the servo slows by as much (measured: 3.84 ms median beside
+    a FIFO servo against 1.45 alone, its answers published at 2.02), so that part is the
+    harness's, not the node's."""
     checks: list[tuple[str, str, bool]] = []
     for label, stream in results.items():
         setting = _suffix(label, "servo, 1 kHz streaming")
@@ -275,23 +287,30 @@ def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bo
         setting = _suffix(label, "servo, command to joint command")
         if setting is None:
             continue
-        median = servo["latency"]["median_ms"]
+        lat = servo["latency"]
+        median = lat["out_median_ms"]
         for echo_label in ("echo, alone", "echo, beside the servo" + setting):
             echo = results.get(echo_label)
             if echo is None:
                 continue
-            ratio = median / echo["latency"]["median_ms"]
+            ratio = median / echo["latency"]["out_median_ms"]
+            at_receiver = lat["median_ms"] / echo["latency"]["median_ms"]
             checks.append(
                 (
                     f"command in → joint command out{setting}: median ≤ 2× the bare echo's "
                     f"({echo_label})",
-                    f"{ratio:.2f}× ({median:.2f} vs {echo['latency']['median_ms']:.2f} ms)",
+                    f"{ratio:.2f}× ({median:.2f} vs {echo['latency']['out_median_ms']:.2f} ms; "
+                    f"at the receiver {at_receiver:.2f}×)",
                     ratio <= 2.0,
                 )
             )
-        p99 = servo["latency"]["p99_ms"]
+        p99 = lat["out_p99_ms"]
         checks.append(
-            (f"command in → joint command out{setting}: p99 ≤ 5 ms", f"{p99:.2f} ms", p99 <= 5.0)
+            (
+                f"command in → joint command out{setting}: p99 ≤ 5 ms",
+                f"{p99:.2f} ms (at the receiver {lat['p99_ms']:.2f} ms)",
+                p99 <= 5.0,
+            )
         )
     return checks
 
