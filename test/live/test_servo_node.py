@@ -9,10 +9,7 @@ no joint command on the wire is ever non-finite. The servo runs at 1 kHz.
 
 from __future__ import annotations
 
-import json
 import math
-import signal
-import subprocess
 import tempfile
 import threading
 import time
@@ -29,7 +26,8 @@ from rclpy.qos import QoSProfile
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
-from kinematics_node.ros.env import executable, local_ros_env
+from kinematics_node.ros.env import local_ros_env
+from kinematics_node.ros.processes import log_tail, start_node, stop_nodes
 
 pytest.importorskip("ruckig", reason="the servo's smoothing needs ruckig (extra 'servo')")
 
@@ -39,62 +37,29 @@ CHAIN = {"robot_description_file": str(UR5E), "base_link": "base_link", "tip_lin
 COMMANDS = "/forward_position_controller/commands"
 
 
-class Process:
-    """One of the package's executables in a process of its own, parameters from a file."""
-
-    def __init__(self, name: str, params: dict[str, Any], directory: Path) -> None:
-        argv = executable(name)
-        assert argv is not None, f"{name} is not built: make ros"
-        path = directory / f"{name}.yaml"
-        path.write_text(json.dumps({name: {"ros__parameters": params}}))  # JSON is YAML
-        self.log_path = directory / f"{name}.log"
-        self._log = self.log_path.open("wb")
-        self.name = name
-        self.process = subprocess.Popen(
-            [*argv, "--ros-args", "--params-file", str(path)],
-            env=local_ros_env(DOMAIN_ID),
-            stdout=self._log,
-            stderr=subprocess.STDOUT,
-            start_new_session=True,
-        )
-
-    def log(self) -> str:
-        return self.log_path.read_text(errors="replace")
-
-    def stop(self) -> int | None:
-        if self.process.poll() is None:
-            self.process.send_signal(signal.SIGINT)
-            try:
-                self.process.wait(10)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
-        self._log.close()
-        return self.process.returncode
-
-
 class Rig:
     """The three processes and what this process sees of them."""
 
     def __init__(self, client: Client, directory: Path) -> None:
         self.client = client
-        self.processes = [
-            Process(
-                "sim_arm",
-                {
-                    "robot": "ur5e",
-                    "tip_link": "tool0",
-                    "rate": 200.0,
-                    "command_mode": "position",
-                    "initial_positions": READY,
-                },
-                directory,
-            ),
-            Process("kinematics_node", dict(CHAIN), directory),
+        self.directory = directory
+        env = local_ros_env(DOMAIN_ID)
+        self.nodes = {
+            "sim_arm": {
+                "robot": "ur5e",
+                "tip_link": "tool0",
+                "rate": 200.0,
+                "command_mode": "position",
+                "initial_positions": READY,
+            },
+            "kinematics_node": dict(CHAIN),
             # 2 ms, not 1: on a loaded 2-core machine a 1 kHz servo starved the pose path of its
             # CPU (0-1 ee_pose in 0.3 s); 1 kHz is measured in benchmarks/servo_node_benchmark.py
-            Process("servo", {**CHAIN, "period_s": 0.002, "status_period": 0.05}, directory),
-        ]
+            "servo": {**CHAIN, "period_s": 0.002, "status_period": 0.05},
+        }
+        self.processes = []
+        for name, params in self.nodes.items():
+            self.processes.append(start_node(name, params, directory, env))
         self.poses: list[Any] = client.collect(PoseStamped, "ee_pose")
         self.statuses: list[Any] = []
         self.status_times: list[float] = []  # arrival [s, ROS clock], one per status
@@ -119,10 +84,12 @@ class Rig:
         return "\n".join(lines)
 
     def logs(self) -> str:
-        return "\n".join(f"--- {p.name}\n{p.log()[-3000:]}" for p in self.processes)
+        return "\n".join(
+            f"--- {name}\n" + "\n".join(log_tail(self.directory, name, 40)) for name in self.nodes
+        )
 
-    def stop(self) -> list[int | None]:
-        return [p.stop() for p in self.processes]
+    def stop(self) -> list[int]:
+        return stop_nodes(self.processes)
 
     # ------------------------------------------------------------------ commands
     def twist(self, linear=(0.0, 0.0, 0.0), angular=(0.0, 0.0, 0.0), frame="base_link") -> Any:
