@@ -1,20 +1,27 @@
-"""What sim_arm.launch.py and servo.launch.py share: a bundled robot, simulated, described and
-watched by the kinematics node.
+"""What sim_arm.launch.py and servo.launch.py share: a robot (bundled, or the user's own URDF or
+xacro file), simulated, described and watched by the kinematics node.
 
 Not a launch file (`ros2 launch` takes *.launch.py). The launch files load it by its path, from
 beside their own (`__file__`; four lines at the top of each): `ros2 launch` loads a launch file
 from share/kinematics_service/launch (CMakeLists.txt installs launch/ whole, this file with it),
 which is not on sys.path (nor is the working directory of `ros2 launch` that folder).
 
-Their common arguments (`arguments`): robot, base_link, tip_link, rate, rviz. Their common nodes
-(`robot_nodes`): robot_state_publisher (TF and the robot_description topic, from the bundled
-file's XML), sim_arm (joint_states of every moving joint without <mimic>, which
+Their common arguments (`arguments`): robot, description_file, xacro_args, base_link, tip_link,
+rate, rviz. Their common nodes (`robot_nodes`): robot_state_publisher (TF and the
+robot_description topic, from the file's XML, xacro expanded), sim_arm (joint_states of every moving joint without <mimic>, which
 robot_state_publisher needs: a Panda's finger too), the kinematics node on the chosen chain
 (config/kinematics.yaml, then the bundled file and the chain), and RViz on request; all with
 the package's Fast DDS profile (`kinematics_node.ros.env.fastdds_profile_env`).
+
+The user's own robot (description_file, which overrides robot): the nodes read the file
+themselves (robot_description_file and xacro_args, as kinematics.launch.py passes them); the
+chain is base_link -> tip_link, empty meaning the nodes' own choice (the one tip when there is
+one; with several, set tip_link: the nodes wait for it and list the candidates).
 """
 
 import os  # noqa: I001  (ruff would sort `launch` as first-party: the repo has a launch/ folder)
+
+from xml.etree import ElementTree
 
 from launch.actions import DeclareLaunchArgument
 from launch.conditions import IfCondition
@@ -23,18 +30,30 @@ from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 
 from kinematics_node.ros.env import fastdds_profile_env
+from kinematics_node.service.description_file import read_description_file
 from kinematics_node.sim.robots import default_chain_links
 
 PACKAGE = "kinematics_service"
 
 
 def arguments():
-    """The launch arguments both launch files declare (robot, base_link, tip_link, rate, rviz)."""
+    """The launch arguments both launch files declare (robot, description_file, xacro_args,
+    base_link, tip_link, rate, rviz)."""
     return [
         DeclareLaunchArgument(
             "robot",
             default_value="ur5e",
             description="bundled robot: ur5e, panda, iiwa14, scara or planar3r",
+        ),
+        DeclareLaunchArgument(
+            "description_file",
+            default_value="",
+            description="your own robot instead: a URDF or xacro file (relative to here)",
+        ),
+        DeclareLaunchArgument(
+            "xacro_args",
+            default_value="",
+            description="xacro arguments for description_file: 'name:=value other:=value'",
         ),
         DeclareLaunchArgument(
             "base_link", default_value="", description="chain root (empty: robot default)"
@@ -48,8 +67,28 @@ def arguments():
 
 
 def chosen_robot(context, share):
-    """{robot, description_file, base_link, tip_link, default_chain, rate} of the launch
-    arguments; raises RuntimeError naming the bundled robots when `robot` is none of them."""
+    """{robot, description_file, xacro_args, xml, base_link, tip_link, default_chain, rate} of
+    the launch arguments (robot None for the user's own file); raises RuntimeError naming the
+    bundled robots when `robot` is none of them, or saying what is wrong with description_file."""
+    rate = float(LaunchConfiguration("rate").perform(context))
+    own = LaunchConfiguration("description_file").perform(context)
+    if own:  # absolute: relative to where `ros2 launch` runs, not the nodes
+        path = os.path.abspath(os.path.expanduser(own))
+        xacro_args = LaunchConfiguration("xacro_args").perform(context)
+        try:
+            xml = read_description_file(path, xacro_args).xml
+        except Exception as exc:  # RobotDescriptionError: the file, the xacro run, an argument
+            raise RuntimeError(f"description_file: {exc}") from None
+        return {
+            "robot": None,
+            "description_file": path,
+            "xacro_args": xacro_args,
+            "xml": xml,
+            "base_link": LaunchConfiguration("base_link").perform(context),
+            "tip_link": LaunchConfiguration("tip_link").perform(context),
+            "default_chain": False,
+            "rate": rate,
+        }
     robot = LaunchConfiguration("robot").perform(context)
     robots_dir = os.path.join(share, "config", "robots")
     description_file = os.path.join(robots_dir, robot + ".urdf")
@@ -59,23 +98,45 @@ def chosen_robot(context, share):
     default_base, default_tip = default_chain_links(robot)
     base_link = LaunchConfiguration("base_link").perform(context) or default_base
     tip_link = LaunchConfiguration("tip_link").perform(context) or default_tip
+    with open(description_file, encoding="utf-8") as fh:
+        xml = fh.read()
     return {
         "robot": robot,
         "description_file": description_file,
+        "xacro_args": "",
+        "xml": xml,
         "base_link": base_link,
         "tip_link": tip_link,
         "default_chain": (base_link, tip_link) == (default_base, default_tip),
-        "rate": float(LaunchConfiguration("rate").perform(context)),
+        "rate": rate,
     }
+
+
+def description_parameters(robot):
+    """The parameters that give a node the robot's file (and its xacro arguments, if any)."""
+    params = {"robot_description_file": robot["description_file"]}
+    if robot["xacro_args"]:
+        params["xacro_args"] = robot["xacro_args"]
+    return params
 
 
 def chain_parameters(robot):
     """The description parameters of the nodes that work on the chain (kinematics node, servo)."""
     return {
-        "robot_description_file": robot["description_file"],
+        **description_parameters(robot),
         "base_link": robot["base_link"],
         "tip_link": robot["tip_link"],
     }
+
+
+def _root_link(xml):
+    """The description's root link (RViz's fixed frame when base_link is left to the nodes)."""
+    root = ElementTree.fromstring(xml)
+    children = {
+        j.find("child").get("link") for j in root.iter("joint") if j.find("child") is not None
+    }
+    roots = [link.get("name") for link in root.iter("link") if link.get("name") not in children]
+    return roots[0] if roots else "base_link"
 
 
 def dds_env(share):
@@ -87,8 +148,8 @@ def dds_env(share):
 def robot_nodes(share, robot, sim_parameters, env):
     """robot_state_publisher, sim_arm (the robot and the rate, then `sim_parameters`), the
     kinematics node, and RViz where the rviz argument is true, all in the environment `env`."""
-    with open(robot["description_file"], encoding="utf-8") as fh:
-        robot_description = ParameterValue(fh.read(), value_type=str)
+    robot_description = ParameterValue(robot["xml"], value_type=str)
+    given = {"robot": robot["robot"]} if robot["robot"] else description_parameters(robot)
     return [
         Node(
             package="robot_state_publisher",
@@ -102,7 +163,7 @@ def robot_nodes(share, robot, sim_parameters, env):
             package=PACKAGE,
             executable="sim_arm",
             name="sim_arm",
-            parameters=[{"robot": robot["robot"], "rate": robot["rate"], **sim_parameters}],
+            parameters=[{**given, "rate": robot["rate"], **sim_parameters}],
             output="screen",
             additional_env=env,
         ),
@@ -125,7 +186,7 @@ def robot_nodes(share, robot, sim_parameters, env):
                 "-d",
                 os.path.join(share, "config", "sim_arm.rviz"),
                 "-f",
-                robot["base_link"],
+                robot["base_link"] or _root_link(robot["xml"]),
             ],
             condition=IfCondition(LaunchConfiguration("rviz")),
             output="screen",

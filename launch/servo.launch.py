@@ -1,4 +1,5 @@
-"""A simulated bundled arm driven by the servo node, with the kinematics node watching it.
+"""A simulated arm (bundled, or your own description) driven by the servo node, with the
+kinematics node watching it.
 
     ros2 launch kinematics_service servo.launch.py                 # the UR5e, servo at 1 kHz
     ros2 launch kinematics_service servo.launch.py robot:=panda command_out_type:=trajectory
@@ -14,9 +15,14 @@ without <mimic> simulated (robot_state_publisher needs them all: a Panda's finge
 chain's joints at `READY` positions and taking the servo's commands (`command_joints`), the rest
 holding still; and the servo (config/servo.yaml) on the same chain.
 
+    ros2 launch kinematics_service servo.launch.py description_file:=my_arm.urdf tip_link:=tool0
+
 Arguments:
     robot: bundled robot (ur5e, panda, iiwa14, scara, planar3r); default ur5e.
-    base_link, tip_link: the chain; empty = the robot's default chain.
+    description_file, xacro_args: your own robot instead, a URDF or xacro file; it starts in the
+        middle of its joint limits.
+    base_link, tip_link: the chain; empty = the robot's default chain (your own robot's: its
+        root and its one tip; with several tips, say which: the launch lists them).
     command_out_type: how the servo commands the arm: position (default) or velocity
         (std_msgs/Float64MultiArray, as forward_command_controller takes them), or trajectory
         (trajectory_msgs/JointTrajectory, as joint_trajectory_controller); sim_arm takes the
@@ -94,8 +100,10 @@ def _nodes(context, *args, **kwargs):
     servo_priority, sim_priority = thread_priorities(
         LaunchConfiguration("thread_priority").perform(context)
     )
-    description_file = robot["description_file"]
-    chain = SerialChain.from_urdf(description_file, robot["base_link"], robot["tip_link"])
+    try:
+        chain = SerialChain.from_urdf(robot["xml"], robot["base_link"], robot["tip_link"])
+    except Exception as exc:  # a chain the description does not have (names the candidates)
+        raise RuntimeError(f"base_link/tip_link: {exc}") from None
     # sim_arm simulates every moving joint without <mimic>; the servo's Float64MultiArray holds
     # the chain's, in chain order: command_joints says which
     sim = {
@@ -104,7 +112,7 @@ def _nodes(context, *args, **kwargs):
         "thread_priority": sim_priority,
     }
     if robot["default_chain"]:
-        names, lower, upper, _ = urdf_actuated_joints(description_file)
+        names, lower, upper, _ = urdf_actuated_joints(robot["description_file"])
         ready = dict(zip(chain.joint_names, READY[robot["robot"]], strict=True))
         middle = middle_of_limits(lower, upper)
         sim["initial_positions"] = [

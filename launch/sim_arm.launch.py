@@ -1,11 +1,15 @@
-"""A simulated bundled arm + robot_state_publisher + the kinematics node (+ RViz on request).
+"""A simulated arm (bundled, or your own description) + robot_state_publisher + the kinematics
+node (+ RViz on request).
 
     ros2 launch kinematics_service sim_arm.launch.py                 # the UR5e
     ros2 launch kinematics_service sim_arm.launch.py robot:=panda rviz:=true
+    ros2 launch kinematics_service sim_arm.launch.py description_file:=my_arm.urdf.xacro
 
 Arguments:
     robot: bundled robot, a file config/robots/<robot>.urdf of this package
         (ur5e, panda, iiwa14, scara, planar3r); default ur5e.
+    description_file, xacro_args: your own robot instead, a URDF or xacro file (relative to
+        where you launch); xacro_args "name:=value other:=value".
     base_link, tip_link: chain of the kinematics node; empty = the robot's default chain
         (kinematics_node.sim.robots.default_chain_links), e.g. panda_link0 -> panda_hand_tcp.
     rate: sim_arm integration and joint_states rate [Hz] (default 100.0).

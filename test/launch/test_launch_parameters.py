@@ -284,3 +284,96 @@ def test_launch_files_find_their_helper_beside_them_wherever_installed(monkeypat
         nodes = module._nodes({**_arguments(module), "robot": "panda"})
         params = _kinematics_parameters(nodes)
         assert params["robot_description_file"] == str(share / "config" / "robots" / "panda.urdf")
+
+
+def _own_robot(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> str:
+    """A user's description (the Panda's file under a name of the user's, with its gripper's
+    several leaves), given relative to where `ros2 launch` runs."""
+    (tmp_path / "robots").mkdir()
+    (tmp_path / "robots" / "my_arm.urdf").write_text(
+        (ROOT / "config" / "robots" / "panda.urdf").read_text(encoding="utf-8"), encoding="utf-8"
+    )
+    monkeypatch.chdir(tmp_path)
+    return "robots/my_arm.urdf"
+
+
+def test_sim_arm_launch_runs_the_users_own_description(monkeypatch, tmp_path):
+    """description_file: every node reads the user's file (absolute, from where the launch ran),
+    sim_arm simulates it (no bundled `robot`), robot_state_publisher gets its XML, and the
+    chain is left to the nodes (empty base and tip, as without launch)."""
+    from kinematics_node.ros.executables import SIM_ARM_PARAMETERS
+
+    module = _load(monkeypatch, "sim_arm.launch.py")
+    monkeypatch.setattr(module, "get_package_share_directory", lambda package: str(ROOT))
+    own = _own_robot(tmp_path, monkeypatch)
+    arguments = _arguments(module)
+    assert arguments["description_file"] == "" and arguments["xacro_args"] == ""
+    nodes = module._nodes({**arguments, "description_file": own})
+    path = str(tmp_path / "robots" / "my_arm.urdf")
+    kinematics = _kinematics_parameters(nodes)
+    _check_declared(kinematics)
+    assert kinematics == {"robot_description_file": path, "base_link": "", "tip_link": ""}
+    sim, _ = _node_parameters(nodes, "sim_arm")
+    assert sim == {"robot_description_file": path, "rate": float(arguments["rate"])}
+    assert set(sim) <= {spec.name for spec in SIM_ARM_PARAMETERS}
+    (rsp,) = [n for n in nodes if n.kwargs.get("executable") == "robot_state_publisher"]
+    (rsp_params,) = rsp.kwargs["parameters"]
+    assert rsp_params["robot_description"].parts[0] == Path(path).read_text(encoding="utf-8")
+    (rviz,) = [n for n in nodes if n.kwargs.get("executable") == "rviz2"]
+    assert rviz.kwargs["arguments"][-1] == "panda_link0"  # the description's root
+
+
+def test_a_missing_own_description_is_refused_naming_it(monkeypatch, tmp_path):
+    module = _load(monkeypatch, "sim_arm.launch.py")
+    monkeypatch.setattr(module, "get_package_share_directory", lambda package: str(ROOT))
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(RuntimeError, match="description_file: .*nowhere.urdf.*no such file"):
+        module._nodes({**_arguments(module), "description_file": "nowhere.urdf"})
+
+
+def test_servo_launch_on_the_users_own_description_needs_its_tip_and_then_drives_it(
+    monkeypatch, tmp_path
+):
+    """With several tips the launch stops naming them (the nodes would wait for one); with
+    tip_link, the servo drives that chain, and sim_arm takes its joints' commands and simulates
+    the rest too (the finger), starting in the middle of the limits."""
+    from kinematics_node.service.servo_parameters import validate_servo_parameters
+
+    module = _load(monkeypatch, "servo.launch.py")
+    monkeypatch.setattr(module, "get_package_share_directory", lambda package: str(ROOT))
+    own = _own_robot(tmp_path, monkeypatch)
+    context = {**_arguments(module), "description_file": own}
+    with pytest.raises(RuntimeError, match="tip_link.*panda_hand_tcp"):
+        module._nodes(context)
+    nodes = module._nodes({**context, "tip_link": "panda_hand_tcp"})
+    servo, _ = _node_parameters(nodes, "servo")
+    sim, _ = _node_parameters(nodes, "sim_arm")
+    path = str(tmp_path / "robots" / "my_arm.urdf")
+    assert servo["robot_description_file"] == sim["robot_description_file"] == path
+    assert servo["tip_link"] == "panda_hand_tcp" and validate_servo_parameters(servo) is None
+    assert sim["command_joints"].split() == [f"panda_joint{k}" for k in range(1, 8)]
+    assert "initial_positions" not in sim and "robot" not in sim
+
+
+def test_own_xacro_description_and_its_arguments_reach_every_node(monkeypatch, tmp_path):
+    pytest.importorskip("xacro", reason="xacro descriptions need the xacro extra")
+    module = _load(monkeypatch, "sim_arm.launch.py")
+    monkeypatch.setattr(module, "get_package_share_directory", lambda package: str(ROOT))
+    monkeypatch.chdir(tmp_path)
+    text = (ROOT / "config" / "robots" / "ur5e.urdf").read_text(encoding="utf-8")
+    xacro_robot = '<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="$(arg name)">'
+    xacro_robot += '<xacro:arg name="name" default="arm"/>'
+    assert '<robot name="ur5e">' in text
+    (tmp_path / "arm.urdf.xacro").write_text(
+        text.replace('<robot name="ur5e">', xacro_robot, 1), encoding="utf-8"
+    )
+    nodes = module._nodes(
+        {**_arguments(module), "description_file": "arm.urdf.xacro", "xacro_args": "name:=mine"}
+    )
+    sim, _ = _node_parameters(nodes, "sim_arm")
+    assert sim["xacro_args"] == "name:=mine"
+    assert _kinematics_parameters(nodes)["xacro_args"] == "name:=mine"
+    (rsp,) = [n for n in nodes if n.kwargs.get("executable") == "robot_state_publisher"]
+    (rsp_params,) = rsp.kwargs["parameters"]
+    xml = rsp_params["robot_description"].parts[0]
+    assert '<robot name="mine"' in xml and "xacro:" not in xml  # expanded for the publisher
