@@ -1,9 +1,12 @@
-"""`kinematics ros`: the running kinematics node from a shell, where ros2cli is not at hand (it is
-not on PyPI): print one `ee_pose` message, or call `compute_ik` and print the answer.
+"""`kinematics ros`: the running nodes from a shell, where ros2cli is not at hand (it is not on
+PyPI): print one `ee_pose` message, call `compute_ik` and print the answer, or jog the arm through
+the servo from the keyboard (teleop_twist_keyboard is not on PyPI either).
 
     kinematics ros pose [--topic ee_pose] [--wait 10] [--json]
     kinematics ros ik --target X,Y,Z,QX,QY,QZ,QW [--frame F] [--tip LINK] [--position-only]
                       [--timeout S] [--service compute_ik] [--wait 10] [--json]
+    kinematics ros jog [--topic /servo/delta_twist_cmds] [--frame F] [--speed 0.05] [--turn 0.3]
+                       [--rate 50] [--status /servo/status] [--wait 10]
 
 This module holds the arguments and the words and imports no ROS: main.py adds the `ros` command
 with `add_parser` and runs it with `run`; ROS is imported by `run`, through `ros.client`, only
@@ -13,21 +16,30 @@ when the command runs. DDS settings come from the caller's environment (`ros.cli
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
-from collections.abc import Callable
+import os
+import select
+import sys
+import time
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from ..ros.client import RosClient, RosClientError, missing_ros
+from .jog import HELP, Jog
 
 _EXAMPLES = """examples:
   kinematics ros pose                               # one ee_pose message of the running node
   kinematics ros pose --topic /arm/ee_pose --json
   kinematics ros ik --target 0.4,0.1,0.4,1,0,0,0    # x,y,z [m], quaternion qx,qy,qz,qw
   kinematics ros ik --target 0.4,0.1,0.4,0,0,0,1 --position-only --tip tool0
+  kinematics ros jog                                # keys w/s a/d r/f move, Shift turns, q quits
+  kinematics ros jog --frame tool0 --speed 0.02     # along the tool's own axes
 
-Start the node first (kinematics_node --help). Both commands wait up to --wait seconds for it and
-use this shell's ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE, as every ROS 2 tool does."""
+Start the node first (kinematics_node --help; for jog, the servo: servo --help). The commands wait
+up to --wait seconds for it and use this shell's ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE,
+as every ROS 2 tool does."""
 
 
 def _pose7(text: str) -> tuple[float, ...]:
@@ -52,6 +64,17 @@ def _pose7(text: str) -> tuple[float, ...]:
     return values
 
 
+def _positive(text: str) -> float:
+    """argparse type of --speed, --turn and --rate: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return value
+
+
 def _seconds(text: str) -> float:
     """argparse type of --wait and --timeout: a finite number of seconds > 0."""
     try:
@@ -67,9 +90,9 @@ def add_parser(commands: Any) -> None:
     """Add the `ros` command (with `pose` and `ik`) to main.py's subcommands."""
     ros = commands.add_parser(
         "ros",
-        help="the running kinematics node over ROS 2: its pose, an IK call",
-        description="Talk to a running kinematics node over ROS 2 (needs rclpy: a sourced ROS 2\n"
-        "workspace, or `. build/ros/env.sh` after `make ros`).",
+        help="the running nodes over ROS 2: the pose, an IK call, jogging through the servo",
+        description="Talk to a running kinematics node or servo over ROS 2 (needs rclpy: a\n"
+        "sourced ROS 2 workspace, or `. build/ros/env.sh` after `make ros`).",
         epilog=_EXAMPLES,
     )
     which = ros.add_subparsers(dest="ros_command", required=True, metavar="COMMAND")
@@ -104,13 +127,44 @@ def add_parser(commands: Any) -> None:
         help="IK time budget [s] (default: the node's ik.timeout parameter)",
     )
     ik.add_argument("--service", default="compute_ik", help="service (default: %(default)s)")
-    for command in (pose, ik):
+    jog = which.add_parser(
+        "jog",
+        help="jog the arm through the servo from the keyboard",
+        description="Publish TwistStamped to the servo from the keyboard: " + HELP + ".\n"
+        "A key's twist is sent at --rate for 0.6 s after its last press or repeat, so a held key\n"
+        "moves the arm without a pause and a released one lets the servo stop it smoothly.\n"
+        "Without a terminal, keys are read from standard input as they come (end of input\n"
+        "quits once the last key's twist has lapsed). The servo's status is shown as it changes.",
+        epilog=_EXAMPLES,
+    )
+    jog.add_argument(
+        "--topic",
+        default="/servo/delta_twist_cmds",
+        help="the servo's twist topic (default: %(default)s)",
+    )
+    jog.add_argument(
+        "--frame", default="", help="frame_id of the twists: its axes (default: the servo's base)"
+    )
+    jog.add_argument(
+        "--speed", type=_positive, default=0.05, help="linear speed [m/s] (default: %(default)s)"
+    )
+    jog.add_argument(
+        "--turn", type=_positive, default=0.3, help="angular speed [rad/s] (default: %(default)s)"
+    )
+    jog.add_argument(
+        "--rate", type=_positive, default=50.0, help="twists per second (default: %(default)s)"
+    )
+    jog.add_argument(
+        "--status", default="/servo/status", help="the servo's status topic (default: %(default)s)"
+    )
+    for command in (pose, ik, jog):
         command.add_argument(
             "--wait",
             type=_seconds,
             default=10.0,
             help="how long to wait for the node [s] (default: %(default)s)",
         )
+    for command in (pose, ik):
         command.add_argument("--json", action="store_true", help="JSON output")
 
 
@@ -121,8 +175,11 @@ def run(args: argparse.Namespace, emit: Callable[[str], None] = print) -> int:
         RosClientError: ROS 2 is missing, or the node did not answer (the message says what was
             seen and what to do); main.py prints it as one line, status 1.
     """
-    command = _pose if args.ros_command == "pose" else _ik
-    needs = ("geometry_msgs.msg",) if args.ros_command == "pose" else ("kinematics_service.srv",)
+    command, needs = {
+        "pose": (_pose, ("geometry_msgs.msg",)),
+        "ik": (_ik, ("kinematics_service.srv",)),
+        "jog": (_jog, ("geometry_msgs.msg", "diagnostic_msgs.msg")),
+    }[args.ros_command]
     reason = missing_ros(needs)
     if reason is not None:
         raise RosClientError(f"kinematics ros {args.ros_command} {reason}")
@@ -230,3 +287,84 @@ def _ik(client: RosClient, args: argparse.Namespace, emit: Callable[[str], None]
     if not response.success:
         raise RosClientError(f"{client.resolve(args.service)}: {response.message}")
     return 0
+
+
+@contextlib.contextmanager
+def _keys_as_typed(fd: int) -> Iterator[None]:
+    """A terminal on `fd` delivers each key as it is typed, unechoed (cbreak mode: Ctrl-C still
+    interrupts), and is restored after; anything else (a pipe) is left alone."""
+    if not os.isatty(fd):
+        yield
+        return
+    import termios
+    import tty
+
+    saved = termios.tcgetattr(fd)
+    try:
+        tty.setcbreak(fd)
+        yield
+    finally:
+        termios.tcsetattr(fd, termios.TCSADRAIN, saved)
+
+
+def _jog(client: RosClient, args: argparse.Namespace, emit: Callable[[str], None]) -> int:
+    from diagnostic_msgs.msg import DiagnosticStatus
+    from geometry_msgs.msg import TwistStamped
+
+    topic = client.resolve(args.topic)
+    publisher = client.node.create_publisher(TwistStamped, args.topic, 10)
+    said: list[str] = []
+
+    def on_status(msg: Any) -> None:  # each change of its code (messages carry changing figures)
+        code = {kv.key: kv.value for kv in msg.values}.get("code_name", msg.message)
+        if not said or said[-1] != code:
+            said.append(code)
+            emit(f"servo: {msg.message}")
+
+    client.node.create_subscription(DiagnosticStatus, args.status, on_status, 10)
+    deadline = time.monotonic() + args.wait
+    while publisher.get_subscription_count() == 0:
+        if time.monotonic() >= deadline:
+            raise RosClientError(
+                f"nothing subscribes to {topic} within {args.wait:g} s: is the servo running "
+                f"(servo --help), with the same ROS_DOMAIN_ID and discovery range as this "
+                f"shell? {client.graph_seen()}"
+            )
+        client.spin_once(0.05)
+    jog = Jog(speed=args.speed, turn=args.turn)
+    frame = args.frame
+    emit(f"jogging through {topic} in {frame or 'the servo base'}'s axes: {HELP}")
+    fd = sys.stdin.fileno()
+    period = 1.0 / args.rate
+    due = time.monotonic()
+    ended = False  # no more keys (end of input)
+    with _keys_as_typed(fd):
+        while not jog.quit and not (ended and jog.current(time.monotonic()) is None):
+            wait = max(0.0, due - time.monotonic())
+            readable = [] if ended else select.select([fd], [], [], wait)[0]
+            if ended:
+                time.sleep(wait)
+            if readable:
+                data = os.read(fd, 64)
+                ended = not data
+                for key in data.decode(errors="replace"):
+                    line = jog.press(key, time.monotonic())
+                    if line:
+                        emit(line)
+            now = time.monotonic()
+            if now >= due:
+                twist = jog.current(now)
+                if twist is not None:
+                    publisher.publish(_twist_msg(TwistStamped, client, frame, twist))
+                due = max(due + period, now)
+            client.spin_once(0.0)
+    return 0
+
+
+def _twist_msg(kind: Any, client: RosClient, frame: str, twist: tuple[float, ...]) -> Any:
+    msg = kind()
+    msg.header.stamp = client.node.get_clock().now().to_msg()
+    msg.header.frame_id = frame
+    a, v = msg.twist.angular, msg.twist.linear
+    a.x, a.y, a.z, v.x, v.y, v.z = (float(x) for x in twist)
+    return msg

@@ -127,6 +127,10 @@ class RosClient:
         finally:
             self.node.destroy_client(client)
 
+    def spin_once(self, timeout: float = 0.0) -> None:
+        """Run what has arrived (callbacks of the node's subscriptions), waiting up to `timeout`."""
+        self._executor.spin_once(timeout_sec=timeout)
+
     def resolve(self, name: str) -> str:
         """`name` as this node resolves it (a relative name gets the namespace, '/')."""
         return str(self.node.resolve_topic_name(name))

@@ -25,7 +25,7 @@ def _kinematics_without_rclpy(*args: str) -> subprocess.CompletedProcess[str]:
 
 
 @pytest.mark.parametrize(
-    "args", [["ros", "pose"], ["ros", "ik", "--target", "0.4,0.1,0.4,1,0,0,0"]]
+    "args", [["ros", "pose"], ["ros", "ik", "--target", "0.4,0.1,0.4,1,0,0,0"], ["ros", "jog"]]
 )
 def test_without_rclpy_it_says_how_to_get_ros_in_one_line(args):
     out = _kinematics_without_rclpy(*args)
@@ -66,3 +66,10 @@ def test_the_command_is_listed_in_the_help(capsys):
     assert main(["ros", "--help"]) == 0
     out = capsys.readouterr().out
     assert "pose" in out and "ik" in out and "ROS_DOMAIN_ID" in out
+
+
+@pytest.mark.parametrize("option", ["--speed", "--turn", "--rate"])
+@pytest.mark.parametrize("value", ["0", "-0.1", "nan", "fast"])
+def test_jog_speeds_and_rate_are_positive_numbers(capsys, option, value):
+    assert main(["ros", "jog", option, value]) == 2
+    assert f"argument {option}: expected a finite number > 0" in capsys.readouterr().err

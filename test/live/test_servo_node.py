@@ -10,6 +10,10 @@ no joint command on the wire is ever non-finite. The servo runs at 1 kHz.
 from __future__ import annotations
 
 import math
+import os
+import pty
+import subprocess
+import sys
 import tempfile
 import threading
 import time
@@ -246,6 +250,47 @@ def test_a_nan_command_is_refused_with_a_status_and_the_arm_stops(rig):
 
     time.sleep(1.0)
     wait_until(at_rest, 4.0, "the arm at rest after the refused twist")
+
+
+def test_kinematics_ros_jog_moves_the_arm_from_a_terminal(rig):
+    """`kinematics ros jog` as a user runs it, in a terminal (a pseudo-terminal here): `r`
+    pressed and auto-repeated moves the tool up at --speed without a pause, and `q` quits."""
+    kinematics = Path(os.environ.get("KINEMATICS_ROS_PYTHON", sys.executable)).parent / "kinematics"
+    main, side = pty.openpty()
+    jog = subprocess.Popen(
+        [str(kinematics), "ros", "jog", "--speed", "0.04", "--frame", "base_link"],
+        stdin=side,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        env=local_ros_env(DOMAIN_ID),
+        text=True,
+    )
+    os.close(side)
+    try:
+        wait_until(lambda: bool(rig.statuses) and jog.poll() is None, 5.0, "jog running")
+        time.sleep(3.0)  # its start-up: rclpy, discovery of the servo
+        before = rig.last_position()
+        start = rig.now()
+        for _ in range(40):  # a held key: its first press, then the terminal's repeats
+            os.write(main, b"r")
+            time.sleep(0.05)
+        end = rig.now()
+        os.write(main, b"q")
+        out, _ = jog.communicate(timeout=20)
+    finally:
+        if jog.poll() is None:
+            jog.kill()
+            jog.wait()
+        os.close(main)
+    assert jog.returncode == 0, out
+    assert "jogging through /servo/delta_twist_cmds" in out and "w/s a/d r/f" in out, out
+    assert "servo: following the twist command" in out, out
+    time.sleep(1.5)  # the hold (0.6 s), the timeout and the stop
+    rise = rig.last_position() - before
+    assert rise[2] > 0.5 * 0.04 * (end - start), (rise, out)
+    assert np.abs(rise[:2]).max() < 2e-3, rise  # straight up
+    fit = velocity(*rig.positions(start + 0.6, end))  # after the ramp
+    assert fit[2] == pytest.approx(0.04, rel=0.15), fit
 
 
 def test_a_bad_parameter_is_refused_at_run_time_saying_why(rig):
