@@ -64,30 +64,24 @@ def _pose7(text: str) -> tuple[float, ...]:
     return values
 
 
-def _positive(text: str) -> float:
+def _positive(text: str, what: str = "number") -> float:
     """argparse type of --speed, --turn and --rate: a finite number > 0."""
     try:
         value = float(text)
     except ValueError:
         value = math.nan
     if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a finite {what} > 0, got {text!r}")
     return value
 
 
 def _seconds(text: str) -> float:
     """argparse type of --wait and --timeout: a finite number of seconds > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a finite number of seconds > 0, got {text!r}")
-    return value
+    return _positive(text, "number of seconds")
 
 
 def add_parser(commands: Any) -> None:
-    """Add the `ros` command (with `pose` and `ik`) to main.py's subcommands."""
+    """Add the `ros` command (with `pose`, `ik` and `jog`) to main.py's subcommands."""
     ros = commands.add_parser(
         "ros",
         help="the running nodes over ROS 2: the pose, an IK call, jogging through the servo",
