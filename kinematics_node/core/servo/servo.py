@@ -15,7 +15,8 @@ the arm is and to notice an arm that does not follow):
    joint velocities as given.
 2. The followed rows of V are solved for q̇ by damped least squares (`dls`), which never stops at
    a singularity; near the edge of the workspace a commanded motion along the lost direction is
-   braked within what the joints can follow (`_brake`); from an exact singularity, a command along the lost direction starts a motion
+   braked within what the joints can follow, the commanded pose held back alike so that the tool
+   stays on the commanded path (`_brake`); from an exact singularity, a command along the lost direction starts a motion
    along the singular joint direction where its second-order effect agrees (`_escape`). A
    redundant arm adds null-space motion away from its joint limits.
 3. Joint limits: a joint near a position limit may move towards it no faster than it can still
@@ -85,6 +86,15 @@ _BRAKE_CHECK_SIGMA = 0.2  # [m] below this σ_min the motion along u_min is kept
 _LEAVE_SPEED = 0.1  # [m/s] leaving a singularity, the task speed along u_min is never held below
 # this (0.02-0.05 left the iiwa14's straight elbow in 0.53 s, against the test's 0.5 s)
 _COMMANDED_SPEED = 0.01  # [m/s] only a commanded linear speed along u_min above this is braked
+_RATE_SIGMA = 0.1  # [m] below this σ_min the joint speed along v_min may grow by at most ...
+_RATE_SHARE = 0.5  # ... this share of the planning acceleration per period (`Servo._brake`).
+# Measured out to the edge and back (benchmarks/servo_benchmark.py, largest distance from the
+# line, UR5e/Panda/iiwa14): share 0.5: 6/5/4 mm; 0.25: 6/9/6; 1: 7/5/4. Below σ_min 0.05: 9-11 mm
+# on the UR5e; below 0.15, the steps script's path error 92 mm on the UR5e (67 at 0.1); below 0.2,
+# 141 mm on the iiwa14 (74)
+_REACH_SHARE = 0.5  # a braked motion is slowed along its joint direction to what each joint
+# reaches from its velocity within this share of its planning acceleration in one period (1 or 2:
+# the same edge figures, the steps script's path error 77-81 mm on the UR5e, 67 at 0.5)
 _SLOPE_RATE = 0.05  # [rad/s] joint speed along v_min above which dσ/dθ is read off J̇
 _BRAKE_LINEAR_SHARE = 0.5  # only where u_min is mostly linear (|u_lin|² ≥ this): not a wrist
 _SETTLE_S = 1.0  # [s] after a twist command's timeout has ramped the twist to zero, the loop stays
@@ -934,6 +944,7 @@ class Servo:
         rp = self._ref_p
         self._ref_p = (rp[0] + vx * dt, rp[1] + vy * dt, rp[2] + vz * dt)
         details["scaled"] = self._twist_scaled
+        details["ramped"] = ramped  # base axes: what the commanded pose advanced by, per second
         K = cfg.tracking_gain_1_per_s
         if tip_axes:
             assert R is not None
@@ -1066,16 +1077,18 @@ class Servo:
         lo, hi, limited = self._velocity_box()
         sol = dls.solve(Jt, x, eps, lam)
         commanded = x  # the escape from an exact singularity goes by the whole command
+        braked = None
         if float(sol.singular_values[-1]) < _BRAKE_CHECK_SIGMA and "commanded" in details:
             braked = self._brake(Jt, x, sol, details["commanded"])
             if braked is not None:
-                x, scale, u = braked
+                x, slowed = braked
                 sol = dls.solve(Jt, x, eps, lam)
-                task_acc = details.get("task_acceleration")
-                if task_acc is not None:
-                    details["task_acceleration"] = (
-                        task_acc - (1.0 - scale) * float(u.dot(task_acc)) * u
-                    )
+                # The braking changes the task velocity faster than the ramp's acceleration,
+                # which no longer describes it: no feed-forward (with the ramp's share of it fed
+                # forward the joints lagged their solution, and the tool left its line).
+                details.pop("task_acceleration", None)
+                if slowed < 1.0:
+                    self._hold_back(1.0 - slowed, details["ramped"])
         s = sol.singular_values
         s_first, s_last = float(s[0]), float(s[-1])
         details["condition"] = (s_first / s_last if s_last > 0 else math.inf, s_last)
@@ -1108,6 +1121,11 @@ class Servo:
         null = self._null_motion(active, rows)
         total = undamped + null if exact else undamped + damped + null + fixed
         total_list = total.tolist()
+        if braked is not None:
+            reach = self._reachable_share(total_list)
+            if reach < 1.0:
+                total = total * reach
+                total_list = total.tolist()
         if all(a <= t <= b for t, a, b in zip(total_list, lo, hi, strict=True)):
             task_acc = details.get("task_acceleration")
             if task_acc is not None and limited is None:
@@ -1156,7 +1174,7 @@ class Servo:
 
     def _brake(
         self, Jt: FloatArray, x: FloatArray, sol: dls.DLSSolution, commanded: Any
-    ) -> tuple[FloatArray, float, FloatArray] | None:
+    ) -> tuple[FloatArray, float] | None:
         """Brake a commanded motion along the least-singular output direction u_min near a
         boundary singularity (the edge of the workspace: u_min mostly linear).
 
@@ -1170,14 +1188,24 @@ class Servo:
           the arm stops short of the edge, on its branch);
         * either way, r² |dσ/dθ| / σ³ (how fast q̇ = r/σ must change) stays within the joints'
           planning acceleration along v_min; leaving, r is never held below `_LEAVE_SPEED`, so a
-          singular configuration is always left.
+          singular configuration is always left;
+        * below σ_min = `_RATE_SIGMA`, the joint speed along v_min that r asks for grows by at
+          most `_RATE_SHARE` of that acceleration per period (toward the singularity at r/σ,
+          leaving at the damped solution's gain σ/(σ² + λ²), which is never zero): from rest at
+          the edge, the whole speed at once asked the joints for a step they lagged.
 
-        The rest of x is slowed by the share of x along u_min, so a motion straight out stops on
-        its line, and one along the edge goes on. Only where the commanded twist (not just the
-        loop's correction) has a linear part along u_min: a wrist singularity (u_min rotational)
-        and a pure rotation are left to damped least squares as before.
+        r is brought there by slowing the commanded twist c itself (x = c + K e), keeping the
+        share s = (r_braked − u_minᵀ K e) / u_minᵀ c of it, and the commanded pose is held back
+        by the rest of its advance (`_hold_back`): the arm slows along the commanded path and the
+        commanded pose with it, so the loop does not pull the tool off the path (slowing only
+        the u_min part of x let the rest slide the tool along the edge: 13-17 mm off the line).
+        A command mostly across u_min keeps at least (1 − |u_minᵀ c| / |c|)² of itself, so one
+        along the edge goes on; what x still has along u_min beyond r_braked is taken off.
+        Only where the commanded twist (not just the loop's correction) has a linear part along
+        u_min: a wrist singularity (u_min rotational) and a pure rotation are left to damped
+        least squares as before.
 
-        Returns (the task velocity braked, the scale of its u_min part, u_min), or None.
+        Returns (the task velocity braked, the share s of the commanded twist kept), or None.
         """
         u, v, sigma = sol.left[:, -1], sol.row_basis[-1], float(sol.singular_values[-1])
         lin = float(np.dot(u[self._linear_rows], u[self._linear_rows]))
@@ -1217,13 +1245,55 @@ class Servo:
             scale = min(damper, r_acc / abs(r))
         else:  # away from it: never below _LEAVE_SPEED, so a singularity is always left
             scale = min(1.0, max(r_acc, _LEAVE_SPEED) / abs(r))
+        if sigma < _RATE_SIGMA:
+            # the joint speed along v_min may grow by a share of the acceleration per period
+            grown = max(rate, 0.0) + _RATE_SHARE * acc * self.config.period_s
+            if slope > 0.0:
+                r_rate = grown / gain if gain > 0.0 else math.inf
+            else:
+                r_rate = grown * sigma
+            scale = min(scale, r_rate / abs(r))
         if scale >= 1.0:
             return None
-        # The rest of the motion is slowed by the share of it that leads out (|r| / |x|): a
-        # motion straight out stops on its line, one along the edge goes on.
-        share = abs(r) / float(np.linalg.norm(x))
-        whole = 1.0 - (1.0 - scale) * share
-        return whole * x + (scale - whole) * r * u, scale, u
+        # Keep the share of the commanded twist c (x = c + K e) that leaves scale * r along u_min.
+        c = np.asarray(commanded)
+        uc = float(u.dot(c))
+        r_braked = scale * r
+        floor = 1.0 - abs(uc) / float(np.linalg.norm(c))
+        kept = (r_braked - (r - uc)) / uc if uc != 0.0 else 1.0
+        kept = max(floor * floor, min(1.0, kept))
+        xb = x - (1.0 - kept) * c
+        rb = float(u.dot(xb))
+        if abs(rb) > abs(r_braked):  # the loop's correction alone leads out faster
+            xb = xb + (r_braked - rb) * u
+        return xb, kept
+
+    def _hold_back(self, share: float, ramped: Sequence[float]) -> None:
+        """Take back `share` of this period's advance of the commanded pose along the ramped
+        twist `ramped` (ω, v) [base axes]: the pose moves on along the commanded path, slower."""
+        k = -share * self.config.period_s
+        wx, wy, wz, vx, vy, vz = ramped
+        self._ref_q = _quat.normalized(
+            _quat.mul(_quat.from_rotvec(wx * k, wy * k, wz * k), self._ref_q)
+        )
+        rp = self._ref_p
+        self._ref_p = (rp[0] + vx * k, rp[1] + vy * k, rp[2] + vz * k)
+
+    def _reachable_share(self, qd: list[float]) -> float:
+        """The largest share s ≤ 1 of the joint velocities `qd` that every joint reaches from its
+        velocity within `_REACH_SHARE` of its planning acceleration in one period (1 if there is
+        none): a braked motion is slowed along its own joint direction, and the tool stays on
+        its path, where the smoothing would lag the joints one by one and bend it (on floats:
+        6-7 joints, cheaper than NumPy calls)."""
+        lo_s, hi_s = 0.0, 1.0
+        dt = self.config.period_s
+        for t, v, a in zip(qd, self._integrator.v_list, self._plan_acceleration_list, strict=True):
+            b = _REACH_SHARE * a * dt
+            if t > 1e-12:
+                lo_s, hi_s = max(lo_s, (v - b) / t), min(hi_s, (v + b) / t)
+            elif t < -1e-12:
+                lo_s, hi_s = max(lo_s, (v + b) / t), min(hi_s, (v - b) / t)
+        return hi_s if lo_s <= hi_s else 1.0
 
     def _escape(self, x: FloatArray, sol: dls.DLSSolution, details: dict[str, Any]) -> FloatArray:
         """Motion along the singular joint direction v_min that leaves a singularity the way the

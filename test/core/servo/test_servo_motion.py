@@ -235,16 +235,11 @@ def test_a_fast_spin_ramped_to_zero_stops_with_the_joints_in_proportion(stop):
 
 
 @pytest.mark.parametrize("name", ["ur5e", "panda", "iiwa14"])
-@pytest.mark.xfail(
-    strict=True,
-    reason="issue 23: braked at the edge (`Servo._brake`) the arm still leaves the line by "
-    "13-15 mm (the iiwa14 on the way out, the UR5e and Panda as they leave the edge) against "
-    "the kept error's 10",
-)
 def test_out_to_the_edge_of_the_workspace_and_back_stays_on_the_line(name):
     """0.2 m/s radially outward for 3 s, past the edge, then back for 3 s. The commanded pose
     stays on the line and the arm within the kept error of it (`max_kept_error_m`), so the tool
-    is never farther than that from the line; and it comes back inward."""
+    is never farther than that from the line (braked at the edge, `Servo._brake`: 4-6 mm); and
+    it comes back inward."""
     chain = robot(name)
     servo = _servo(name)
     p0 = chain.fk(HOMES[name])[:3, 3]
@@ -264,35 +259,28 @@ def test_out_to_the_edge_of_the_workspace_and_back_stays_on_the_line(name):
     assert along[-1] < along.max() - 0.2  # back inward
 
 
-@pytest.mark.parametrize("name", ["ur5e", "iiwa14"])
-def test_an_arm_held_off_its_path_reports_its_whole_error(name):
-    """0.2 m/s radially outward for 3 s, into the edge: the arm leaves the line by more than the
-    kept error bound (13 mm on the UR5e and iiwa14 as it is braked at the edge; the Panda 9.5 mm,
-    within the bound, so it is left out), and the status says how far it is from the commanded
-    pose (not the bound). The commanded pose stays on the line at the start's orientation (the twist has no
-    rotation), and ahead of or behind the arm along the line by at most the bound, so: the
-    orientation error is the arm's angle from the start's orientation, and the position error
-    lies between the arm's distance from the line and hypot(that distance, the bound)."""
-    chain = robot(name)
-    servo = _servo(name)
-    bound_m, bound_rad = servo.config.max_kept_error_m, servo.config.max_kept_error_rad
-    T0 = chain.fk(HOMES[name])
-    radial = np.r_[T0[:2, 3], 0.0] / np.linalg.norm(T0[:2, 3])
-    trace = run(servo, _twist((0, 0, 0), tuple(0.2 * radial), chain.base_link), 3.0)
+def test_an_arm_held_off_its_path_reports_its_whole_error():
+    """A spin about a tilted axis through the tool point, from 2.9° beside the UR5e's wrist
+    singularity, which the spin passes: damped least squares gives up some accuracy there, and
+    the tool point leaves its place by more than the kept error bound (the benchmark's
+    wrist_spin+). The twist has no linear part, so the commanded position stays at the start's
+    (the kept error is pulled back only along the commanded motion), and the status reports the
+    whole distance of the tool point from it, not the bound."""
+    chain = robot("ur5e")
+    q0 = HOMES["ur5e"].copy()
+    q0[4] = 0.05
+    servo = _servo("ur5e", q0)
+    bound_m = servo.config.max_kept_error_m
+    T0 = chain.fk(q0)
+    axis = np.ones(3) / np.sqrt(3.0)
+    trace = run(servo, _twist(tuple(0.5 * axis), (0.0, 0.0, 0.0), chain.tip_link), 4.0)
     assert limit_violations(servo.limits, trace) == []
     # a step's error is that of the pose its step started from: the previous command
     T = chain.fk(np.vstack([trace.q_start[None], trace.q[:-1]]))
-    rel = T[:, :3, 3] - T0[:3, 3]
-    off_line = np.linalg.norm(rel - np.outer(rel @ radial, radial), axis=1)
+    off_point = np.linalg.norm(T[:, :3, 3] - T0[:3, 3], axis=1)
     position = np.array([s.position_error_m for s in trace.statuses])
-    orientation = np.array([s.orientation_error_rad for s in trace.statuses])
-    assert off_line.max() > bound_m  # the arm is held off its path
-    assert np.all(position >= off_line - 1e-12)
-    assert np.all(position <= np.hypot(off_line, bound_m) + 1e-12)
-    assert position.max() > bound_m
-    turned = rotation_angle(T0[:3, :3][None], T[:, :3, :3])
-    np.testing.assert_allclose(orientation, turned, rtol=0, atol=1e-12)
-    assert orientation.max() > 0.2 * bound_rad  # it turned (0.017-0.020 rad)
+    assert off_point.max() > bound_m  # the arm is held off its path
+    np.testing.assert_allclose(position, off_point, rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("name", ARMS)
