@@ -1181,18 +1181,19 @@ class Servo:
         Damped least squares alone lets an arm reach the edge at full speed: the joints along
         v_min (q̇ = r/σ for a task speed r = u_minᵀ x) then need more acceleration than they have,
         lag their solution, and the tool leaves its line (52-88 mm out to the edge and back);
-        the Panda and iiwa14 went through the singularity onto their other branch. Two bounds:
+        the Panda and iiwa14 went through the singularity onto their other branch. Bounds on r:
 
         * toward the singularity (σ_min falling along the motion), r is scaled down linearly
           from σ_min = `_BRAKE_FROM_SIGMA` to nothing at `_BRAKE_TO_SIGMA` (a velocity damper:
           the arm stops short of the edge, on its branch);
         * either way, r² |dσ/dθ| / σ³ (how fast q̇ = r/σ must change) stays within the joints'
-          planning acceleration along v_min; leaving, r is never held below `_LEAVE_SPEED`, so a
-          singular configuration is always left;
+          planning acceleration along v_min; leaving, this bound never holds r below
+          `_LEAVE_SPEED`;
         * below σ_min = `_RATE_SIGMA`, the joint speed along v_min that r asks for grows by at
-          most `_RATE_SHARE` of that acceleration per period (toward the singularity at r/σ,
-          leaving at the damped solution's gain σ/(σ² + λ²), which is never zero): from rest at
-          the edge, the whole speed at once asked the joints for a step they lagged.
+          most `_RATE_SHARE` of that acceleration per period (toward the singularity at r/σ;
+          leaving at the damped solution's gain σ/(σ² + λ²), which vanishes at σ = 0, so a
+          singular configuration is still left at once): from rest at the edge, the whole speed
+          at once asked the joints for a step they lagged.
 
         r is brought there by slowing the commanded twist c itself (x = c + K e), keeping the
         share s = (r_braked − u_minᵀ K e) / u_minᵀ c of it, and the commanded pose is held back
