@@ -362,3 +362,58 @@ def test_one_target_by_qr_and_eigenvectors_equals_the_svd_and_the_stacked_solve(
             assert _contains(unpolished, s, 1e-7)
         assert _contains(polished, q[i], 1e-6)
     assert qr_calls["n"] >= 2 * len(q)  # the QR path ran (and the SVD's when forced)
+
+
+def test_an_arm_built_per_target_on_a_shared_base_equals_one_built_whole():
+    """The offset Puma's loop is read from joint 3, so its arm is built per target; the joints the
+    target does not move come from the arm prepared once (`shifted_base`). Built on it or whole,
+    the arm has the same coefficients, and the solver the same solutions, which contain the
+    configuration the target came from."""
+    from kinematics_node.core.closed_form import general_6r as g6
+    from kinematics_node.core.closed_form.detection import solver_of
+
+    chain = dh_chain(ARMS["offset Puma"])
+    solver = solver_of(chain)
+    shift = int(solver.structure.case or 0)
+    assert shift > 0 and solver.general_base is not None
+    g = solver.geometry
+    rev = solver.structure.reversed
+    rng = np.random.default_rng(17)
+    q = rng.uniform(-PI, PI, size=(20, 6))
+    T = chain.fk(q) @ solver.M_inv
+    if rev:
+        T = np.linalg.inv(T)
+    for i in range(len(q)):
+        R, t = T[i : i + 1, :3, :3], T[i : i + 1, :3, 3]
+        whole, ok_w = g6.solve_general_6r_shifted(g.w, g.r, None, R, t, g.scale, g6.Trace(), shift)
+        based, ok_b = g6.solve_general_6r_shifted(
+            g.w, g.r, solver.general_base, R, t, g.scale, g6.Trace(), shift
+        )
+        # the candidates that reproduce the target (the others, complex pairs taken for double
+        # roots, are rejected by the FK check and may differ by rounding)
+        target = chain.fk(q[i])
+        a, b = (
+            np.array([s for s in Q[0][ok[0]] if _reproduces(chain, s, rev, target)])
+            for Q, ok in ((whole, ok_w), (based, ok_b))
+        )
+        assert a.shape == b.shape and len(a) >= 1, i
+        for s in a:
+            assert _contains(b, s, 1e-9)
+        assert _contains(-a[:, ::-1] if rev else a, q[i], 1e-6)
+    # the coefficients themselves, for one target's arm
+    order = [*range(shift, 6), *range(shift)]
+    w = g.w.copy()
+    w[:, :shift] = w[:, :shift] @ T[0, :3, :3]
+    r = g.r.copy()
+    r[:, :shift] = (r[:, :shift] - T[0, :3, 3]) @ T[0, :3, :3]
+    a1 = g6.Arm(w[:, order], r[:, order], g.scale, fit=False)
+    a2 = g6.Arm(w[:, order], r[:, order], g.scale, fit=False, base=(solver.general_base, 6 - shift))
+    for name in ("P", "Pf", "M12", "B12", "Bay", "Q2", "S", "PfBay"):
+        np.testing.assert_allclose(getattr(a2, name), getattr(a1, name), atol=1e-12)
+    assert a2.K is not None  # fitted once on the base: the target's right-hand side on floats
+
+
+def _reproduces(chain: SerialChain, s: np.ndarray, reversed_: bool, target: np.ndarray) -> bool:
+    """Whether the solver's candidate s (read from the tip if `reversed_`) reaches target."""
+    ep, er = pose_errors(chain.fk(-s[::-1] if reversed_ else s)[None], target[None])
+    return bool(ep[0] < 1e-9 and er[0] < 1e-9)

@@ -19,7 +19,7 @@ import numpy as np
 from scipy.linalg.lapack import dposv
 
 from ..model import TWO_PI, KinematicChain
-from .general_6r import Arm, solve_general_6r_shifted, solve_one_rows
+from .general_6r import Arm, shifted_base, solve_general_6r_shifted, solve_one_rows
 from .geometry import (
     INV_TWO_PI,
     BoolArray,
@@ -148,6 +148,13 @@ class ChainSolver(JointLimits):
         self.general = (
             Arm(self.geometry.w, self.geometry.r, self.scale)
             if self.geometry is not None and structure.kind == "general_6r" and not structure.case
+            else None
+        )
+        # For a 6R arm whose loop is read from another joint: the joints that the target does
+        # not move, prepared once for the arm built per target (`general_6r.shifted_base`).
+        self.general_base = (
+            shifted_base(self.geometry.w, self.geometry.r, self.scale, int(structure.case))
+            if self.geometry is not None and structure.kind == "general_6r" and structure.case
             else None
         )
         # The three-parallel solver with its constants prepared, for one target of a 6R arm.
@@ -547,7 +554,9 @@ def solve_branches(
     trace = Trace()
     prepared: Prepared | Arm | None = general_arm
     if solver.held is None:
-        prepared = solver.three_parallel or solver.spherical or solver.general
+        prepared = (
+            solver.three_parallel or solver.spherical or solver.general or solver.general_base
+        )
     elif solver._held_static and st.kind == "spherical_wrist":  # every lane has the same geometry
         prepared = solver._held_static_solver
     Q6, ok = _solve_6r(st, g, G[:, :3, :3], G[:, :3, 3], dflt, trace, prepared)

@@ -32,7 +32,7 @@ per vector equation, so Σ(±i) has a null space V (12 × 4) that depends on the
 invariant subspace of ±i is then spanned by (V, ±iV), and with an orthonormal complement Q₂
 (24 × 16, per arm) the 16 genuine roots are the eigenvalues of Q₂ᵀ M Q₂: a 16 × 16 problem
 (a third of the 24 × 24's time). Each real root x₃ then gives (x₄, x₅) from the null vector of
-Σ(x₃): for one target, from the 16 × 16 problem's eigenvector (`_null_vectors`: M acts on the
+Σ(x₃): for one target, from the 16 × 16 problem's eigenvector (`_shift_angles`: M acts on the
 ±i subspace as a known rotation, so M's eigenvector follows by products); for stacked lanes, by
 one step of inverse iteration; roots that coincide to within `CLUSTER` share a null space of
 their multiplicity, split by the shift x₄ + c x₅ of the monomials. Each
@@ -85,6 +85,13 @@ _V_INV2 = np.kron(_V_INV, _V_INV)
 _V_INV3 = np.kron(_V_INV, _V_INV2)
 # (1 + x²)(1, cos θ, sin θ) in the powers (1, x, x²) of x = tan(θ/2): rows 1 + x², 1 − x², 2x.
 _HALF = np.array([[1.0, 0.0, 1.0], [1.0, 0.0, -1.0], [0.0, 2.0, 0.0]])
+# The same for (1, cos, sin) ⊗ (1, cos, sin) of two angles (a 9-vector): Hᵀ A H of a 3 × 3 A is
+# vec(A) times this, one matrix product where `np.einsum` with three operands costs ~10 µs more
+_HALF2 = np.kron(_HALF, _HALF)
+# [ω]× = (ω @ _HAT).reshape(3, 3): the skew matrix of ω as one product
+_HAT = np.zeros((3, 9))
+_HAT[2, 1], _HAT[1, 2], _HAT[0, 5] = -1.0, 1.0, -1.0
+_HAT[2, 3], _HAT[1, 6], _HAT[0, 7] = 1.0, -1.0, 1.0
 # The monomials of the right-hand side: (1, g, gᵢgⱼ (i ≤ j)) ⊗ (1, h), 10 × 4 = 40.
 _PAIRS_I, _PAIRS_J = np.triu_indices(3)
 # (g, h) at which K is fitted (scaled coordinates: |g| of order one): 80 points for 40 monomials.
@@ -111,9 +118,22 @@ _J = np.block([[np.zeros((4, 4)), np.eye(4)], [-np.eye(4), np.zeros((4, 4))]])
 # (1, cos θ, sin θ) as cos(kθ − φ) for k = (0, 1, 1), φ = (0, 0, π/2): one call of np.cos.
 _K3 = np.array([0.0, 1.0, 1.0])
 _PH3 = np.array([0.0, 0.0, 0.5 * math.pi])
+# ... and their derivatives (0, −sin θ, cos θ) too: cos(kθ − φ) for k = (0, 1, 1, 0, 1, 1)
+_K6 = np.array([0.0, 1.0, 1.0, 0.0, 1.0, 1.0])
+_PH6 = np.array([0.0, 0.0, 0.5 * math.pi, 0.5 * math.pi, -0.5 * math.pi, 0.0])
+# Which of those rows (0-2: the values, 3-5: the derivatives) each angle takes in m₃₄₅ (row 0)
+# and in its derivatives by θ₃, θ₄, θ₅ (rows 1-3): (3 angles, 4, 3)
+_D3 = np.array([[[0, 1, 2], [3, 4, 5], [0, 1, 2], [0, 1, 2]],
+                [[0, 1, 2], [0, 1, 2], [3, 4, 5], [0, 1, 2]],
+                [[0, 1, 2], [0, 1, 2], [0, 1, 2], [3, 4, 5]]])  # fmt: skip
 # m₁₂'s entries θ₁, θ₂ are read from: c₂, s₂, c₁, s₁.
 _M12_SEL = np.array([0, 1, 2, 5])
 _EYE3 = np.eye(3)
+_UPPER8_SEL = _UPPER8[_M12_SEL]
+# `Arm.one`'s E without the arm's rows: where F₂ (the equations' last 9 columns) goes in C₂
+_E_TEMPLATE = np.zeros((2, 27, 28))
+_E_TEMPLATE[0, 18 + np.arange(9), np.arange(9)] = 1.0
+_E_TEMPLATE[1, 18 + np.arange(9), 3 + np.arange(9)] = 1.0
 #: The largest polishing step [rad] taken (`_angles`): larger ones mean a root far from exact.
 _POLISH_LIMIT = 0.1
 
@@ -147,30 +167,26 @@ def screw_parts(w: FloatArray, r: FloatArray) -> tuple[FloatArray, FloatArray, F
     """A, B, C (…, 4, 4) with e^{[S]θ} = A + B cos θ + C sin θ for the revolute screws of unit
     directions w and points r (…, 3): e^{[S]θ} = I + sin θ [S] + (1 − cos θ)[S]² (MR eq. 3.88)."""
     K = np.zeros(w.shape[:-1] + (4, 4))
-    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
-    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = w[..., 2], -w[..., 1], w[..., 0]
-    K[..., :3, 3] = sp.cross(r, w)  # v = −ω × r
+    W = (w @ _HAT).reshape(w.shape[:-1] + (3, 3))  # [ω]×
+    K[..., :3, :3] = W
+    K[..., :3, 3] = -(W @ r[..., None])[..., 0]  # v = −ω × r
     K2 = K @ K
     return np.eye(4) + K2, -K2, K
 
 
 def poly_coefficients(P: FloatArray, phi: float) -> FloatArray:
-    """The arm's part of Σ: P (L, 14, 3, 9) → (L, 3, 14, 9), the 14 equations times
+    """The arm's part of Σ: P (L, 14, 3, 9) → (L, 14, 3, 9), the 14 equations times
     (1 + x₃²)(1 + x₄²)(1 + x₅²) as polynomials: power k of x₃ (θ₃ = φ + 2 atan x₃), then the
-    monomials x₄ⁱ x₅ʲ (i, j ≤ 2) in the order 3i + j. Linear in P."""
-    L = P.shape[0]
+    monomials x₄ⁱ x₅ʲ (i, j ≤ 2) in the order 3i + j. Linear in P: two matrix products."""
     cp, sn = math.cos(phi), math.sin(phi)
-    B0 = P[:, :, 0]
-    Bc = P[:, :, 1] * cp + P[:, :, 2] * sn  # cos(φ + u) = cos φ cos u − sin φ sin u
-    Bs = -P[:, :, 1] * sn + P[:, :, 2] * cp
-    A = np.stack((B0 + Bc, 2.0 * Bs, B0 - Bc), axis=1)  # (L, 3, 14, 9), powers 0, 1, 2 of x₃
-    F = np.einsum("ai,lkeab,bj->lkeij", _HALF, A.reshape(L, 3, 14, 3, 3), _HALF)
-    return F.reshape(L, 3, 14, 9)
+    # powers 0, 1, 2 of x₃ from (1, cos, sin) of θ₃ − φ: cos(φ + u) = cos φ cos u − sin φ sin u
+    T = np.array([[1.0, cp, sn], [0.0, -2.0 * sn, 2.0 * cp], [1.0, -cp, -sn]])
+    return (T @ P) @ _HALF2  # Hᵀ A H per equation and power of x₃
 
 
 #: `poly_coefficients` of the constant monomial alone (where q₀ enters), flattened: (27,).
 _CONSTANT = poly_coefficients(np.eye(27)[0].reshape(1, 1, 3, 9).repeat(14, axis=1), 0.0)[
-    0, :, 0
+    0, 0
 ].reshape(27)
 
 
@@ -181,25 +197,53 @@ class Arm:
     (L, 14, 27), the right-hand side's map K (L, 40, 126), and the deflating basis Q₂ (L, 24, 16)
     with Q₂[:12]ᵀ Q₂[12:] (L, 16, 16)."""
 
-    def __init__(self, w: FloatArray, r: FloatArray, scale: float, fit: bool = True) -> None:
+    def __init__(
+        self,
+        w: FloatArray,
+        r: FloatArray,
+        scale: float,
+        fit: bool = True,
+        base: tuple[Arm, int] | None = None,
+    ) -> None:
+        """`base`: an arm built before, and how many of its leading joints this arm shares (an
+        arm built per target, `solve_general_6r_shifted`, whose last joints alone move with the
+        target): the parts of those joints are taken from it, not computed again."""
         L = w.shape[0]
         self.lanes = L
-        self.origin = r[:, 2].copy()
+        same = 0 if base is None else base[1]
+        self.origin: FloatArray = (
+            base[0].origin if base is not None and same >= 3 else r[:, 2].copy()
+        )
         self.scale = scale
         rs = (r - self.origin[:, None]) / scale
         self.w, self.r = w, rs
-        A, B, C = screw_parts(w, rs)  # (L, 6, 4, 4)
         c, s = np.cos(_SAMPLES), np.sin(_SAMPLES)
+        # e^{±[S_i]θ_k} at the samples (L, 3, 4, 4) of joints 1-5, kept for arms built on this one
+        self.samples: dict[tuple[int, float], FloatArray] = {}
+        first = same if same >= 3 else 0  # the first joint whose parts are computed here
+        if first < 5:
+            A, B, C = screw_parts(w[:, first:5], rs[:, first:5])  # (L, 5 − first, 4, 4)
 
-        def at(i: int, sign: float) -> FloatArray:  # e^{±[S_i]θ_k} at the samples: (L, 3, 4, 4)
-            return (
-                A[:, i, None]
-                + c[None, :, None, None] * B[:, i, None]
-                + sign * s[None, :, None, None] * C[:, i, None]
+        def at(i: int, sign: float) -> FloatArray:
+            if i < first:
+                assert base is not None
+                return base[0].samples[i, sign]
+            k = i - first
+            out = (
+                A[:, k, None]
+                + c[None, :, None, None] * B[:, k, None]
+                + sign * s[None, :, None, None] * C[:, k, None]
             )
+            self.samples[i, sign] = out
+            return out
 
-        E3, E4, E5 = at(2, 1.0), at(3, 1.0), at(4, 1.0)
-        X = E3[:, :, None, None] @ E4[:, None, :, None] @ E5[:, None, None, :]  # (L, 3, 3, 3, 4, 4)
+        E34: FloatArray
+        if base is not None and same >= 4:
+            E34 = base[0].E34
+        else:
+            E34 = at(2, 1.0)[:, :, None] @ at(3, 1.0)[:, None, :]  # (L, 3, 3, 4, 4)
+        self.E34: FloatArray = E34
+        X = E34[:, :, :, None] @ at(4, 1.0)[:, None, None, :]  # (L, 3, 3, 3, 4, 4)
         p = X[..., :3, :3] @ rs[:, None, None, None, 5, :, None] + X[..., :3, 3:]
         l = X[..., :3, :3] @ w[:, None, None, None, 5, :, None]
         E = _interpolate(_equations(p[..., 0], l[..., 0]))  # (L, 3, 3, 3, 14)
@@ -209,23 +253,33 @@ class Arm:
         # Σ's arm part with θ₃ measured from φ, and from φ + 1 (`solve_general_6r`; computed
         # where first needed, `second_offset`): (L, 14, 27)
         self.G: tuple[FloatArray, FloatArray | None] = (
-            poly_coefficients(self.P, THETA3_OFFSET).transpose(0, 2, 1, 3).reshape(L, 14, 27),
+            poly_coefficients(self.P, THETA3_OFFSET).reshape(L, 14, 27),
             None,
         )
         # e₂⁻¹(θ₂ₖ) e₁⁻¹(θ₁ⱼ) at the samples: (L, 3 [j], 3 [k], 4, 4). With `fit`, the right-hand
         # side at the fitting points, and K by least squares (exact: the right-hand side is such
         # a polynomial); without (an arm built for one call), the right-hand side from M12.
-        self.M12 = at(1, -1.0)[:, None, :] @ at(0, -1.0)[:, :, None]
+        self.M12: FloatArray
+        if base is not None and same >= 3:
+            self.M12 = base[0].M12
+        else:
+            self.M12 = at(1, -1.0)[:, None, :] @ at(0, -1.0)[:, :, None]
         self.K: FloatArray | None = None
-        if fit:
+        if base is not None and same >= 3:  # K depends on M12 alone
+            self.K = base[0].K
+        elif fit:
             rhs = _right_hand_side(self.M12[:, None], _FIT[None, :, :3], _FIT[None, :, 3:])
             self.K = np.einsum("fs,lsx->lfx", _FIT_PINV, rhs.reshape(L, -1, 126))  # (L, 40, 126)
         # θ₆ (`_angles`): R₆ x₆ = (R₃R₄R₅)ᵀ (R₂ᵀR₁ᵀ) R_G x₆ for a unit x₆ ⟂ ω₆, with R₂ᵀR₁ᵀ over
         # (1, c₁, s₁) ⊗ (1, c₂, s₂) (L, 9, 3, 3) and the functionals (ω₆ × x₆)ᵀ and x₆ᵀ of
         # (R₃R₄R₅)ᵀ over m₃₄₅ (L, 27, 6)
         self.x6 = _perpendicular(w[:, 5])
-        R12 = self.M12[..., :3, :3].reshape(L, 9, 3, 3)
-        self.B12 = np.einsum("ab,lbij->laij", _V_INV2, R12)
+        self.B12: FloatArray
+        if base is not None and same >= 3:
+            self.B12 = base[0].B12
+        else:
+            R12 = self.M12[..., :3, :3].reshape(L, 9, 3, 3)
+            self.B12 = np.einsum("ab,lbij->laij", _V_INV2, R12)
         R345 = _interpolate(X[..., :3, :3].swapaxes(-1, -2).reshape(L, 3, 3, 3, 9))
         R345 = R345.reshape(L, 27, 3, 3)
         a = sp.cross(w[:, 5], self.x6)
@@ -233,24 +287,31 @@ class Arm:
             (np.einsum("li,lnij->lnj", a, R345), np.einsum("li,lnij->lnj", self.x6, R345)), axis=2
         )
         self.Q2, self.S, self.W, Wi = _deflating_basis(self.P)
-        # lane 0's arrays for `_solve_one` (contiguous 2-D: one lane's products skip the stacks)
-        self.one = (
-            np.concatenate((self.G[0][0], self.Pf[0].T), axis=1),  # (14, 54): Σ's and Pfᵀ
-            np.ascontiguousarray(self.W[0]),
-            np.ascontiguousarray(self.S[0]),
-            np.ascontiguousarray(self.Q2[0, 12:].T),
-        )
-        # `_null_vectors`: Wᵢ (24, 8), the ±i subspace's orthonormal basis, on which M acts as J;
+        # lane 0's arrays for `_solve_one` (contiguous 2-D: one lane's products skip the stacks).
+        # `_solve_one` makes [C₂ | C₀ Q₂[:12] + C₁ Q₂[12:]] (12 × 28) as one product F E, with
+        # E (2, 27, 28) stacking, for the equations and their products by x₄, the rows of Q₂ that
+        # [F₀ F₁] multiplies and the columns of C₂ that F₂ fills (one product where five array
+        # operations were: one target's arrays are so small that each operation costs ~1 µs).
+        E = _E_TEMPLATE.copy()
+        E[:, :18, 12:] = self.W[0].reshape(18, 2, 16).transpose(1, 0, 2)
+        # `_shift_angles`: Wᵢ (24, 8), the ±i subspace's orthonormal basis, on which M acts as J;
         # with y = Wᵢ a + Q₂ z, a = (x I − J)⁻¹ Wᵢᵀ M Q₂ z and Wᵢᵀ M Q₂ = Wᵢ[:12]ᵀ Q₂[12:] −
         # Wᵢ[12:]ᵀ Y: the rows of that and of J times it, and the top rows of [Wᵢ Q₂]
         Wt, Wb, Q2t, Q2b = Wi[0, :12], Wi[0, 12:], self.Q2[0, :12], self.Q2[0, 12:]
-        self.null = (
-            np.concatenate((Wt.T @ Q2b, _J @ Wt.T @ Q2b)),  # (16, 16)
-            np.concatenate((Wb.T, _J @ Wb.T)),  # (16, 12)
-            np.ascontiguousarray(Wt),  # (12, 8)
-            np.ascontiguousarray(Q2t),  # (12, 16)
-            np.concatenate((self.Pf[0], self.Bay[0]), axis=1),  # (27, 20): `_angles_one`
+        WtQ = Wt.T @ Q2b
+        top = np.concatenate((Wt, Q2t), axis=1)  # (12, 24): v = [Wᵢ Q₂][:12] (a, z)
+        self.one = (
+            np.concatenate((self.G[0][0], self.Pf[0].T), axis=1),  # (14, 54): Σ's and Pfᵀ
+            E,
+            np.ascontiguousarray(self.S[0]),
+            # Q₂[12:]ᵀ (for Q₂ᵀ M Q₂ = S − Q₂[12:]ᵀ Y) over the rows Wᵢ[12:]ᵀ, J Wᵢ[12:]ᵀ: both
+            # products with Y as one (32, 12)
+            np.concatenate((self.Q2[0, 12:].T, Wb.T, _J @ Wb.T)),
+            np.concatenate((WtQ, _J @ WtQ)),  # (16, 16)
+            # the entries of v whose products `_shift_ratios` sums, as rows of [Wᵢ Q₂]
+            np.concatenate((top[_PROD_A], top[_PROD_B])),  # (68, 24)
         )
+        self.PfBay = np.concatenate((self.Pf[0], self.Bay[0]), axis=1)  # (27, 20): `_angles_one`
         # one lane's constants as floats (`target_side`)
         self.floats = (
             self.r[0, 5].tolist(),
@@ -265,8 +326,7 @@ class Arm:
         `solve_general_6r_shifted`, seldom needs it)."""
         G1 = self.G[1]
         if G1 is None:
-            G1 = poly_coefficients(self.P, THETA3_OFFSET + 1.0).transpose(0, 2, 1, 3)
-            G1 = G1.reshape(self.lanes, 14, 27)
+            G1 = poly_coefficients(self.P, THETA3_OFFSET + 1.0).reshape(self.lanes, 14, 27)
             self.G = (self.G[0], G1)
         return G1
 
@@ -348,7 +408,7 @@ def _deflating_basis(
     """Q₂ (L, 24, 16), orthonormal, spanning the complement of the companion matrix's invariant
     subspace of the spurious roots ±i; Q₂[:12]ᵀ Q₂[12:] (L, 16, 16); the rows of Q₂ that
     `_companion` multiplies [F₀ F₁] by, W (L, 18, 32); and that invariant subspace's basis
-    (L, 24, 8), on which M acts as J = [[0, I], [−I, 0]] (`_null_vectors`).
+    (L, 24, 8), on which M acts as J = [[0, I], [−I, 0]] (`_shift_angles`).
 
     At x₃ = ±i, Σ = N (Pc ± i Ps) in the half-angle monomials of x₄, x₅ (the constant and q₀
     terms carry the factor 1 + x₃²). V = {v: K v[:9] = 0, K v[3:] = 0} with K = Pc + i Ps lies in
@@ -357,11 +417,17 @@ def _deflating_basis(
     span an invariant subspace (8 dimensions) that Q₂ completes."""
     L = P.shape[0]
     Kc = (P[:, :, 1] + 1j * P[:, :, 2]).reshape(L, 14, 3, 3)
-    Ki = np.einsum("ai,leab,bj->leij", _HALF, Kc, _HALF).reshape(L, 14, 9)
+    Ki = Kc.reshape(L, 14, 9) @ _HALF2  # Hᵀ Kc H per equation
     Z = np.zeros((L, 28, 12), dtype=complex)
     Z[:, :14, :9] = Ki
     Z[:, 14:, 3:] = Ki
-    V = np.linalg.svd(Z)[2][:, -4:].conj().swapaxes(1, 2)  # (L, 12, 4)
+    info = 1
+    if L == 1:  # one lane: LAPACK directly (~35 µs against NumPy's ~50)
+        _, _, vt, info = lapack.zgesdd(Z[0], full_matrices=0)
+    if info == 0:
+        V = vt[None, -4:].conj().swapaxes(1, 2)
+    else:
+        V = np.linalg.svd(Z)[2][:, -4:].conj().swapaxes(1, 2)  # (L, 12, 4)
     W = np.concatenate(
         (
             np.concatenate((V.real, V.imag), axis=2),
@@ -424,8 +490,8 @@ def _companion(
 ) -> tuple[FloatArray, FloatArray, BoolArray, FloatArray, tuple[FloatArray, FloatArray]]:
     """For lanes of right-hand sides Q (L, 14, 8), q₀ (L, 14) and the arm part G (L or 1, 14, 27):
     the six eliminated equations F (L, 6, 27) (powers 0, 1, 2 of x₃, then x₄ⁱ x₅ʲ), the deflated
-    companion matrix Q₂ᵀ M Q₂ (L, 16, 16), where C₂ was invertible (L,), the pseudo-inverse of
-    Q (L, 8, 14), and the same six equations in (cos, sin) of θ₃, θ₄, θ₅ for `_polish`:
+    companion matrix Q₂ᵀ M Q₂ (L, 16, 16), where C₂ was invertible (L,), the rows c₂, s₂, c₁, s₁
+    of the pseudo-inverse of Q (L, 4, 14), and the same six equations in (cos, sin) of θ₃, θ₄, θ₅ for `_polish`:
     N Pfᵀ m₃₄₅ = N q₀, (L, 6, 27) and (L, 6). `lanes`: the arm lane of each lane (None: the
     arm's own).
 
@@ -437,7 +503,8 @@ def _companion(
     N = U[:, :, 8:].swapaxes(1, 2)  # (L, 6, 14): left null space of Q
     inv_s = 1.0 / np.maximum(S, S[:, :1] * 1e-12)
     inv_s[S <= S[:, :1] * 1e-12] = 0.0
-    Q_pinv = (Vt.swapaxes(1, 2) * inv_s[:, None, :]) @ U[:, :, :8].swapaxes(1, 2)
+    # the pseudo-inverse's rows c₂, s₂, c₁, s₁ (the entries of m₁₂ that `_angles` reads)
+    Q_pinv = (Vt.swapaxes(1, 2)[:, _M12_SEL] * inv_s[:, None, :]) @ U[:, :, :8].swapaxes(1, 2)
     shared = lanes is None and arm.lanes == 1
     Q2, S2, W = (arm.Q2, arm.S, arm.W) if lanes is None else (
         arm.Q2[lanes], arm.S[lanes], arm.W[lanes]
@@ -548,7 +615,15 @@ def _clusters(
     R = Sig.shape[0]
     starts = np.flatnonzero(np.concatenate(([True], ~near)))
     ends = np.append(starts[1:], R)
-    need = (ends - starts > 1) | (np.add.reduceat(bad, starts) > 0)
+    has_bad = np.add.reduceat(bad, starts) > 0
+    need = (ends - starts > 1) | has_bad
+    pairs = (ends - starts == 2) & ~has_bad
+    if np.count_nonzero(pairs) > 1:  # pairs (most clusters: the offset Puma has ~4 a target)
+        try:
+            _cluster_pairs(Sig, starts[pairs], th4, th5)
+            need &= ~pairs
+        except np.linalg.LinAlgError:  # (a singular QR factor, say: the loop's fallbacks)
+            pass
     for start, end in zip(starts[need].tolist(), ends[need].tolist(), strict=True):
         m = end - start
         # LAPACK directly where it succeeds (NumPy's wrappers cost ~10 µs a call more: most
@@ -564,10 +639,37 @@ def _clusters(
         if info == 0 and not wi.any():
             v = U @ vr  # (12, m)
         else:  # (a complex pair, not a double root: the FK check rejects)
-            v = U @ np.linalg.eig(W)[1]
+            if info == 0:  # dgeev's pairs as columns (re, im): the vectors re ± i im
+                vc = vr.astype(complex)
+                for j in np.flatnonzero(wi > 0).tolist():
+                    vc[:, j] = vr[:, j] + 1j * vr[:, j + 1]
+                    vc[:, j + 1] = vc[:, j].conj()
+            else:
+                vc = np.linalg.eig(W)[1]
+            v = U @ vc
             top = v[np.abs(v).argmax(axis=0), np.arange(m)]
             v = (v * (np.abs(top) / np.where(top == 0, 1.0, top))).real
         th4[start:end], th5[start:end] = _shift_ratios(np.ascontiguousarray(v.T))
+
+
+def _cluster_pairs(Sig: FloatArray, first: IntArray, th4: FloatArray, th5: FloatArray) -> None:
+    """`_clusters`' steps for P clusters of two roots each, roots first and first + 1 (P,), as
+    stacks (hand-written for speed: the loop's ~20 array operations per cluster once for all):
+    the shared null space U (P, 12, 2) by the SVD, the shift's 2 × 2 matrix by least squares
+    (QR: what `dgels` does), its eigenvectors, v = U a."""
+    S = 0.5 * (Sig[first] + Sig[first + 1])  # (P, 12, 12)
+    U = np.linalg.svd(S)[2][:, -2:].swapaxes(1, 2)  # (P, 12, 2)
+    c = 0.5772156649015329  # (`_clusters`' constant)
+    Qb, Rb = np.linalg.qr(U[:, _BASE])
+    rhs = U[:, _BASE + 3] + c * U[:, _BASE + 1]
+    W = np.linalg.solve(Rb, Qb.swapaxes(1, 2) @ rhs)  # (P, 2, 2)
+    v = U @ np.linalg.eig(W)[1]  # (P, 12, 2), complex where a pair is (the FK check rejects it)
+    if np.iscomplexobj(v):  # each vector by the phase of its largest entry
+        top = np.take_along_axis(v, np.abs(v).argmax(axis=1)[:, None, :], axis=1)
+        v = (v * (np.abs(top) / np.where(top == 0, 1.0, top))).real
+    a, b = _shift_ratios(np.ascontiguousarray(v.swapaxes(1, 2)).reshape(-1, 12))
+    rows = np.stack((first, first + 1), axis=1).reshape(-1)
+    th4[rows], th5[rows] = a, b
 
 
 def solve_general_6r(
@@ -651,10 +753,10 @@ def _solve_one(
     the same steps on 2-D arrays with LAPACK called directly, about half the time of the stacked
     form on one lane. The solutions (R, 6); None where the stacked form must decide (C₂ near
     singular). The null vectors of Σ(x₃) come from the deflated matrix's eigenvectors, computed
-    in the same LAPACK call as its eigenvalues (`_null_vectors`), not by inverse iteration per
+    in the same LAPACK call as its eigenvalues (`_shift_angles`), not by inverse iteration per
     root; roots that coincide share a null space as in `_real_roots` (`_clusters`). Without
     `polish`, the angles by `_angles_one`."""
-    GP, W0, S0, Q2bT = arm.one
+    GP, E, S0, QB, A0, GAB = arm.one
     parts = _null_and_pinv(Q)
     if parts is None:
         return None
@@ -662,16 +764,16 @@ def _solve_one(
     Nq = N @ q0
     H = N @ GP  # N times Σ's arm part, and N Pfᵀ (`_angles`' polish)
     F = H[:, :27] - Nq[:, None] * _CONSTANT  # (6, 27)
-    X = F[:, :18] @ W0  # (6, 32): the two halves of C₀ Q₂[:12] + C₁ Q₂[12:]
-    C2 = np.zeros((12, 12))
-    C2[:6, :9] = C2[6:, 3:] = F[:, 18:]
-    _, _, Y, info = lapack.dgesv(C2, np.concatenate((X[:, :16], X[:, 16:])))
+    CX = (F @ E).reshape(12, 28)  # [C₂ | C₀ Q₂[:12] + C₁ Q₂[12:]] (`Arm.one`)
+    _, _, Y, info = lapack.dgesv(CX[:, :12], CX[:, 12:])
     size = float(np.abs(F).max())
     if info or not float(np.abs(Y).max()) < _C2_CONDITION * size:
         return None
-    wr, wi, _, vr, info = lapack.dgeev(S0 - Q2bT @ Y, compute_vl=0)
+    T = QB @ Y  # (32, 16): Q₂[12:]ᵀ Y, then `_shift_angles`' rows times Y
+    wr, wi, _, vr, info = lapack.dgeev(S0 - T[:16], compute_vl=0)
     if info:
         return None
+    # the real roots, sorted, on floats (at most 16: Python's loop beats array operations)
     wl, il = wr.tolist(), wi.tolist()
     idx = [
         i for i, y in enumerate(il)
@@ -681,9 +783,16 @@ def _solve_one(
     R = len(idx)
     if not R:
         return np.empty((0, 6))
-    xs = wr[idx]
-    th4, th5 = _column_shift_ratios(_null_vectors(arm, Y, xs, vr[:, idx]))
     xl = [wl[i] for i in idx]
+    xs = np.array(xl)
+    # Σ(x₃)'s null vectors (`_shift_angles`) as (a, z), and their θ₄, θ₅
+    Z = vr[:, idx]
+    P = (A0 - T[16:]) @ Z  # (16, R): Wᵢᵀ M Q₂ z and J times it
+    inv = np.array([1.0 / (1.0 + x * x) for x in xl])
+    aZ = np.concatenate(((P[:8] * xs + P[8:]) * inv, Z))  # (24, R): (a, z)
+    th = np.empty((3, R))  # θ₃, θ₄, θ₅ (rows)
+    th[0] = [THETA3_OFFSET + 2.0 * math.atan(x) for x in xl]
+    th[1:] = _shift_angles(GAB @ aZ)
     near = [b - a <= CLUSTER * (1.0 + abs(b)) for a, b in zip(xl[:-1], xl[1:], strict=True)]
     if any(near):  # roots that coincide: their shared null space (`_clusters`)
         x = xs[:, None, None]
@@ -692,18 +801,14 @@ def _solve_one(
         Sig[:, :6, :9] = Fx
         Sig[:, 6:, 3:] += Fx
         Sig[:, _DIAG, _DIAG] += 1e-15 * size
-        _clusters(Sig, np.array(near), np.zeros(R, dtype=bool), th4, th5)
-    th3 = THETA3_OFFSET + 2.0 * np.arctan(xs)
-    if not polish:
-        return _angles_one(arm, th3, th4, th5, u[0], q0, Q_pinv)
-    lane = np.zeros(R, dtype=np.int64)
-    eqs = (H[None, :, 27:], Nq[None])
-    return _angles(arm, lane, th3, th4, th5, u, q0[None], Q_pinv[None], eqs, polish)
+        _clusters(Sig, np.array(near), np.zeros(R, dtype=bool), th[1], th[2])
+    return _angles_one(arm, th, u[0], q0, Q_pinv, (H[:, 27:], Nq) if polish else None)
 
 
 def _null_and_pinv(Q: FloatArray) -> tuple[FloatArray, FloatArray] | None:
     """The left null space N (6, 14) of one target's Q (14, 8) (orthonormal rows) and its
-    pseudo-inverse (8, 14); None if LAPACK fails. By QR (`dgeqrf`, `dorgqr`, `dtrtri`: ~9 µs
+    pseudo-inverse's rows c₂, s₂, c₁, s₁ of m₁₂ (4, 14), those `_angles` reads; None if LAPACK
+    fails. By QR (`dgeqrf`, `dorgqr`, `dtrtri`: ~9 µs
     against the SVD's ~16) where R's reciprocal condition number is above `_Q_RCOND`; else by
     the SVD, singular values below 1e-12 of the largest taken as zero (a Q of lower rank). Any
     orthonormal basis of the null space gives the same Σ(x₃) up to an orthogonal mix of its
@@ -719,63 +824,80 @@ def _null_and_pinv(Q: FloatArray) -> tuple[FloatArray, FloatArray] | None:
             # a call then waits milliseconds for the second one
             Rinv, info = lapack.dtrtri(qr[:8])
             if info == 0:
-                return Qf[:, 8:].T, (Rinv * _UPPER8) @ Qf[:, :8].T
+                return Qf[:, 8:].T, (Rinv[_M12_SEL] * _UPPER8_SEL) @ Qf[:, :8].T
     U, S, Vt, info = lapack.dgesdd(Q)
     if info:
         return None
     s = S.tolist()
     cut = s[0] * 1e-12
     inv = np.array([1.0 / x if x > cut else 0.0 for x in s])
-    return U[:, 8:].T, (Vt.T * inv) @ U[:, :8].T
+    return U[:, 8:].T, (Vt.T[_M12_SEL] * inv) @ U[:, :8].T
 
 
-def _null_vectors(arm: Arm, Y: FloatArray, x: FloatArray, Z: FloatArray) -> FloatArray:
-    """The null vectors v (12, R) of Σ(x₃) at real roots x (R,) of one lane, from the
-    eigenvectors Z (16, R) of the deflated matrix Q₂ᵀ M Q₂ (`_solve_one`; Y = C₂⁻¹[C₀ C₁] Q₂'s
-    bottom rows, so that M Q₂ = [Q₂[12:]; −Y]). M's eigenvector is y = (v, x v) = Wᵢ a + Q₂ z
-    with Wᵢ the orthonormal basis of the ±i subspace (Q₂ ⟂ Wᵢ); its rows along Wᵢ give
-    (x I − J) a = Wᵢᵀ M Q₂ z, and J² = −I makes (x I − J)⁻¹ = (x I + J) / (1 + x²). Only products:
-    no solve per root (inverse iteration's), and no exactly singular Σ(x₃) to fall back from."""
-    A, B, Wt, Q2t, _ = arm.null
-    P = (A - B @ Y) @ Z  # (16, R): Wᵢᵀ M Q₂ z and J times it
-    a = (P[:8] * x + P[8:]) / (1.0 + x * x)
-    return Wt @ a + Q2t @ Z
-
-
-def _column_shift_ratios(V: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """`_shift_ratios` of null vectors as the columns of V (12, R) (`_null_vectors`' form: no
-    transposed copy, and θ₄, θ₅ come back as contiguous rows)."""
-    s = _PROD_SUM_T @ (V[_PROD_A] * V[_PROD_B])  # (4, R): num₄, den₄, num₅, den₅
-    th = 2.0 * np.arctan2(s[0::2], s[1::2])
-    return th[0], th[1]
+def _shift_angles(VAB: FloatArray) -> FloatArray:
+    """θ₄, θ₅ (2, R) of null vectors v = [Wᵢ Q₂][:12] (a, z) given as the entries that
+    `_shift_ratios` multiplies, VAB = [v[_PROD_A]; v[_PROD_B]] (68, R) (`_solve_one`: one product
+    of the arm's rows (`Arm.one`) with (a, z)). Σ(x₃)'s null vector v itself is the eigenvector
+    y = (v, x₃ v) = Wᵢ a + Q₂ z of M, with (x₃ I − J) a = Wᵢᵀ M Q₂ z (J² = −I: (x₃ I − J)⁻¹ =
+    (x₃ I + J) / (1 + x₃²)), z the deflated matrix's eigenvector: only products, no solve per
+    root (inverse iteration's), and no exactly singular Σ(x₃) to fall back from."""
+    s = _PROD_SUM_T @ (VAB[:34] * VAB[34:])  # (4, R): num₄, den₄, num₅, den₅
+    return 2.0 * np.arctan2(s[0::2], s[1::2])
 
 
 def _angles_one(
     arm: Arm,
-    th3: FloatArray,
-    th4: FloatArray,
-    th5: FloatArray,
+    th: FloatArray,
     u: FloatArray,
     q0: FloatArray,
     Q_pinv: FloatArray,
+    eqs: tuple[FloatArray, FloatArray] | None = None,
 ) -> FloatArray:
-    """`_angles` without the polish on one lane's roots (R,): the same θ₁, θ₂, θ₆ in fewer
-    array operations (θ₁, θ₂'s four entries of m₁₂ only; Pf and Bay as one product; the rows
-    (1, cos θ, sin θ) from one call of np.cos). u = R_G x₆ (3,), q₀ (14,), Q_pinv (8, 14)."""
-    R = th3.size
-    q = np.empty((R, 6))
-    q[:, 2], q[:, 3], q[:, 4] = th3, th4, th5
-    t = np.cos(q[:, 2:5, None] * _K3 - _PH3)  # (R, 3, 3)
-    m345 = (t[:, 0, :, None, None] * t[:, 1, None, :, None] * t[:, 2, None, None, :]).reshape(R, 27)
-    lhs = m345 @ arm.null[4]  # (R, 20): P's 14 equations, then Bay's 6 functionals
-    m12 = (lhs[:, :14] - q0) @ Q_pinv[_M12_SEL].T  # (R, 4): c₂, s₂, c₁, s₁
-    q[:, 1::-1] = np.arctan2(m12[:, 1::2], m12[:, 0::2])  # θ₂, θ₁
-    t12 = np.cos(q[:, :2, None] * _K3 - _PH3)  # (R, 2, 3)
-    m12f = (t12[:, 0, :, None] * t12[:, 1, None, :]).reshape(R, 9)
+    """`_angles` on one lane's roots: θ₃, θ₄, θ₅ as the rows of th (3, R) → full solutions
+    (R, 6), in fewer array operations (hand-written for speed: one target's arrays are so small
+    that each operation costs about a microsecond): angles as rows, so that each joint's is a
+    contiguous slice; the rows (1, cos θ, sin θ) and their derivatives (0, −sin θ, cos θ) from
+    one call of np.cos; m₃₄₅ and its three derivatives as one stack; Pf and Bay as one product.
+    u = R_G x₆ (3,), q₀ (14,), Q_pinv: the pseudo-inverse's rows c₂, s₂, c₁, s₁ (4, 14). With
+    `eqs` (N Pfᵀ (6, 27), N q₀ (6,)), polished first by `_angles`' Gauss–Newton step."""
+    R = th.shape[1]
+    q = np.empty((6, R))
+    if eqs is None:
+        t = np.cos(th[:, :, None] * _K3 - _PH3)  # (3, R, 3)
+        m345 = (t[0, :, :, None, None] * t[1, :, None, :, None] * t[2, :, None, None, :]).reshape(
+            R, 27
+        )
+        q[2:5] = th
+    else:
+        td = np.cos(th[:, :, None] * _K6 - _PH6)  # (3, R, 6): (1, c, s) and (0, −s, c)
+        # rows of m₃₄₅ (0) and of its derivatives by θ₃, θ₄, θ₅ (1-3): (R, 4, 27)
+        a3, a4, a5 = td[0][:, _D3[0]], td[1][:, _D3[1]], td[2][:, _D3[2]]  # (R, 4, 3) each
+        M = (a3[:, :, :, None, None] * a4[:, :, None, :, None] * a5[:, :, None, None, :]).reshape(
+            R, 4, 27
+        )
+        NP, Nq = eqs
+        E = M @ NP.T  # (R, 4, 6): the equations, then Jᵀ
+        res = E[:, 0] - Nq
+        J = E[:, 1:]
+        JJ = J @ J.swapaxes(1, 2)
+        JJ += (1e-14 * np.trace(JJ, axis1=1, axis2=2) + 1e-300)[:, None, None] * _EYE3
+        try:
+            step = np.linalg.solve(JJ, -(J @ res[:, :, None]))[:, :, 0]  # (R, 3)
+        except np.linalg.LinAlgError:  # (a non-finite root: the FK check rejects it)
+            step = np.zeros((R, 3))
+        # a step is a polish: one that is not small is not taken (a root far from converging)
+        step[~(np.abs(step) < _POLISH_LIMIT).all(axis=1)] = 0.0
+        q[2:5] = th + step.T
+        m345 = M[:, 0] + (step[:, None, :] @ M[:, 1:])[:, 0]  # to first order
+    lhs = m345 @ arm.PfBay  # (R, 20): P's 14 equations, then Bay's 6 functionals
+    m12 = (lhs[:, :14] - q0) @ Q_pinv.T  # (R, 4): c₂, s₂, c₁, s₁
+    q[1::-1] = np.arctan2(m12[:, 1::2], m12[:, 0::2]).T  # θ₂, θ₁
+    t12 = np.cos(q[:2, :, None] * _K3 - _PH3)  # (2, R, 3)
+    m12f = (t12[0, :, :, None] * t12[1, :, None, :]).reshape(R, 9)
     w12 = m12f @ (arm.B12[0] @ u)  # (R, 3): R₂ᵀR₁ᵀ u
     yw = lhs[:, 14:].reshape(R, 2, 3) @ w12[:, :, None]  # ((ω₆ × x₆)·y, x₆·y)
-    q[:, 5] = np.arctan2(yw[:, 0, 0], yw[:, 1, 0])
-    return q
+    q[5] = np.arctan2(yw[:, 0, 0], yw[:, 1, 0])
+    return q.T
 
 
 def _angles(
@@ -841,10 +963,10 @@ def _angles(
         Yv = np.einsum("rn,rnk->rk", m345, arm.Bay[lane])
     lhs -= q0[lane]
     if Q_pinv.shape[0] == 1:
-        m12 = lhs @ Q_pinv[0].T  # (R, 8): (c₂, s₂, c₁, c₁c₂, c₁s₂, s₁, s₁c₂, s₁s₂)
+        m12 = lhs @ Q_pinv[0].T  # (R, 4): c₂, s₂, c₁, s₁
     else:
         m12 = np.einsum("rke,re->rk", Q_pinv[lane], lhs)
-    q[:, 0] = np.arctan2(m12[:, 5], m12[:, 2])
+    q[:, 0] = np.arctan2(m12[:, 3], m12[:, 2])
     q[:, 1] = np.arctan2(m12[:, 1], m12[:, 0])
     t12 = np.ones((R, 2, 3))  # rows (1, cos θ, sin θ) of θ₁, θ₂
     t12[:, :, 1] = np.cos(q[:, :2])
@@ -874,8 +996,10 @@ def solve_general_6r_shifted(
     """`solve_general_6r` for lanes of axes w, r (L or 1, 6, 3) with the chain's loop read from
     joint `shift` + 1: e₁ ⋯ e₆ = G is e_{k+1} ⋯ e₆ e′₁ ⋯ e′ₖ = G with e′ᵢ = G⁻¹ eᵢ G, the rotation
     about axis i moved by G⁻¹ (k = shift). An elimination that degenerates for one order of the
-    axes (three axes through a point among joints 3-5, say) need not for another. `arm`, the
-    prepared `Arm` of w, r, is used when given and shift is 0."""
+    axes (three axes through a point among joints 3-5, say) need not for another. `arm`, when
+    given: the prepared `Arm` of w, r (shift 0), or for shift > 0 an arm of one lane built from
+    w, r in the loop's order (`shifted_base`), whose first 6 − k joints (those G does not move)
+    one target's arm takes from it (the arm is built per call: that part of it once)."""
     if shift == 0:
         return solve_general_6r(arm or Arm(w, r, scale, fit=False), R, t, trace)
     L = R.shape[0]
@@ -885,14 +1009,32 @@ def solve_general_6r_shifted(
     wl[:, :shift] = np.einsum("lij,lkj->lki", Rt, wl[:, :shift])
     rl[:, :shift] = np.einsum("lij,lkj->lki", Rt, rl[:, :shift] - t[:, None])
     order = [*range(shift, 6), *range(shift)]
-    Q, ok = solve_general_6r(Arm(wl[:, order], rl[:, order], scale, fit=False), R, t, trace)
+    base = (arm, 6 - shift) if arm is not None and L == 1 and arm.lanes == 1 else None
+    Q, ok = solve_general_6r(
+        Arm(wl[:, order], rl[:, order], scale, fit=False, base=base), R, t, trace
+    )
     return Q[..., np.argsort(order)], ok
+
+
+def shifted_base(w: FloatArray, r: FloatArray, scale: float, shift: int) -> Arm:
+    """The arm of one lane of axes w, r (1, 6, 3) in the order of the loop read from joint
+    `shift` + 1 (`solve_general_6r_shifted`'s `arm` for shift > 0): built once per chain, its
+    joints that the target does not move are shared by every target's arm."""
+    order = [*range(shift, 6), *range(shift)]
+    # fitted: K depends on joints 1, 2 alone, so every target's arm takes it (its right-hand
+    # side then costs one product on floats, `target_floats`, not `_right_hand_side`'s ~20 µs)
+    return Arm(w[:, order], r[:, order], scale, fit=shift <= 3)
 
 
 def _perpendicular(a: FloatArray) -> FloatArray:
     """A unit vector normal to each unit vector a (…, 3): a × e₁, or a × e₂ where a is near e₁
     (written out: `np.cross` costs ~20 µs on a few vectors, and an arm built for one call,
     `solve_general_6r_shifted`, pays it every call)."""
+    if a.shape == (1, 3):  # one lane (an arm built per call): on floats
+        b0, b1, b2 = a[0].tolist()
+        v = (-b2, 0.0, b0) if abs(b0) >= 0.9 else (0.0, b2, -b1)
+        n = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+        return np.array([[v[0] / n, v[1] / n, v[2] / n]])
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     near_x = np.abs(a0) >= 0.9
     zero = np.zeros_like(a0)
