@@ -267,8 +267,16 @@ def test_kinematics_ros_jog_moves_the_arm_from_a_terminal(rig):
     )
     os.close(side)
     try:
-        wait_until(lambda: bool(rig.statuses) and jog.poll() is None, 5.0, "jog running")
-        time.sleep(3.0)  # its start-up: rclpy, discovery of the servo
+        # its start-up (rclpy, discovery): its publisher seen beside ours, then its match
+        wait_until(
+            lambda: (
+                rig.client.node.count_publishers("/servo/delta_twist_cmds") >= 2
+                or jog.poll() is not None
+            ),
+            30.0,
+            "kinematics ros jog's twist publisher",
+        )
+        time.sleep(1.0)
         before = rig.last_position()
         start = rig.now()
         for _ in range(40):  # a held key: its first press, then the terminal's repeats
