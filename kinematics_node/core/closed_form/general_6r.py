@@ -615,20 +615,13 @@ def _clusters(
     R = Sig.shape[0]
     starts = np.flatnonzero(np.concatenate(([True], ~near)))
     ends = np.append(starts[1:], R)
-    has_bad = np.add.reduceat(bad, starts) > 0
-    need = (ends - starts > 1) | has_bad
-    pairs = (ends - starts == 2) & ~has_bad
-    if np.count_nonzero(pairs) > 1:  # pairs (most clusters: the offset Puma has ~4 a target)
-        try:
-            _cluster_pairs(Sig, starts[pairs], th4, th5)
-            need &= ~pairs
-        except np.linalg.LinAlgError:  # (a singular QR factor, say: the loop's fallbacks)
-            pass
+    need = (ends - starts > 1) | (np.add.reduceat(bad, starts) > 0)
     for start, end in zip(starts[need].tolist(), ends[need].tolist(), strict=True):
         m = end - start
         # LAPACK directly where it succeeds (NumPy's wrappers cost ~10 µs a call more: most
         # targets of an arm whose wrist nearly meets have such a pair), NumPy's where it fails
-        S = Sig[start:end].mean(axis=0)
+        # their mean (of a pair, the usual cluster, without `mean`'s ~5 µs of overhead)
+        S = 0.5 * (Sig[start] + Sig[start + 1]) if m == 2 else Sig[start:end].mean(axis=0)
         _, _, vt, info = lapack.dgesdd(S)
         U = (vt if info == 0 else np.linalg.svd(S)[2])[-m:].T  # (12, m)
         c = 0.5772156649015329  # any constant: x₄ + c x₅ also separates roots sharing x₄
@@ -650,26 +643,6 @@ def _clusters(
             top = v[np.abs(v).argmax(axis=0), np.arange(m)]
             v = (v * (np.abs(top) / np.where(top == 0, 1.0, top))).real
         th4[start:end], th5[start:end] = _shift_ratios(np.ascontiguousarray(v.T))
-
-
-def _cluster_pairs(Sig: FloatArray, first: IntArray, th4: FloatArray, th5: FloatArray) -> None:
-    """`_clusters`' steps for P clusters of two roots each, roots first and first + 1 (P,), as
-    stacks (hand-written for speed: the loop's ~20 array operations per cluster once for all):
-    the shared null space U (P, 12, 2) by the SVD, the shift's 2 × 2 matrix by least squares
-    (QR: what `dgels` does), its eigenvectors, v = U a."""
-    S = 0.5 * (Sig[first] + Sig[first + 1])  # (P, 12, 12)
-    U = np.linalg.svd(S)[2][:, -2:].swapaxes(1, 2)  # (P, 12, 2)
-    c = 0.5772156649015329  # (`_clusters`' constant)
-    Qb, Rb = np.linalg.qr(U[:, _BASE])
-    rhs = U[:, _BASE + 3] + c * U[:, _BASE + 1]
-    W = np.linalg.solve(Rb, Qb.swapaxes(1, 2) @ rhs)  # (P, 2, 2)
-    v = U @ np.linalg.eig(W)[1]  # (P, 12, 2), complex where a pair is (the FK check rejects it)
-    if np.iscomplexobj(v):  # each vector by the phase of its largest entry
-        top = np.take_along_axis(v, np.abs(v).argmax(axis=1)[:, None, :], axis=1)
-        v = (v * (np.abs(top) / np.where(top == 0, 1.0, top))).real
-    a, b = _shift_ratios(np.ascontiguousarray(v.swapaxes(1, 2)).reshape(-1, 12))
-    rows = np.stack((first, first + 1), axis=1).reshape(-1)
-    th4[rows], th5[rows] = a, b
 
 
 def solve_general_6r(
@@ -880,13 +853,14 @@ def _angles_one(
         res = E[:, 0] - Nq
         J = E[:, 1:]
         JJ = J @ J.swapaxes(1, 2)
-        JJ += (1e-14 * np.trace(JJ, axis1=1, axis2=2) + 1e-300)[:, None, None] * _EYE3
+        JJ += (1e-14 * np.einsum("rii->r", JJ) + 1e-300)[:, None, None] * _EYE3
         try:
             step = np.linalg.solve(JJ, -(J @ res[:, :, None]))[:, :, 0]  # (R, 3)
         except np.linalg.LinAlgError:  # (a non-finite root: the FK check rejects it)
             step = np.zeros((R, 3))
-        # a step is a polish: one that is not small is not taken (a root far from converging)
-        step[~(np.abs(step) < _POLISH_LIMIT).all(axis=1)] = 0.0
+        # a step is a polish: one that is not small is not taken (a root far from converging;
+        # NaN fails the test too; the ufunc's reduce skips `max`'s wrapper)
+        step[~(np.maximum.reduce(np.abs(step), axis=1) < _POLISH_LIMIT)] = 0.0
         q[2:5] = th + step.T
         m345 = M[:, 0] + (step[:, None, :] @ M[:, 1:])[:, 0]  # to first order
     lhs = m345 @ arm.PfBay  # (R, 20): P's 14 equations, then Bay's 6 functionals
