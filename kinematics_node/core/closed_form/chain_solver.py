@@ -19,7 +19,13 @@ import numpy as np
 from scipy.linalg.lapack import dposv
 
 from ..model import TWO_PI, KinematicChain
-from .general_6r import Arm, shifted_base, solve_general_6r_shifted, solve_one_rows
+from .general_6r import (
+    Arm,
+    shifted_base,
+    solve_general_6r_shifted,
+    solve_one_rows,
+    solve_one_shifted,
+)
 from .geometry import (
     INV_TWO_PI,
     BoolArray,
@@ -820,18 +826,29 @@ def general_solutions(
     """The general 6R solver's solutions (k, 6) of one target T (rows) of a 6R arm, by its
     one-target form (`solve_one_rows`), angles not wrapped; None where that form does not
     decide (or the arm is not a 6R arm of that family): then `scalar_candidates` does."""
-    arm = solver.general
-    if arm is None:
+    arm, base = solver.general, solver.general_base
+    if arm is not None and arm.K is None or base is not None and base.K is None:
+        return None
+    if arm is None and base is None:
         return None
     R, p = _times_inverse_home(T, solver.M_inv_rows)
-    if arm.K is None or not solver.structure.reversed:
-        return solve_one_rows(arm, R, p, polish) if arm.K is not None else None
-    # G⁻¹ = e^{−[S₆]q₆} ⋯ e^{−[S₁]q₁} = (Rᵀ, −Rᵀp)
-    (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = R
-    Rt = ((a0, b0, c0), (a1, b1, c1), (a2, b2, c2))
-    pt = tuple(-(r[0] * p[0] + r[1] * p[1] + r[2] * p[2]) for r in Rt)
-    Q1 = solve_one_rows(arm, Rt, pt, polish)
-    return None if Q1 is None else -Q1[:, ::-1]
+    if solver.structure.reversed:  # G⁻¹ = e^{−[S₆]q₆} ⋯ e^{−[S₁]q₁} = (Rᵀ, −Rᵀp)
+        (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = R
+        R = ((a0, b0, c0), (a1, b1, c1), (a2, b2, c2))
+        p = (
+            -(a0 * p[0] + b0 * p[1] + c0 * p[2]),
+            -(a1 * p[0] + b1 * p[1] + c1 * p[2]),
+            -(a2 * p[0] + b2 * p[1] + c2 * p[2]),
+        )
+    if arm is not None:
+        Q1 = solve_one_rows(arm, R, p, polish)
+    else:  # the loop read from another joint: its arm built per target on the prepared part
+        assert base is not None and solver.geometry is not None
+        g = solver.geometry
+        Q1 = solve_one_shifted(base, g.w, g.r, int(solver.structure.case or 0), R, p, polish)
+    if Q1 is None or not solver.structure.reversed:
+        return Q1
+    return -Q1[:, ::-1]
 
 
 def _times_inverse_home(T: list[list[float]], Mi: list[list[float]]) -> tuple[Mat, Vec]:

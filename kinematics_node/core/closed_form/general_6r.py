@@ -990,6 +990,28 @@ def solve_general_6r_shifted(
     return Q[..., np.argsort(order)], ok
 
 
+def solve_one_shifted(
+    base: Arm,
+    w: FloatArray,
+    r: FloatArray,
+    shift: int,
+    R: Sequence[Sequence[float]],
+    t: Sequence[float],
+    polish: bool = True,
+) -> FloatArray | None:
+    """`solve_one_rows` of one target G = (R, t) (rotation rows and translation as floats) with
+    the loop read from joint `shift` + 1 (`solve_general_6r_shifted`), its arm built on `base`
+    (`shifted_base`, fitted); None where the stacked form must decide. Axes w, r (1, 6, 3)."""
+    Ra, ta = np.array(R), np.array(t)
+    wl, rl = w.copy(), r.copy()
+    wl[:, :shift] = wl[:, :shift] @ Ra  # Rᵀ w, row by row
+    rl[:, :shift] = (rl[:, :shift] - ta) @ Ra
+    order = [*range(shift, 6), *range(shift)]
+    arm = Arm(wl[:, order], rl[:, order], base.scale, fit=False, base=(base, 6 - shift))
+    q = solve_one_rows(arm, R, t, polish)
+    return None if q is None else q[:, np.argsort(order)]
+
+
 def shifted_base(w: FloatArray, r: FloatArray, scale: float, shift: int) -> Arm:
     """The arm of one lane of axes w, r (1, 6, 3) in the order of the loop read from joint
     `shift` + 1 (`solve_general_6r_shifted`'s `arm` for shift > 0): built once per chain, its
