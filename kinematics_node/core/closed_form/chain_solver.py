@@ -766,14 +766,8 @@ def scalar_candidates(
             g, prep, K = solver.held_prepared(held_value)
             R, p = _times_inverse_home(T, K)
             d = [seed[i] for i in solver.keep]
-        if st.reversed:  # G⁻¹ = (Rᵀ, −Rᵀp)
-            (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = R
-            R = ((a0, b0, c0), (a1, b1, c1), (a2, b2, c2))
-            p = (
-                -(a0 * p[0] + b0 * p[1] + c0 * p[2]),
-                -(a1 * p[0] + b1 * p[1] + c1 * p[2]),
-                -(a2 * p[0] + b2 * p[1] + c2 * p[2]),
-            )
+        if st.reversed:  # G⁻¹
+            R, p = _inverse_rp(R, p)
             d = [-x for x in reversed(d)]
         return _candidates_rp(solver, g, prep, R, p, d, held_value)
     Ta = np.array(T)
@@ -832,14 +826,8 @@ def general_solutions(
     if arm is None and base is None:
         return None
     R, p = _times_inverse_home(T, solver.M_inv_rows)
-    if solver.structure.reversed:  # G⁻¹ = e^{−[S₆]q₆} ⋯ e^{−[S₁]q₁} = (Rᵀ, −Rᵀp)
-        (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = R
-        R = ((a0, b0, c0), (a1, b1, c1), (a2, b2, c2))
-        p = (
-            -(a0 * p[0] + b0 * p[1] + c0 * p[2]),
-            -(a1 * p[0] + b1 * p[1] + c1 * p[2]),
-            -(a2 * p[0] + b2 * p[1] + c2 * p[2]),
-        )
+    if solver.structure.reversed:  # G⁻¹ = e^{−[S₆]q₆} ⋯ e^{−[S₁]q₁}
+        R, p = _inverse_rp(R, p)
     if arm is not None:
         Q1 = solve_one_rows(arm, R, p, polish)
     else:  # the loop read from another joint: its arm built per target on the prepared part
@@ -866,6 +854,16 @@ def _times_inverse_home(T: list[list[float]], Mi: list[list[float]]) -> tuple[Ma
     r0, r1, r2 = rows
     R = ((r0[0], r0[1], r0[2]), (r1[0], r1[1], r1[2]), (r2[0], r2[1], r2[2]))
     return R, (r0[3], r1[3], r2[3])
+
+
+def _inverse_rp(R: Mat, p: Vec) -> tuple[Mat, Vec]:
+    """The inverse (Rᵀ, −Rᵀp) of the rigid transform (R, p), written out (scalar path)."""
+    (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = R
+    return ((a0, b0, c0), (a1, b1, c1), (a2, b2, c2)), (
+        -(a0 * p[0] + b0 * p[1] + c0 * p[2]),
+        -(a1 * p[0] + b1 * p[1] + c1 * p[2]),
+        -(a2 * p[0] + b2 * p[1] + c2 * p[2]),
+    )
 
 
 def _candidates_of(
