@@ -56,7 +56,11 @@ def test_servo_demo_drives_the_square_over_dds(tmp_path):
     assert codes, text
     sequence = codes[1].split(" → ")
     if any(c in ("TIMEOUT_STOP", "COMMAND_STALE") for c in sequence[:-1]):
-        pytest.skip(f"the twists did not reach the servo in time (its status went {codes[1]})")
+        sent = re.search(r"twists sent: .*", text)
+        pytest.skip(
+            f"the twists did not reach the servo in time (its status went {codes[1]}; "
+            f"{sent[0] if sent else 'no count of the twists sent'})"
+        )
     stopped, asked = _number(r"time stopped while commanded to move: (\S+) s of (\S+) s", text)
     assert stopped == 0.0 and asked > 10.0, text
     (err_max, _) = _number(r"tracking error .*: max (\S+) mm, rms (\S+) mm", text)
