@@ -275,17 +275,16 @@ def test_kinematics_ros_jog_moves_the_arm_from_a_terminal(rig):
         text=True,
     )
     os.close(side)
+    lines: list[str] = []  # what it prints, as it prints it
+    reader = threading.Thread(target=lambda: lines.extend(iter(jog.stdout.readline, "")))
+    reader.start()
     try:
-        # its start-up (rclpy, discovery): its publisher seen beside ours, then its match
+        # its start-up (rclpy, discovery, its match with the servo): it says so, then reads keys
         wait_until(
-            lambda: (
-                rig.client.node.count_publishers("/servo/delta_twist_cmds") >= 2
-                or jog.poll() is not None
-            ),
+            lambda: any("jogging through" in line for line in lines) or jog.poll() is not None,
             30.0,
-            "kinematics ros jog's twist publisher",
+            "kinematics ros jog reading keys",
         )
-        time.sleep(1.0)
         before = rig.last_position()
         start = rig.now()
         for _ in range(40):  # a held key: its first press, then the terminal's repeats
@@ -293,12 +292,14 @@ def test_kinematics_ros_jog_moves_the_arm_from_a_terminal(rig):
             time.sleep(0.05)
         end = rig.now()
         os.write(main, b"q")
-        out, _ = jog.communicate(timeout=20)
+        jog.wait(timeout=20)
     finally:
         if jog.poll() is None:
             jog.kill()
             jog.wait()
+        reader.join(timeout=5)
         os.close(main)
+    out = "".join(lines)
     assert jog.returncode == 0, out
     assert "jogging through /servo/delta_twist_cmds" in out and "w/s a/d r/f" in out, out
     assert "servo: following the twist command" in out, out
