@@ -8,8 +8,8 @@ which is not on sys.path (nor is the working directory of `ros2 launch` that fol
 
 Their common arguments (`arguments`): robot, description_file, xacro_args, base_link, tip_link,
 rate, rviz. Their common nodes (`robot_nodes`): robot_state_publisher (TF and the
-robot_description topic, from the file's XML, xacro expanded), sim_arm (joint_states of every moving joint without <mimic>, which
-robot_state_publisher needs: a Panda's finger too), the kinematics node on the chosen chain
+robot_description topic, from the file's XML, xacro expanded), sim_arm (joint_states of every
+moving joint without <mimic>, which robot_state_publisher needs: a Panda's finger too), the kinematics node on the chosen chain
 (config/kinematics.yaml, then the bundled file and the chain), and RViz on request; all with
 the package's Fast DDS profile (`kinematics_node.ros.env.fastdds_profile_env`).
 
@@ -21,8 +21,6 @@ one; with several, set tip_link: the nodes wait for it and list the candidates).
 
 import os  # noqa: I001  (ruff would sort `launch` as first-party: the repo has a launch/ folder)
 
-from xml.etree import ElementTree
-
 from launch.actions import DeclareLaunchArgument
 from launch.conditions import IfCondition
 from launch.substitutions import LaunchConfiguration
@@ -31,6 +29,7 @@ from launch_ros.parameter_descriptions import ParameterValue
 
 from kinematics_node.ros.env import fastdds_profile_env
 from kinematics_node.service.description_file import read_description_file
+from kinematics_node.service.robot_model import LinkTree
 from kinematics_node.sim.robots import default_chain_links
 
 PACKAGE = "kinematics_service"
@@ -67,25 +66,29 @@ def arguments():
 
 
 def chosen_robot(context, share):
-    """{robot, description_file, xacro_args, xml, base_link, tip_link, default_chain, rate} of
-    the launch arguments (robot None for the user's own file); raises RuntimeError naming the
+    """{robot, description_file, xacro_args, xml, base_link, tip_link, frame, default_chain,
+    rate} of the launch arguments (robot None for the user's own file; frame: RViz's fixed
+    frame, base_link or else the description's root link); raises RuntimeError naming the
     bundled robots when `robot` is none of them, or saying what is wrong with description_file."""
     rate = float(LaunchConfiguration("rate").perform(context))
     own = LaunchConfiguration("description_file").perform(context)
     if own:  # absolute: relative to where `ros2 launch` runs, not the nodes
         path = os.path.abspath(os.path.expanduser(own))
         xacro_args = LaunchConfiguration("xacro_args").perform(context)
+        base_link = LaunchConfiguration("base_link").perform(context)
         try:
-            xml = read_description_file(path, xacro_args).xml
+            description = read_description_file(path, xacro_args)
+            frame = base_link or LinkTree(description).root_link
         except Exception as exc:  # RobotDescriptionError: the file, the xacro run, an argument
             raise RuntimeError(f"description_file: {exc}") from None
         return {
             "robot": None,
             "description_file": path,
             "xacro_args": xacro_args,
-            "xml": xml,
-            "base_link": LaunchConfiguration("base_link").perform(context),
+            "xml": description.xml,
+            "base_link": base_link,
             "tip_link": LaunchConfiguration("tip_link").perform(context),
+            "frame": frame,
             "default_chain": False,
             "rate": rate,
         }
@@ -107,6 +110,7 @@ def chosen_robot(context, share):
         "xml": xml,
         "base_link": base_link,
         "tip_link": tip_link,
+        "frame": base_link,
         "default_chain": (base_link, tip_link) == (default_base, default_tip),
         "rate": rate,
     }
@@ -127,16 +131,6 @@ def chain_parameters(robot):
         "base_link": robot["base_link"],
         "tip_link": robot["tip_link"],
     }
-
-
-def _root_link(xml):
-    """The description's root link (RViz's fixed frame when base_link is left to the nodes)."""
-    root = ElementTree.fromstring(xml)
-    children = {
-        j.find("child").get("link") for j in root.iter("joint") if j.find("child") is not None
-    }
-    roots = [link.get("name") for link in root.iter("link") if link.get("name") not in children]
-    return roots[0] if roots else "base_link"
 
 
 def dds_env(share):
@@ -186,7 +180,7 @@ def robot_nodes(share, robot, sim_parameters, env):
                 "-d",
                 os.path.join(share, "config", "sim_arm.rviz"),
                 "-f",
-                robot["base_link"] or _root_link(robot["xml"]),
+                robot["frame"],
             ],
             condition=IfCondition(LaunchConfiguration("rviz")),
             output="screen",
