@@ -335,10 +335,9 @@ def _jog(client: RosClient, args: argparse.Namespace, emit: Callable[[str], None
     with _keys_as_typed(fd):
         while not jog.quit and not (ended and jog.current(time.monotonic()) is None):
             wait = max(0.0, due - time.monotonic())
-            readable = [] if ended else select.select([fd], [], [], wait)[0]
-            if ended:
+            if ended:  # no keys to wait for: only the held twist's schedule
                 time.sleep(wait)
-            if readable:
+            elif select.select([fd], [], [], wait)[0]:
                 data = os.read(fd, 64)
                 ended = not data
                 for key in data.decode(errors="replace"):

@@ -311,6 +311,27 @@ def test_kinematics_ros_jog_moves_the_arm_from_a_terminal(rig):
     assert fit[2] == pytest.approx(0.04, rel=0.15), fit
 
 
+def test_kinematics_ros_jog_reads_keys_from_a_pipe_and_ends_with_its_input(rig):
+    """Without a terminal: keys from standard input as they come; at its end, the last key's
+    twist is held for its 0.6 s, then the command exits by itself."""
+    kinematics = Path(os.environ.get("KINEMATICS_ROS_PYTHON", sys.executable)).parent / "kinematics"
+    before = rig.last_position()
+    jog = subprocess.run(
+        [str(kinematics), "ros", "jog", "--speed", "0.04", "--frame", "base_link"],
+        input="f",  # one press: down along z
+        capture_output=True,
+        text=True,
+        env=local_ros_env(DOMAIN_ID),
+        timeout=60,
+    )
+    assert jog.returncode == 0, jog.stdout + jog.stderr
+    assert "jogging through /servo/delta_twist_cmds" in jog.stdout, jog.stdout
+    time.sleep(1.5)  # the timeout and the stop
+    fall = before - rig.last_position()
+    assert 0.005 < fall[2] < 0.04 * 1.2, fall  # about 0.6 s of 0.04 m/s, ramp included
+    assert np.abs(fall[:2]).max() < 2e-3, fall
+
+
 def test_a_bad_parameter_is_refused_at_run_time_saying_why(rig):
     (result,) = rig.client.set_parameters("servo", period_s=5.0)
     assert not result.successful
