@@ -16,9 +16,9 @@ the arm is and to notice an arm that does not follow):
 2. The followed rows of V are solved for q̇ by damped least squares (`dls`), which never stops at
    a singularity; near the edge of the workspace a commanded motion along the lost direction is
    braked within what the joints can follow, the commanded pose held back alike so that the tool
-   stays on the commanded path (`_brake`); from an exact singularity, a command along the lost direction starts a motion
-   along the singular joint direction where its second-order effect agrees (`_escape`). A
-   redundant arm adds null-space motion away from its joint limits.
+   stays on the commanded path (`_brake`); from an exact singularity, a command along the lost
+   direction starts a motion along the singular joint direction where its second-order effect
+   agrees (`_escape`). A redundant arm adds null-space motion away from its joint limits.
 3. Joint limits: a joint near a position limit may move towards it no faster than it can still
    brake (`limits.braking_speed`, at half its acceleration and jerk). When the solution asks more,
    the joint is held at that speed and the task is solved again by the other joints where they
@@ -935,14 +935,7 @@ class Servo:
         self._ramp_target = target
         ramped = ramp.step(target)
         ramp_acc = self._ramp.a
-        # Integrate the commanded pose over the period: R_ref ← exp([ω] dt) R_ref, p_ref += v dt.
-        dt = cfg.period_s
-        wx, wy, wz, vx, vy, vz = ramped
-        self._ref_q = _quat.normalized(
-            _quat.mul(_quat.from_rotvec(wx * dt, wy * dt, wz * dt), self._ref_q)
-        )
-        rp = self._ref_p
-        self._ref_p = (rp[0] + vx * dt, rp[1] + vy * dt, rp[2] + vz * dt)
+        self._advance_reference(ramped, cfg.period_s)
         details["scaled"] = self._twist_scaled
         details["ramped"] = ramped  # base axes: what the commanded pose advanced by, per second
         K = cfg.tracking_gain_1_per_s
@@ -1269,16 +1262,20 @@ class Servo:
             xb = xb + (r_braked - rb) * u
         return xb, kept
 
+    def _advance_reference(self, twist: Sequence[float], dt: float) -> None:
+        """Integrate the commanded pose along `twist` (ω, v) [base axes] for `dt` [s]:
+        R_ref ← exp([ω] dt) R_ref, p_ref += v dt (a negative dt takes an advance back)."""
+        wx, wy, wz, vx, vy, vz = twist
+        self._ref_q = _quat.normalized(
+            _quat.mul(_quat.from_rotvec(wx * dt, wy * dt, wz * dt), self._ref_q)
+        )
+        rp = self._ref_p
+        self._ref_p = (rp[0] + vx * dt, rp[1] + vy * dt, rp[2] + vz * dt)
+
     def _hold_back(self, share: float, ramped: Sequence[float]) -> None:
         """Take back `share` of this period's advance of the commanded pose along the ramped
         twist `ramped` (ω, v) [base axes]: the pose moves on along the commanded path, slower."""
-        k = -share * self.config.period_s
-        wx, wy, wz, vx, vy, vz = ramped
-        self._ref_q = _quat.normalized(
-            _quat.mul(_quat.from_rotvec(wx * k, wy * k, wz * k), self._ref_q)
-        )
-        rp = self._ref_p
-        self._ref_p = (rp[0] + vx * k, rp[1] + vy * k, rp[2] + vz * k)
+        self._advance_reference(ramped, -share * self.config.period_s)
 
     def _reachable_share(self, qd: list[float]) -> float:
         """The largest share s ≤ 1 of the joint velocities `qd` that every joint reaches from its
