@@ -982,12 +982,17 @@ def solve_general_6r_shifted(
     rl = np.broadcast_to(r, (L,) + r.shape[1:]).copy()
     wl[:, :shift] = np.einsum("lij,lkj->lki", Rt, wl[:, :shift])
     rl[:, :shift] = np.einsum("lij,lkj->lki", Rt, rl[:, :shift] - t[:, None])
-    order = [*range(shift, 6), *range(shift)]
+    order = _loop_order(shift)
     base = (arm, 6 - shift) if arm is not None and L == 1 and arm.lanes == 1 else None
     Q, ok = solve_general_6r(
         Arm(wl[:, order], rl[:, order], scale, fit=False, base=base), R, t, trace
     )
     return Q[..., np.argsort(order)], ok
+
+
+def _loop_order(shift: int) -> list[int]:
+    """The joints in the order of the loop read from joint `shift` + 1 (0-based indices)."""
+    return [*range(shift, 6), *range(shift)]
 
 
 def solve_one_shifted(
@@ -1006,7 +1011,7 @@ def solve_one_shifted(
     wl, rl = w.copy(), r.copy()
     wl[:, :shift] = wl[:, :shift] @ Ra  # Rᵀ w, row by row
     rl[:, :shift] = (rl[:, :shift] - ta) @ Ra
-    order = [*range(shift, 6), *range(shift)]
+    order = _loop_order(shift)
     arm = Arm(wl[:, order], rl[:, order], base.scale, fit=False, base=(base, 6 - shift))
     q = solve_one_rows(arm, R, t, polish)
     return None if q is None else q[:, np.argsort(order)]
@@ -1016,7 +1021,7 @@ def shifted_base(w: FloatArray, r: FloatArray, scale: float, shift: int) -> Arm:
     """The arm of one lane of axes w, r (1, 6, 3) in the order of the loop read from joint
     `shift` + 1 (`solve_general_6r_shifted`'s `arm` for shift > 0): built once per chain, its
     joints that the target does not move are shared by every target's arm."""
-    order = [*range(shift, 6), *range(shift)]
+    order = _loop_order(shift)
     # fitted: K depends on joints 1, 2 alone, so every target's arm takes it (its right-hand
     # side then costs one product on floats, `target_floats`, not `_right_hand_side`'s ~20 µs)
     return Arm(w[:, order], r[:, order], scale, fit=shift <= 3)
