@@ -40,6 +40,8 @@ pytest.importorskip("ruckig", reason="the servo's smoothing needs ruckig (extra 
 READY = [0.0, -1.57, 1.57, -1.57, -1.57, 0.0]
 CHAIN = {"robot_description_file": str(UR5E), "base_link": "base_link", "tip_link": "tool0"}
 COMMANDS = "/forward_position_controller/commands"
+#: The `kinematics` command line beside the interpreter the ROS build runs under.
+KINEMATICS = Path(os.environ.get("KINEMATICS_ROS_PYTHON", sys.executable)).parent / "kinematics"
 
 
 class Rig:
@@ -264,10 +266,9 @@ def test_a_nan_command_is_refused_with_a_status_and_the_arm_stops(rig):
 def test_kinematics_ros_jog_moves_the_arm_from_a_terminal(rig):
     """`kinematics ros jog` as a user runs it, in a terminal (a pseudo-terminal here): `r`
     pressed and auto-repeated moves the tool up at --speed without a pause, and `q` quits."""
-    kinematics = Path(os.environ.get("KINEMATICS_ROS_PYTHON", sys.executable)).parent / "kinematics"
     main, side = pty.openpty()
     jog = subprocess.Popen(
-        [str(kinematics), "ros", "jog", "--speed", "0.04", "--frame", "base_link"],
+        [str(KINEMATICS), "ros", "jog", "--speed", "0.04", "--frame", "base_link"],
         stdin=side,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
@@ -314,10 +315,9 @@ def test_kinematics_ros_jog_moves_the_arm_from_a_terminal(rig):
 def test_kinematics_ros_jog_reads_keys_from_a_pipe_and_ends_with_its_input(rig):
     """Without a terminal: keys from standard input as they come; at its end, the last key's
     twist is held for its 0.6 s, then the command exits by itself."""
-    kinematics = Path(os.environ.get("KINEMATICS_ROS_PYTHON", sys.executable)).parent / "kinematics"
     before = rig.last_position()
     jog = subprocess.run(
-        [str(kinematics), "ros", "jog", "--speed", "0.04", "--frame", "base_link"],
+        [str(KINEMATICS), "ros", "jog", "--speed", "0.04", "--frame", "base_link"],
         input="f",  # one press: down along z
         capture_output=True,
         text=True,
