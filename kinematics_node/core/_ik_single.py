@@ -376,14 +376,16 @@ class SingleSolver:
         ori: float,
     ) -> None:
         """Add solution q to `found` ((distance, q, pos, ori) each), or, if it is the same as one
-        there (`_same`), keep the nearer of the two."""
+        there (`_same`), keep the nearer of the two. A q the same as two or more members (they
+        are distinct, but q lies between them) is left out: in place of either it would be the
+        same as the other, and the set would no longer be distinct (a free axis's samples, 9 mrad
+        apart, were both returned)."""
         d = self._distance(q)
-        for i, (d_old, q_old, _, _) in enumerate(found):
-            if self._same(q, q_old):
-                if d < d_old:
-                    found[i] = (d, q, pos, ori)
-                return
-        found.append((d, q, pos, ori))
+        same = [i for i, (_, q_old, _, _) in enumerate(found) if self._same(q, q_old)]
+        if not same:
+            found.append((d, q, pos, ori))
+        elif len(same) == 1 and d < found[same[0]][0]:
+            found[same[0]] = (d, q, pos, ori)
 
     # ------------------------------------------------------------------ restarts
     def run(

@@ -337,3 +337,31 @@ def test_solve_closed_form_gives_none_where_ik_would_search_or_has_nothing():
     assert solve_closed_form(five, five.fk(random_q(five, np.random.default_rng(2)))) is None
     with pytest.raises(InvalidInputError):
         solve_closed_form(chain, np.full((4, 4), np.nan))
+
+
+def test_a_numeric_set_stays_distinct_when_a_solution_falls_between_two_members():
+    """`SingleSolver._found`: a solution the same as two distinct members (within
+    `solution_separation` of each, between them) replaced one of them where it was nearer the
+    seed, and the set then held two solutions 9 mrad apart (a free axis's samples, CI on Kilted).
+    It is left out now; a solution the same as one member still replaces it when nearer."""
+    from kinematics_node.core._ik_problem import IKProblem
+    from kinematics_node.core._ik_single import SingleSolver
+
+    chain = chain_of("ur5")
+    opts = IKOptions(method="numeric", num_solutions=3)
+    seed = np.zeros(chain.dof)
+    solver = SingleSolver(IKProblem.build(chain, opts), chain.fk(seed), seed)
+    sep = opts.solution_separation
+
+    def at(last: float) -> list[float]:  # solutions that differ in the last joint only
+        return [0.0] * (chain.dof - 1) + [last]
+
+    found: list = []
+    for last in (0.5 + 1.8 * sep, 0.5):  # two distinct members, the farther from the seed first
+        solver._found(found, at(last), 0.0, 0.0)
+    solver._found(found, at(0.5 + 0.9 * sep), 0.0, 0.0)  # between them, nearer than the first
+    assert [q[-1] for _, q, _, _ in found] == [0.5 + 1.8 * sep, 0.5]
+    solver._found(found, at(0.5 - 0.5 * sep), 0.0, 0.0)  # the same as the second only, nearer
+    kept = [q[-1] for _, q, _, _ in found]
+    assert kept == [0.5 + 1.8 * sep, 0.5 - 0.5 * sep]
+    assert all(abs(a - b) > sep for i, a in enumerate(kept) for b in kept[i + 1 :])
