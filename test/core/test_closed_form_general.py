@@ -289,11 +289,13 @@ def test_a_joint_with_a_range_over_two_turns_gives_every_whole_turn_equivalent()
 
 def test_one_target_with_coinciding_roots_equals_the_stacked_solve(monkeypatch):
     """The one-lane solve handles roots that coincide (a shared null space, `_clusters`) itself:
-    on the Puma with a 1 mm wrist offset most targets have such a pair. Its sets must equal the
-    stacked (many-target) solve's, and the cluster path must have run."""
-    from kinematics_node.core.closed_form import general_6r
+    on the Puma with a 1 mm wrist offset, its loop read from joint 3, most targets have such a
+    pair (read from joint 6, as detected, none). Its sets must equal the stacked (many-target)
+    solve's, and the cluster path must have run."""
+    from kinematics_node.core.closed_form import general_6r, import_family
 
     chain = dh_chain(ARMS["offset Puma"])
+    import_family(chain, ("general_6r", "2", False, None))
     rng = np.random.default_rng(21)
     q = rng.uniform(-PI, PI, size=(60, 6))
     T = chain.fk(q)
@@ -365,17 +367,19 @@ def test_one_target_by_qr_and_eigenvectors_equals_the_svd_and_the_stacked_solve(
 
 
 def test_an_arm_built_per_target_on_a_shared_base_equals_one_built_whole():
-    """The offset Puma's loop is read from joint 3, so its arm is built per target; the joints the
-    target does not move come from the arm prepared once (`shifted_base`). Built on it or whole,
-    the arm has the same coefficients, and the solver the same solutions, which contain the
-    configuration the target came from."""
+    """The offset Puma's loop read from joint 3 (shift 2: the target moves the loop's last two
+    joints) has its arm built per target; the joints the target does not move come from the arm
+    prepared once (`shifted_base`). Built on it or whole, the arm has the same coefficients, and
+    the solver the same solutions, which contain the configuration the target came from."""
     from kinematics_node.core.closed_form import general_6r as g6
+    from kinematics_node.core.closed_form import import_family
     from kinematics_node.core.closed_form.detection import solver_of
 
     chain = dh_chain(ARMS["offset Puma"])
+    import_family(chain, ("general_6r", "2", False, None))
     solver = solver_of(chain)
     shift = int(solver.structure.case or 0)
-    assert shift > 0 and solver.general_base is not None
+    assert shift == 2 and solver.general_base is not None
     g = solver.geometry
     rev = solver.structure.reversed
     rng = np.random.default_rng(17)
@@ -413,7 +417,73 @@ def test_an_arm_built_per_target_on_a_shared_base_equals_one_built_whole():
     assert a2.K is not None  # fitted once on the base: the target's right-hand side on floats
 
 
-def _reproduces(chain: SerialChain, s: np.ndarray, reversed_: bool, target: np.ndarray) -> bool:
+@pytest.mark.parametrize(
+    ("name", "shift"), [("offset Puma", 5), ("offset Puma", 4), ("random 3", 5)]
+)
+def test_a_loop_with_the_moved_joints_first_equals_the_loop_read_as_given(name, shift):
+    """Read from joint 5 or 6 (shift 4, 5), one target's loop is written in the frame moved by
+    G, so that the joints the target moves come first (`solve_one_shifted`): the same equations
+    moved by one rigid motion. Its solutions must be those of the stacked solve, which moves the
+    other joints (each set checked by FK, not against each other alone), and contain the
+    configuration, one target at a time and all at once; and the arm built on the prepared one
+    (`Arm.with_first_two`) must have the coefficients of one built whole from the same axes."""
+    from kinematics_node.core.closed_form import general_6r as g6
+    from kinematics_node.core.closed_form import import_family
+    from kinematics_node.core.closed_form.detection import solver_of
+    from kinematics_node.core.closed_form.geometry import axis_lines
+
+    chain = dh_chain(ARMS[name])
+    M_inv = solver_of(chain).M_inv
+    w, r = (x[None] for x in axis_lines(np.asarray(chain.S)))
+    scale = solver_of(chain).scale
+    base = g6.shifted_base(w, r, scale, shift)
+    assert base.K is None  # joint 1 of the loop moves with the target: no fitted right-hand side
+    rng = np.random.default_rng(5 + shift)
+    q = rng.uniform(-PI, PI, size=(25, 6))
+    G = chain.fk(q) @ M_inv
+    for i in range(len(q)):
+        R, t = G[i, :3, :3], G[i, :3, 3]
+        one = g6.solve_one_shifted(base, w, r, shift, R.tolist(), t.tolist())
+        assert one is not None
+        whole, ok = g6.solve_general_6r_shifted(
+            w, r, None, R[None], t[None], scale, g6.Trace(), shift
+        )
+        target = chain.fk(q[i])
+        # unrefined roots (the FK check refines them): a near-double root is found to √ε
+        a, b = (
+            np.array([s for s in Q if _reproduces(chain, s, False, target, 1e-7)])
+            for Q in (one, whole[0][ok[0]])
+        )
+        assert a.shape == b.shape and len(a) >= 1, i
+        for s in a:
+            assert _contains(b, s, 1e-7)
+        assert _contains(a, q[i], 1e-6)
+    # every target at once (one arm, a pair of first joints per lane), through the chain's API
+    # (roots checked and refined by FK): the same sets as one target at a time
+    chain = dh_chain(ARMS[name])  # a new chain: detection has run on the first
+    import_family(chain, ("general_6r", str(shift), False, None))
+    batch = chain.ik_all_batch(chain.fk(q))
+    for i in range(len(q)):
+        single = np.asarray(chain.ik_all(chain.fk(q[i])).solutions)
+        assert single.shape == batch.solutions_of(i).shape, i
+        for s in single:
+            assert _contains(batch.solutions_of(i), s, 1e-7)
+        assert _contains(single, q[i], 1e-6)
+    # the coefficients of the last target's arm
+    order = [*range(shift, 6), *range(shift)]
+    wl, rl = w[:, order].copy(), r[:, order].copy()
+    moved = 6 - shift
+    wl[:, :moved] = wl[:, :moved] @ R.T
+    rl[:, :moved] = rl[:, :moved] @ R.T + t
+    a1 = g6.Arm(wl, rl, scale, fit=False)
+    a2 = base.with_first_two(wl[:, :2], rl[:, :2])
+    for name_ in ("P", "Pf", "M12", "B12", "Bay", "Q2", "S", "PfBay"):
+        np.testing.assert_allclose(getattr(a2, name_), getattr(a1, name_), atol=1e-12)
+
+
+def _reproduces(
+    chain: SerialChain, s: np.ndarray, reversed_: bool, target: np.ndarray, tol: float = 1e-9
+) -> bool:
     """Whether the solver's candidate s (read from the tip if `reversed_`) reaches target."""
     ep, er = pose_errors(chain.fk(-s[::-1] if reversed_ else s)[None], target[None])
-    return bool(ep[0] < 1e-9 and er[0] < 1e-9)
+    return bool(ep[0] < tol and er[0] < tol)

@@ -821,7 +821,7 @@ def general_solutions(
     one-target form (`solve_one_rows`), angles not wrapped; None where that form does not
     decide (or the arm is not a 6R arm of that family): then `scalar_candidates` does."""
     arm, base = solver.general, solver.general_base
-    if arm is not None and arm.K is None or base is not None and base.K is None:
+    if arm is not None and arm.K is None:
         return None
     if arm is None and base is None:
         return None

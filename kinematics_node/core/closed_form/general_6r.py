@@ -49,6 +49,7 @@ of NumPy's per-call cost on these sizes). Lengths are scaled by the arm's size f
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Sequence
 
@@ -319,6 +320,22 @@ class Arm:
             self.origin[0].tolist(),
             self.x6[0].tolist(),
         )
+
+    def with_first_two(self, w: FloatArray, r: FloatArray) -> Arm:
+        """This one-lane arm with joints 1 and 2 on the axes w, r (L, 2, 3) [m], one pair per
+        lane of targets: the right-hand side's samples M12 (and B12 for θ₆) computed for them,
+        K left unfitted, and every part of joints 3-6 (Σ's arm part, the deflating basis: the
+        costly ones) shared by all lanes. For a loop whose first joints alone move with the
+        target (`solve_one_shifted`, `solve_general_6r_shifted`: shift ≥ 4)."""
+        out = copy.copy(self)
+        L = w.shape[0]
+        A, B, C = screw_parts(w, (r - self.origin[:, None]) / self.scale)  # (L, 2, 4, 4) each
+        c, s = np.cos(_SAMPLES)[:, None, None], np.sin(_SAMPLES)[:, None, None]
+        inv = A[:, :, None] + c * B[:, :, None] - s * C[:, :, None]  # e^{−[Sᵢ]θ} (L, 2, 3, 4, 4)
+        out.M12 = inv[:, 1, None, :] @ inv[:, 0, :, None]  # e₂⁻¹ e₁⁻¹ (L, 3, 3, 4, 4)
+        out.K = None
+        out.B12 = np.einsum("ab,lbij->laij", _V_INV2, out.M12[..., :3, :3].reshape(L, 9, 3, 3))
+        return out
 
     def second_offset(self) -> FloatArray:
         """Σ's arm part with θ₃ measured from φ + 1 (L, 14, 27): for the rare target whose
@@ -950,7 +967,8 @@ def _angles(
     if one and u.shape[0] == 1:
         w12 = (m12f[:, 0] @ (arm.B12[0] @ u[0]))[:, :, None]  # (R, 3, 1)
     else:
-        B12 = arm.B12[0] if one else arm.B12[lane]
+        # (one arm with a pair of first joints per lane of targets: B12 per lane, `with_first_two`)
+        B12 = arm.B12[lane] if arm.B12.shape[0] > 1 else arm.B12[0]
         w12 = (m12f @ (B12 @ u[lane][:, None, :, None])[..., 0]).swapaxes(1, 2)
     yw = (Yv.reshape(R, 2, 3) @ w12)[:, :, 0]  # ((ω₆ × x₆)·y, x₆·y)
     q[:, 5] = np.arctan2(yw[:, 0], yw[:, 1])
@@ -973,16 +991,26 @@ def solve_general_6r_shifted(
     axes (three axes through a point among joints 3-5, say) need not for another. `arm`, when
     given: the prepared `Arm` of w, r (shift 0), or for shift > 0 an arm of one lane built from
     w, r in the loop's order (`shifted_base`), whose first 6 − k joints (those G does not move)
-    one target's arm takes from it (the arm is built per call: that part of it once)."""
+    one target's arm takes from it (the arm is built per call: that part of it once). With such
+    an arm and k ≥ 4, the loop is written with the moved joints first, as `solve_one_shifted`
+    does: every lane then shares all of the arm but its first two joints."""
     if shift == 0:
         return solve_general_6r(arm or Arm(w, r, scale, fit=False), R, t, trace)
     L = R.shape[0]
+    order = _loop_order(shift)
+    if shift >= 4 and arm is not None and arm.lanes == 1 and w.shape[0] == 1:
+        moved = 6 - shift
+        wl = np.broadcast_to(w[:, order[:2]], (L, 2, 3)).copy()
+        rl = np.broadcast_to(r[:, order[:2]], (L, 2, 3)).copy()
+        wl[:, :moved] = np.einsum("lij,lkj->lki", R, wl[:, :moved])
+        rl[:, :moved] = np.einsum("lij,lkj->lki", R, rl[:, :moved]) + t[:, None]
+        Q, ok = solve_general_6r(arm.with_first_two(wl, rl), R, t, trace)
+        return Q[..., np.argsort(order)], ok
     Rt = R.swapaxes(1, 2)
     wl = np.broadcast_to(w, (L,) + w.shape[1:]).copy()
     rl = np.broadcast_to(r, (L,) + r.shape[1:]).copy()
     wl[:, :shift] = np.einsum("lij,lkj->lki", Rt, wl[:, :shift])
     rl[:, :shift] = np.einsum("lij,lkj->lki", Rt, rl[:, :shift] - t[:, None])
-    order = _loop_order(shift)
     base = (arm, 6 - shift) if arm is not None and L == 1 and arm.lanes == 1 else None
     Q, ok = solve_general_6r(
         Arm(wl[:, order], rl[:, order], scale, fit=False, base=base), R, t, trace
@@ -1006,14 +1034,27 @@ def solve_one_shifted(
 ) -> FloatArray | None:
     """`solve_one_rows` of one target G = (R, t) (rotation rows and translation as floats) with
     the loop read from joint `shift` + 1 (`solve_general_6r_shifted`), its arm built on `base`
-    (`shifted_base`, fitted); None where the stacked form must decide. Axes w, r (1, 6, 3)."""
+    (`shifted_base`); None where the stacked form must decide. Axes w, r (1, 6, 3).
+
+    For shift ≥ 4 the loop is written in the frame moved by G: G e′ G⁻¹ = e, so
+    (G eₖ₊₁ G⁻¹) ⋯ (G e₆ G⁻¹) e₁ ⋯ eₖ = G, the same equations (every term moved by one rigid
+    motion) with the joints that the target moves first. They then enter only the right-hand
+    side, and the arm is `base` with its first two joints replaced (`Arm.with_first_two`), not
+    built again: for shift ≤ 3 they are the last, and a third to a half of the arm is."""
     Ra, ta = np.array(R), np.array(t)
-    wl, rl = w.copy(), r.copy()
-    wl[:, :shift] = wl[:, :shift] @ Ra  # Rᵀ w, row by row
-    rl[:, :shift] = (rl[:, :shift] - ta) @ Ra
     order = _loop_order(shift)
-    arm = Arm(wl[:, order], rl[:, order], base.scale, fit=False, base=(base, 6 - shift))
-    q = solve_one_rows(arm, R, t, polish)
+    if shift >= 4:
+        moved = 6 - shift
+        wl, rl = w[:, order[:2]].copy(), r[:, order[:2]].copy()
+        wl[:, :moved] = wl[:, :moved] @ Ra.T  # R w, row by row
+        rl[:, :moved] = rl[:, :moved] @ Ra.T + ta
+        q = solve_one_target(base.with_first_two(wl, rl), Ra, ta, polish)
+    else:
+        wl, rl = w.copy(), r.copy()
+        wl[:, :shift] = wl[:, :shift] @ Ra  # Rᵀ w, row by row
+        rl[:, :shift] = (rl[:, :shift] - ta) @ Ra
+        arm = Arm(wl[:, order], rl[:, order], base.scale, fit=False, base=(base, 6 - shift))
+        q = solve_one_rows(arm, R, t, polish)
     return None if q is None else q[:, np.argsort(order)]
 
 
@@ -1023,7 +1064,8 @@ def shifted_base(w: FloatArray, r: FloatArray, scale: float, shift: int) -> Arm:
     joints that the target does not move are shared by every target's arm."""
     order = _loop_order(shift)
     # fitted: K depends on joints 1, 2 alone, so every target's arm takes it (its right-hand
-    # side then costs one product on floats, `target_floats`, not `_right_hand_side`'s ~20 µs)
+    # side then costs one product on floats, `target_floats`, not `_right_hand_side`'s ~20 µs);
+    # for shift ≥ 4 the target moves joint 1 (and 2) of the loop (`solve_one_shifted`)
     return Arm(w[:, order], r[:, order], scale, fit=shift <= 3)
 
 
