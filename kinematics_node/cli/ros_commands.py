@@ -1,12 +1,14 @@
 """`kinematics ros`: the running nodes from a shell, where ros2cli is not at hand (it is not on
-PyPI): print one `ee_pose` message, call `compute_ik` and print the answer, or jog the arm through
-the servo from the keyboard (teleop_twist_keyboard is not on PyPI either).
+PyPI): print one `ee_pose` message, call `compute_ik` and print the answer, jog the arm through
+the servo from the keyboard (teleop_twist_keyboard is not on PyPI either), or list, get and set a
+node's parameters at run time (as `ros2 param` does: the tip of a description with a gripper).
 
     kinematics ros pose [--topic ee_pose] [--wait 10] [--json]
     kinematics ros ik --target X,Y,Z,QX,QY,QZ,QW [--frame F] [--tip LINK] [--position-only]
                       [--timeout S] [--service compute_ik] [--wait 10] [--json]
     kinematics ros jog [--topic /servo/delta_twist_cmds] [--frame F] [--speed 0.05] [--turn 0.3]
                        [--rate 50] [--status /servo/status] [--wait 10]
+    kinematics ros param list|get|set NODE [NAME [VALUE]] [--wait 10]
 
 This module holds the arguments and the words and imports no ROS: main.py adds the `ros` command
 with `add_parser` and runs it with `run`; ROS is imported by `run`, through `ros.client`, only
@@ -36,6 +38,8 @@ _EXAMPLES = """examples:
   kinematics ros ik --target 0.4,0.1,0.4,0,0,0,1 --position-only --tip tool0
   kinematics ros jog                                # keys w/s a/d r/f move, Shift turns, q quits
   kinematics ros jog --frame tool0 --speed 0.02     # along the tool's own axes
+  kinematics ros param set kinematics_node tip_link tool0   # as `ros2 param set` (YAML values)
+  kinematics ros param list kinematics_node
 
 Start the node first (kinematics_node --help; for jog, the servo: servo --help). The commands wait
 up to --wait seconds for it and use this shell's ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE,
@@ -151,7 +155,29 @@ def add_parser(commands: Any) -> None:
     jog.add_argument(
         "--status", default="/servo/status", help="the servo's status topic (default: %(default)s)"
     )
-    for command in (pose, ik, jog):
+    param = which.add_parser(
+        "param",
+        help="list, get or set a running node's parameters",
+        description="A node's parameters at run time, as `ros2 param list|get|set` (ros2cli is "
+        "not on PyPI).",
+        epilog=_EXAMPLES,
+    )
+    actions = param.add_subparsers(dest="param_action", required=True, metavar="ACTION")
+    listing = actions.add_parser("list", help="every parameter with its value")
+    getting = actions.add_parser("get", help="one parameter's value")
+    setting = actions.add_parser(
+        "set",
+        help="set one parameter",
+        description="Set a parameter of a running node. VALUE is read as YAML, as ros2 param "
+        "reads it:\ntrue, 3, 0.5, [1, 2], text. A value the node refuses: exit status 1 with "
+        "its reason.",
+    )
+    for action in (listing, getting, setting):
+        action.add_argument("node", metavar="NODE", help="the node's name, e.g. kinematics_node")
+    for action in (getting, setting):
+        action.add_argument("name", metavar="NAME", help="the parameter")
+    setting.add_argument("value", metavar="VALUE", help="its new value (YAML)")
+    for command in (pose, ik, jog, listing, getting, setting):
         command.add_argument(
             "--wait",
             type=_seconds,
@@ -173,6 +199,7 @@ def run(args: argparse.Namespace, emit: Callable[[str], None] = print) -> int:
         "pose": (_pose, ("geometry_msgs.msg",)),
         "ik": (_ik, ("kinematics_service.srv",)),
         "jog": (_jog, ("geometry_msgs.msg", "diagnostic_msgs.msg")),
+        "param": (_param, ("rcl_interfaces.srv",)),
     }[args.ros_command]
     reason = missing_ros(needs)
     if reason is not None:
@@ -281,6 +308,77 @@ def _ik(client: RosClient, args: argparse.Namespace, emit: Callable[[str], None]
     if not response.success:
         raise RosClientError(f"{client.resolve(args.service)}: {response.message}")
     return 0
+
+
+def _param(client: RosClient, args: argparse.Namespace, emit: Callable[[str], None]) -> int:
+    from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
+    from rcl_interfaces.srv import GetParameters, ListParameters, SetParameters
+    from rclpy.parameter import get_parameter_value, parameter_value_to_python
+
+    node = args.node if args.node.startswith("/") else "/" + args.node
+
+    def call(srv_type: Any, service: str, request: Any) -> Any:
+        return client.call(srv_type, f"{node}/{service}", request, args.wait, args.wait)
+
+    def get(names: list[str]) -> list[Any]:
+        request = GetParameters.Request()
+        request.names = names
+        values = list(call(GetParameters, "get_parameters", request).values)
+        # a node answers an undeclared name with NOT_SET, or (rclpy) with no values at all
+        return values if len(values) == len(names) else [ParameterValue()] * len(names)
+
+    if args.param_action == "set":
+        value = _typed_as(get_parameter_value(args.value), get([args.name])[0], args.value)
+        request = SetParameters.Request()
+        request.parameters = [Parameter(name=args.name, value=value)]
+        (result,) = call(SetParameters, "set_parameters", request).results
+        if not result.successful:
+            raise RosClientError(
+                f"{node} refused {args.name} = {args.value}: {result.reason or 'no reason given'}"
+            )
+        emit(f"{node}: {args.name} set to {args.value}")
+        return 0
+    if args.param_action == "list":
+        request = ListParameters.Request()
+        names = sorted(call(ListParameters, "list_parameters", request).result.names)
+    else:
+        names = [args.name]
+    rows = []
+    for name, value in zip(names, get(names), strict=True):
+        if value.type == ParameterType.PARAMETER_NOT_SET:
+            if args.param_action == "get":
+                raise RosClientError(f"{node} has no parameter {name!r}")
+            continue
+        rows.append(f"{name}: {_shown(parameter_value_to_python(value))}")
+    emit("\n".join(rows))
+    return 0
+
+
+def _typed_as(value: Any, current: Any, text: str) -> Any:
+    """`value` (read as YAML) in the type of the parameter's `current` value where YAML read the
+    text otherwise but it fits: 1 for a double is 1.0 (ros2 param set refuses it: "expected
+    'Type.DOUBLE' got 'Type.INTEGER'"), 42 or true for a string is the text. Else unchanged: the
+    node judges it."""
+    from rcl_interfaces.msg import ParameterType as T
+    from rcl_interfaces.msg import ParameterValue
+
+    if current.type == T.PARAMETER_DOUBLE and value.type == T.PARAMETER_INTEGER:
+        return ParameterValue(type=T.PARAMETER_DOUBLE, double_value=float(value.integer_value))
+    if current.type == T.PARAMETER_DOUBLE_ARRAY and value.type == T.PARAMETER_INTEGER_ARRAY:
+        doubles = [float(v) for v in value.integer_array_value]
+        return ParameterValue(type=T.PARAMETER_DOUBLE_ARRAY, double_array_value=doubles)
+    if current.type == T.PARAMETER_STRING and value.type != T.PARAMETER_STRING:
+        return ParameterValue(type=T.PARAMETER_STRING, string_value=text)
+    return value
+
+
+def _shown(value: Any) -> str:
+    """A parameter's value on one line: a long text (a robot description) by its length."""
+    if isinstance(value, str):
+        if "\n" in value or len(value) > 100:
+            return f"<text of {len(value)} characters>"
+        return value if value else "''"
+    return repr(value.tolist() if hasattr(value, "tolist") else value)
 
 
 @contextlib.contextmanager

@@ -517,15 +517,17 @@ class KinematicsService:
             what = "a base_link"
             how = (
                 f"ros2 param set {node} base_link <link> ('' = its root link "
-                f"{tree.root_link!r}), then tip_link (without ros2cli: start the node with "
+                f"{tree.root_link!r}), then tip_link (without ros2cli: kinematics ros param set "
+                f"{node} base_link <link>, or start the node with "
                 "--ros-args -p base_link:=<link> -p tip_link:=<link>)"
             )
         else:
             candidates = tree.tips_below(base)
             what = "a tip"
             how = (
-                f"ros2 param set {node} tip_link <link> (without ros2cli: start the node with "
-                "--ros-args -p tip_link:=<link>)"
+                f"ros2 param set {node} tip_link <link> (without ros2cli: kinematics ros param "
+                f"set {node} tip_link <link>, or start the node with --ros-args -p "
+                "tip_link:=<link>)"
             )
         tips = ", ".join(candidates) if candidates else "none (no leaf below it moves)"
         message = (

@@ -25,7 +25,13 @@ def _kinematics_without_rclpy(*args: str) -> subprocess.CompletedProcess[str]:
 
 
 @pytest.mark.parametrize(
-    "args", [["ros", "pose"], ["ros", "ik", "--target", "0.4,0.1,0.4,1,0,0,0"], ["ros", "jog"]]
+    "args",
+    [
+        ["ros", "pose"],
+        ["ros", "ik", "--target", "0.4,0.1,0.4,1,0,0,0"],
+        ["ros", "jog"],
+        ["ros", "param", "list", "kinematics_node"],
+    ],
 )
 def test_without_rclpy_it_says_how_to_get_ros_in_one_line(args):
     out = _kinematics_without_rclpy(*args)
@@ -65,7 +71,53 @@ def test_the_command_is_listed_in_the_help(capsys):
     assert "    ros " in capsys.readouterr().out
     assert main(["ros", "--help"]) == 0
     out = capsys.readouterr().out
-    assert "pose" in out and "ik" in out and "ROS_DOMAIN_ID" in out
+    assert "pose" in out and "ik" in out and "param" in out and "ROS_DOMAIN_ID" in out
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["list"], "the following arguments are required: NODE"),
+        (["get", "kinematics_node"], "the following arguments are required: NAME"),
+        (["set", "kinematics_node", "tip_link"], "the following arguments are required: VALUE"),
+        (["unset", "kinematics_node"], "invalid choice: 'unset'"),
+    ],
+)
+def test_param_usage_errors_name_what_is_missing(capsys, args, says):
+    assert main(["ros", "param", *args]) == 2
+    assert says in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("current", "text", "expected"),
+    [
+        ("double", "1", ("double_value", 1.0)),
+        ("double", "0.25", ("double_value", 0.25)),
+        ("double_array", "[1, 2]", ("double_array_value", [1.0, 2.0])),
+        ("string", "42", ("string_value", "42")),
+        ("string", "true", ("string_value", "true")),
+        ("string", "tool0", ("string_value", "tool0")),
+        ("integer", "3", ("integer_value", 3)),
+        ("integer", "0.5", ("double_value", 0.5)),  # left to the node to refuse
+        ("not_set", "1", ("integer_value", 1)),
+    ],
+)
+def test_param_set_reads_yaml_in_the_parameters_own_type(current, text, expected):
+    """`kinematics ros param set` reads VALUE as YAML (as ros2 param set), then fits it to the
+    parameter's current type where it fits: a whole number to a double, any text to a string."""
+    pytest.importorskip("rcl_interfaces", reason="rcl_interfaces comes with ROS 2 (make ros)")
+    from rcl_interfaces.msg import ParameterType, ParameterValue
+    from rclpy.parameter import get_parameter_value
+
+    from kinematics_node.cli.ros_commands import _typed_as
+
+    now = ParameterValue(type=getattr(ParameterType, f"PARAMETER_{current.upper()}"))
+    value = _typed_as(get_parameter_value(text), now, text)
+    field, wanted = expected
+    kind = field.removesuffix("_value").upper()
+    assert value.type == getattr(ParameterType, f"PARAMETER_{kind}")
+    got = getattr(value, field)
+    assert (list(got) if "array" in field else got) == wanted
 
 
 @pytest.mark.parametrize("option", ["--speed", "--turn", "--rate"])
