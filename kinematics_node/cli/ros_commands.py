@@ -85,10 +85,10 @@ def _seconds(text: str) -> float:
 
 
 def add_parser(commands: Any) -> None:
-    """Add the `ros` command (with `pose`, `ik` and `jog`) to main.py's subcommands."""
+    """Add the `ros` command (with `pose`, `ik`, `jog` and `param`) to main.py's subcommands."""
     ros = commands.add_parser(
         "ros",
-        help="the running nodes over ROS 2: the pose, an IK call, jogging through the servo",
+        help="the running nodes over ROS 2: the pose, an IK call, jogging, parameters",
         description="Talk to a running kinematics node or servo over ROS 2 (needs rclpy: a\n"
         "sourced ROS 2 workspace, or `. build/ros/env.sh` after `make ros`).",
         epilog=_EXAMPLES,
