@@ -4,7 +4,9 @@
 exactly parallel: explaining why it had no closed form solved singular normal equations in
 `meet_point` and raised numpy's LinAlgError. Chains whose axes are parallel, coincident or all in
 one plane must get a family or a sentence saying why none, and `ik_all` a result or
-NoClosedFormError, never another exception.
+NoClosedFormError, never another exception. The same run later found a UR5e whose elbow sits
+866 km away: the candidates' Gauss–Newton refinement then met a J Jᵀ of order 1e12 that its
+absolute damping of 1e-12 no longer kept solvable.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from kinematics_node.core import SerialChain
 from kinematics_node.core.closed_form import family_of, no_closed_form_reason
 from kinematics_node.core.closed_form.geometry import meet_point
 from kinematics_node.core.exceptions import NoClosedFormError
+from kinematics_node.sim.robots import robot_path
 
 
 def _chain(axes, points, tip=(0.0, 0.0, 0.5)):
@@ -75,3 +78,38 @@ def test_degenerate_chains_get_a_family_or_a_reason(name):
         for s in res.solutions:
             e = np.linalg.inv(chain.fk(s)) @ T
             assert np.abs(e - np.eye(4)).max() < 1e-9
+
+
+def test_an_arm_of_absurd_size_is_refined_without_raising():
+    """The fuzzed UR5e (elbow 866 km below the shoulder): detection (which solves and refines
+    sample targets with every candidate order) gives a family or a reason, `ik_all` a result or
+    NoClosedFormError, and `ik` an answer with every number finite."""
+    text = robot_path("ur5e").read_text(encoding="utf-8")
+    elbow = '<origin xyz="-0.425 0 0" rpy="0 0 0"/>'
+    assert elbow in text
+    chain = SerialChain.from_urdf(
+        text.replace(elbow, '<origin xyz="-0.425 0 -866238.3871926423" rpy="0 0 0"/>').encode()
+    )
+    family, reason = family_of(chain), no_closed_form_reason(chain)
+    assert (family is None) == (reason != "")
+    q = np.array([0.3, -1.1, 0.9, -0.4, 1.2, 0.2])
+    T = chain.fk(q)
+    if family is None:
+        with pytest.raises(NoClosedFormError, match="no closed-form IK"):
+            chain.ik_all(T)
+    else:
+        for s in chain.ik_all(T).solutions:
+            assert np.isfinite(s).all()
+    single = chain.ik(T)
+    assert np.isfinite(single.q).all()
+    assert np.isfinite([single.position_error, single.orientation_error]).all()
+
+
+def test_damping_keeps_a_singular_normal_matrix_solvable_at_any_scale():
+    from kinematics_node.core.closed_form.chain_solver import _damped
+
+    for scale in (1e-6, 1.0, 1e12):
+        J = np.zeros((6, 6))
+        J[:5, :5] = scale * np.eye(5)  # rank 5: one direction lost
+        y = np.linalg.solve(_damped(J @ J.T), np.ones(6))
+        assert np.isfinite(y).all()

@@ -434,7 +434,7 @@ def _refine(
     chain: KinematicChain, Q: FloatArray, T_t: FloatArray, frozen: int | None, steps: int = 2
 ) -> FloatArray:
     """Gauss–Newton steps J_world Δq = (ω_err, p_t − p) toward T_t, with ω_err the rotation vector of
-    R_t Rᵀ to first order, vee((A − Aᵀ)/2) (damped by 1e-12 so a singular J stays solvable)."""
+    R_t Rᵀ to first order, vee((A − Aᵀ)/2) (damped so a singular J stays solvable: `_damped`)."""
     cols = [i for i in range(chain.dof) if i != frozen]
     for _ in range(steps):
         T, J = chain.fk_jacobian(Q, "world")
@@ -449,8 +449,8 @@ def _refine(
             axis=1,
         )
         Jc = J[:, :, cols]
-        JJt = Jc @ Jc.swapaxes(1, 2) + 1e-12 * np.eye(6)
-        dq = (Jc.swapaxes(1, 2) @ np.linalg.solve(JJt, e[..., None]))[..., 0]
+        y = np.linalg.solve(_damped(Jc @ Jc.swapaxes(1, 2)), e[..., None])
+        dq = (Jc.swapaxes(1, 2) @ y)[..., 0]
         Q = Q.copy()
         Q[:, cols] += dq
     return Q
@@ -1049,7 +1049,7 @@ def refine_one(
         t, cols = solver.fk_world(q)
         e = np.array(_residual(t, a, b, c))
         J = np.array([cols[i] for i in kept]).T  # (6, k)
-        _, y, info = dposv(J @ J.T + _DAMP, e)  # J Jᵀ + 1e-12 I: positive definite
+        _, y, info = dposv(_damped(J @ J.T), e)  # positive definite
         if info != 0:
             y = np.linalg.lstsq(J @ J.T, e, rcond=None)[0]
         for i, d in zip(kept, (J.T @ y).tolist(), strict=True):
@@ -1090,8 +1090,7 @@ def refine_many(
         Jt = np.array(cols)  # (k, n, 6): Jᵀ per candidate
         if held is not None:
             Jt[:, held] = 0.0
-        JJ = Jt.swapaxes(1, 2) @ Jt + _DAMP
-        y = np.linalg.solve(JJ, np.array(errs)[:, :, None])
+        y = np.linalg.solve(_damped(Jt.swapaxes(1, 2) @ Jt), np.array(errs)[:, :, None])
         for i, d in zip(idx, (Jt @ y)[:, :, 0].tolist(), strict=True):
             out[i] = [x + dx for x, dx in zip(out[i], d, strict=True)]
     return out
@@ -1100,7 +1099,13 @@ def refine_many(
 #: A candidate within this of its target (position / scale, and rotation [rad]) is refined by one
 #: Gauss–Newton step (quadratic convergence: the next error is of its square), else by two.
 ONE_STEP_BELOW = 1e-6
-_DAMP = 1e-12 * np.eye(6)
+_EYE6 = np.eye(6)
+
+
+def _damped(JJ: FloatArray) -> FloatArray:
+    """J Jᵀ (…, 6, 6) plus 1e-12 (1 + trace) I: solvable where J is singular, at any scale (an
+    absolute 1e-12 is below rounding where a fuzzed arm reaches 866 km, and LU then fails)."""
+    return JJ + (1e-12 * (1.0 + np.einsum("...ii->...", JJ)))[..., None, None] * _EYE6
 
 
 def steps_for(solver: ChainSolver, ep: float, er: float) -> int:
