@@ -117,6 +117,7 @@ class SingleSolver:
         self.evaluate = self._evaluate_plain if plain else self._evaluate_weighted
         self.eye = c.eye  # the damped system's size
         self.iterations = 0
+        self.restarts = 0  # over every `run` of this call
         self.best: tuple[float, list[float], float, float] | None = None  # (E, q, pos, ori)
 
     # ------------------------------------------------------------------ evaluation
@@ -396,7 +397,9 @@ class SingleSolver:
 
         `known`: solutions found already, as (q (n,), position error [m], orientation error
         [rad]); they count as found by the search (so a single-solution request's closed-form
-        answer takes part in the ranking of a set)."""
+        answer takes part in the ranking of a set). Called again (after the closed form had its
+        turn), the search goes on where it stopped: the next restarts of its random stream, not
+        the seed and the same restarts again (with `rng_seed` set they would repeat exactly)."""
         opts = self.opts
         found: list[tuple[float, list[float], float, float]] = []  # (distance, q, pos, ori)
         want = opts.num_solutions
@@ -405,10 +408,15 @@ class SingleSolver:
             self._found(
                 found, self._nearest_seed(np.asarray(q_known).tolist()), pos_known, ori_known
             )
-        q0 = list(self.seed)
-        restarts = 0
-        reason = ""
-        while True:
+        restarts = self.restarts
+        reason = f"max_restarts={opts.max_restarts} reached"
+        q0: list[float] | None = None
+        if self.best is None:  # the first run (its first attempt evaluates the seed)
+            q0 = list(self.seed)
+        elif restarts < opts.max_restarts:  # run again: the search's next restart
+            restarts += 1
+            q0 = self._random_start()
+        while q0 is not None:
             ok, q, pos, ori = self.attempt(q0, deadline)
             if ok:
                 self._found(found, self._nearest_seed(q), pos, ori)
@@ -423,7 +431,7 @@ class SingleSolver:
                 break
             restarts += 1
             q0 = self._random_start()
-
+        self.restarts = restarts
         if found:
             found.sort(key=lambda s: s[0])
             found = found[:want]

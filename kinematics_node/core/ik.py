@@ -295,9 +295,17 @@ def _solve_one(
     # the search misses, and the search is usually quicker than a sweep). A held general 6R arm
     # ("costly": each try is an eigenvalue problem) skips the first tries: the numeric search
     # gets `NUMERIC_SHARE_GENERAL_7R` of the time, then the sweep, then the search again.
+    searches: list[SingleSolver] = []  # built when first needed (the closed form usually answers)
+
+    def search(until: float) -> SingleOutcome:
+        """The numeric search until `until`; run again, it goes on where it stopped."""
+        if not searches:
+            searches.append(SingleSolver(problem, T, seed))
+        return searches[0].run(until)
+
     if closed.costly and opts.method == "auto":
         share = NUMERIC_SHARE_GENERAL_7R
-        out = SingleSolver(problem, T, seed).run(start + share * (deadline - start))
+        out = search(start + share * (deadline - start))
         if out.success:
             return _numeric_result(out, opts, start, "")
     else:
@@ -307,17 +315,15 @@ def _solve_one(
             return _closed_form_result(found, problem, T, seed, start)
         prefix = f"closed form: {found.reason}; numeric search: "
         if not closed.held:
-            out = SingleSolver(problem, T, seed).run(deadline)
-            return _numeric_result(out, opts, start, prefix)
-        out = SingleSolver(problem, T, seed).run(start + NUMERIC_SHARE_7R * (deadline - start))
+            return _numeric_result(search(deadline), opts, start, prefix)
+        out = search(start + NUMERIC_SHARE_7R * (deadline - start))
         if out.success:
             return _numeric_result(out, opts, start, "")
     found = closed.nearest(T, seed, deadline, 1 + DEFAULT_HELD_SAMPLES)
     if found.solutions:
         return _closed_form_result(found, problem, T, seed, start)
     prefix = f"closed form: {found.reason}; numeric search: "
-    rest = SingleSolver(problem, T, seed).run(deadline)
-    return _numeric_result(rest if rest.success else out, opts, start, prefix)
+    return _numeric_result(search(deadline), opts, start, prefix)
 
 
 def duration_text(seconds: float) -> str:

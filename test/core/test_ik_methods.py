@@ -365,3 +365,38 @@ def test_a_numeric_set_stays_distinct_when_a_solution_falls_between_two_members(
     kept = [q[-1] for _, q, _, _ in found]
     assert kept == [0.5 + 1.8 * sep, 0.5 - 0.5 * sep]
     assert all(abs(a - b) > sep for i, a in enumerate(kept) for b in kept[i + 1 :])
+
+
+def test_a_numeric_search_run_again_goes_on_with_its_next_restarts():
+    """`SingleSolver.run` called again (`ik` on a 7R arm: the search, the closed form's sweep,
+    then the search again) starts from the next restart of its random stream: before, a new
+    solver replayed the seed and, with `rng_seed` set, exactly the same restarts. Each run's
+    starts are those of one uninterrupted stream, and `max_restarts` counts over all runs."""
+    from kinematics_node.core._ik_problem import IKProblem
+    from kinematics_node.core._ik_single import SingleSolver
+
+    chain = chain_of("panda")
+    opts = IKOptions(method="numeric", rng_seed=3, max_restarts=3)
+    seed = np.zeros(chain.dof)
+    T = chain.fk(np.full(chain.dof, 0.4))
+    problem = IKProblem.build(chain, opts)
+
+    def starts_of(solver: SingleSolver, runs: int) -> list[list[float]]:
+        seen: list[list[float]] = []
+        attempt = solver.attempt
+
+        def recorded(q0: list[float], deadline: float):  # noqa: ANN202
+            seen.append(list(q0))
+            return attempt(q0, deadline)
+
+        solver.attempt = recorded  # type: ignore[method-assign]
+        for _ in range(runs):
+            solver.run(0.0)  # past deadline: one attempt per run
+        return seen
+
+    resumed = starts_of(SingleSolver(problem, T, seed), 5)
+    fresh = SingleSolver(problem, T, seed)
+    stream = [fresh._random_start() for _ in range(3)]
+    assert resumed[0] == list(seed)
+    assert resumed[1:] == stream  # the next restart each time, never the seed again
+    assert len(resumed) == 4  # max_restarts = 3 over all runs: the fifth run attempts nothing
