@@ -80,19 +80,32 @@ def test_degenerate_chains_get_a_family_or_a_reason(name):
             assert np.abs(e - np.eye(4)).max() < 1e-9
 
 
-def test_an_arm_of_absurd_size_is_refined_without_raising():
-    """The fuzzed UR5e (elbow 866 km below the shoulder): detection (which solves and refines
-    sample targets with every candidate order) gives a family or a reason, `ik_all` a result or
+@pytest.mark.parametrize(
+    ("robot", "origin", "fuzzed"),
+    [
+        # the UR5e's elbow 866 km below its shoulder: J Jᵀ of order 1e12 in the refinement
+        ("ur5e", 'xyz="-0.425 0 0" rpy="0 0 0"', 'xyz="-0.425 0 -866238.3871926423" rpy="0 0 0"'),
+        # the iiwa14's joint 4 641 km away: a cluster of more than six roots in the general
+        # solver (`_clusters`: LAPACK's dgels takes a right-hand side of max(6, m) rows)
+        (
+            "iiwa14",
+            'xyz="0 0 0.4" rpy="-1.5707963267948966 0 0"',
+            'xyz="-641354.2210807358 0 0.4" rpy="-1.5707963267948966 0 0"',
+        ),
+    ],
+)
+def test_an_arm_of_absurd_size_is_solved_without_raising(robot, origin, fuzzed):
+    """Fuzzed arms (`fuzz_long.py`, seeds 4242 and 6): detection (which solves and refines sample
+    targets with every candidate order) gives a family or a reason, `ik_all` a result or
     NoClosedFormError, and `ik` an answer with every number finite."""
-    text = robot_path("ur5e").read_text(encoding="utf-8")
-    elbow = '<origin xyz="-0.425 0 0" rpy="0 0 0"/>'
-    assert elbow in text
+    text = robot_path(robot).read_text(encoding="utf-8")
+    assert text.count(f"<origin {origin}/>") == 1
     chain = SerialChain.from_urdf(
-        text.replace(elbow, '<origin xyz="-0.425 0 -866238.3871926423" rpy="0 0 0"/>').encode()
+        text.replace(f"<origin {origin}/>", f"<origin {fuzzed}/>").encode()
     )
     family, reason = family_of(chain), no_closed_form_reason(chain)
     assert (family is None) == (reason != "")
-    q = np.array([0.3, -1.1, 0.9, -0.4, 1.2, 0.2])
+    q = np.linspace(-1.1, 1.2, chain.dof)
     T = chain.fk(q)
     if family is None:
         with pytest.raises(NoClosedFormError, match="no closed-form IK"):

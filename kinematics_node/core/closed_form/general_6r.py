@@ -643,7 +643,11 @@ def _clusters(
         U = (vt if info == 0 else np.linalg.svd(S)[2])[-m:].T  # (12, m)
         c = 0.5772156649015329  # any constant: x₄ + c x₅ also separates roots sharing x₄
         Ub, rhs = U[_BASE], U[_BASE + 3] + c * U[_BASE + 1]
-        _, X, info = lapack.dgels(Ub, rhs)
+        # (dgels takes a right-hand side of max(6, m) rows: a cluster of more than 6 roots, which
+        # a fuzzed degenerate arm gave, is solved by NumPy's lstsq, its minimum-norm answer)
+        info = 1
+        if m <= Ub.shape[0]:
+            _, X, info = lapack.dgels(Ub, rhs)
         W = X[:m] if info == 0 else np.linalg.lstsq(Ub, rhs, rcond=None)[0]
         _, wi, _, vr, info = lapack.dgeev(W, compute_vl=0)
         if info == 0 and not wi.any():
