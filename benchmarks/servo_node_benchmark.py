@@ -38,7 +38,10 @@ Phases, one after the other:
   /ticker/commands; subscribed to /joint_states and to the twists, doing nothing with them; the
   servo's executor, timer, thread_priority and frozen heap), the sender and the receiver as in
   the streaming phase, judged with the same `on_time`: what any rclpy node publishing at 1 kHz
-  beside sim_arm holds on this machine;
+  beside sim_arm holds on this machine; and once more publishing HOME on the servo's command
+  topic instead ("into the sim arm"): sim_arm then takes its 1 kHz commands, as it takes the
+  servo's, so that each publication is a reliable write to sim_arm's reader too (and wakes its
+  higher-priority threads), as the servo's is;
 * sleeper, the floor without ROS: sim_arm and a plain Python loop sleeping to a 1 ms grid at the
   servo's priority (`role_sleeper`), its wake-ups judged with `on_time` (no sender or receiver:
   a little less load than the phases above).
@@ -105,6 +108,7 @@ STREAM_RATE_HZ = 100.0
 STREAM_SPEED_M_S = 0.05
 WARM_UP_S = 1.0
 TICKER_LABEL = "ticker (bare rclpy), 1 kHz beside the sim arm"
+TICKER_ARM_LABEL = "ticker (bare rclpy), 1 kHz into the sim arm"
 SLEEPER_LABEL = "sleeper (no ROS), 1 ms grid beside the sim arm"
 
 
@@ -301,10 +305,14 @@ def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bo
             continue
         f = stream["on_time"]["fraction"]
         measured = _on_time_text(stream["on_time"])
-        for peer, name in ((TICKER_LABEL, "a bare rclpy ticker"), (SLEEPER_LABEL, "no ROS")):
+        for peer, name in (
+            (TICKER_LABEL, "a bare rclpy ticker beside the sim arm"),
+            (TICKER_ARM_LABEL, "the ticker into the sim arm"),
+            (SLEEPER_LABEL, "no ROS beside the sim arm"),
+        ):
             figures = results.get(peer + setting, {}).get("on_time")
             if figures is not None:  # the peers' figures: context, not a target
-                measured += f"; {name} beside the sim arm: {_on_time_text(figures)}"
+                measured += f"; {name}: {_on_time_text(figures)}"
         checks.append(
             (
                 f"servo at 1 kHz with the sim arm{setting}: ≥ 99.9 % of cycles on time",
@@ -386,9 +394,10 @@ def role_echo(beside: bool) -> None:
     nb._spin_until_sigint(node)
 
 
-def role_ticker(priority: int) -> None:
+def role_ticker(priority: int, into_arm: bool = False) -> None:
     """The bare rclpy peer of the servo's periodic job: a 1 ms timer whose callback publishes a
-    6-value Float64MultiArray on TICKER_TOPIC, and nothing else. Built as the servo node is
+    6-value Float64MultiArray on TICKER_TOPIC (`into_arm`: HOME on the servo's command topic,
+    which sim_arm takes, as it takes the servo's), and nothing else. Built as the servo node is
     (ros/servo.py): the joint-command publisher's QoS (reliable, depth 10) without event
     callbacks; the same subscriptions' load (/joint_states from sim_arm at 1 kHz and the
     sender's twists on /servo/delta_twist_cmds, both taken and dropped), every entity in one
@@ -421,7 +430,7 @@ def role_ticker(priority: int) -> None:
             group = ReentrantCallbackGroup()
             self._pub = self.create_publisher(
                 Float64MultiArray,
-                TICKER_TOPIC,
+                COMMAND_TOPIC if into_arm else TICKER_TOPIC,
                 COMMAND_OUT_DEPTH,
                 event_callbacks=NO_PUBLISHER_EVENTS,
             )
@@ -437,7 +446,7 @@ def role_ticker(priority: int) -> None:
                     callback_group=group,
                     event_callbacks=NO_SUBSCRIPTION_EVENTS,
                 )
-            self._values = [0.0] * 6
+            self._values = list(HOME) if into_arm else [0.0] * 6
             self.create_timer(PERIOD_S, self._tick, callback_group=group)
             said = apply_thread_priority(priority)
             log_lines(self.get_logger(), [said] if said is not None else [])
@@ -606,7 +615,8 @@ def run_phase(
     """One phase: `kind` "echo" (alone), "trials" (the servo, command to joint command, with the
     echo beside it), "stream" (the servo at 1 kHz), "unobserved" (the same, with the receiver
     taking only the servo's ~/status: the node's own count, without the receiver's 1 kHz load),
-    "ticker" (the bare rclpy ticker in the servo's place, everything else as in "stream") or
+    "ticker" (the bare rclpy ticker in the servo's place, everything else as in "stream"),
+    "ticker_arm" (the same, publishing into sim_arm's command topic) or
     "sleeper" (`run_sleeper_phase`); `priorities`: the thread_priority of the servo (and of the
     ticker or the sleeper in its place) and of the sim_arm. Returns {label: figures} (labels
     without the setting: `main` adds it)."""
@@ -632,8 +642,12 @@ def run_phase(
             env,
         )
         servo = (
-            _child(["--role", "ticker", "--priority", str(priorities[0])], env)
-            if kind == "ticker"
+            _child(
+                ["--role", "ticker", "--priority", str(priorities[0])]
+                + (["--into-arm"] if kind == "ticker_arm" else []),
+                env,
+            )
+            if kind in ("ticker", "ticker_arm")
             else start_node(
                 "servo",
                 {
@@ -648,7 +662,7 @@ def run_phase(
             )
         )
         system = [sim, servo]
-        measured = {"ticker" if kind == "ticker" else "servo": servo, "sim_arm": sim}
+        measured = {"ticker" if kind.startswith("ticker") else "servo": servo, "sim_arm": sim}
         if kind == "trials":
             system.append(_child(["--role", "echo", "--beside"], env))
             measured["echo"] = system[-1]
@@ -662,7 +676,7 @@ def run_phase(
         for path in (recv_out, send_out, ready):
             path.unlink(missing_ok=True)
         flags = (
-            ([] if kind in ("echo", "ticker") else ["--status"])
+            ([] if kind in ("echo", "ticker", "ticker_arm") else ["--status"])
             + (["--ticker"] if kind == "ticker" else [])
             + (["--beside"] if kind == "trials" else [])
         )
@@ -674,7 +688,7 @@ def run_phase(
                 receiver.kill()
                 raise nb.HarnessFailure("the receiver did not match the node's publishers in 20 s")
             time.sleep(0.05)
-        mode = "stream" if kind in ("stream", "unobserved", "ticker") else "trials"
+        mode = "stream" if kind in ("stream", "unobserved", "ticker", "ticker_arm") else "trials"
         beside = ["--beside"] if kind == "trials" else []
         sender = _child(
             ["--role", "sender", "--mode", mode, "--seconds", str(seconds), "--out", str(send_out)]
@@ -728,7 +742,8 @@ def run_phase(
     window = [src for _, src, _ in outputs if first <= src <= counted[-1]]
     result["on_time"] = on_time(window, int(PERIOD_S * 1e9))
     result["joint_commands"] = len(window)
-    return {TICKER_LABEL if kind == "ticker" else "servo, 1 kHz streaming": result}
+    labels = {"ticker": TICKER_LABEL, "ticker_arm": TICKER_ARM_LABEL}
+    return {labels.get(kind, "servo, 1 kHz streaming"): result}
 
 
 def run_sleeper_phase(
@@ -797,6 +812,7 @@ PHASES = (
     ("servo and the echo beside it, command to joint command", "trials"),
     ("servo, 1 kHz streaming", "stream"),
     (TICKER_LABEL, "ticker"),
+    (TICKER_ARM_LABEL, "ticker_arm"),
     (SLEEPER_LABEL, "sleeper"),
     ("servo, 1 kHz streaming, unobserved (its own count only)", "unobserved"),
 )
@@ -892,6 +908,7 @@ def main() -> None:
     parser.add_argument("--beside", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--status-only", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--ticker", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--into-arm", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--priority", type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument("--seconds", type=float, default=30.0, help="length of each phase [s]")
     parser.add_argument("--only", default="", help="run only the phases whose label contains this")
@@ -912,7 +929,7 @@ def main() -> None:
         topic = TICKER_TOPIC if args.ticker else COMMAND_TOPIC
         return role_receiver(args.out, args.status, args.beside, not args.status_only, topic)
     if args.role == "ticker":
-        return role_ticker(args.priority)
+        return role_ticker(args.priority, args.into_arm)
     if args.role == "sleeper":
         return role_sleeper(args.priority, args.out)
 

@@ -256,14 +256,17 @@ def test_the_longest_timer_callback_is_the_windows_own():
 
 
 def test_the_peers_figures_are_context_for_their_own_setting_only():
-    """The bare rclpy ticker and the loop without ROS: shown in the 99.9 % line of the same
-    setting, never a target of their own, whatever their figure."""
+    """The bare rclpy ticker (beside and into the sim arm) and the loop without ROS: shown in the
+    99.9 % line of the same setting, never a target of their own, whatever their figure."""
     a, b = " [default scheduling]", " [SCHED_FIFO servo 40, sim_arm 50]"
     results = {}
     for suffix, ticker, sleeper in ((a, 0.9871, 0.9902), (b, 0.9993, 0.9998)):
         results["servo, 1 kHz streaming" + suffix] = RESULTS["servo, 1 kHz streaming"]
         results[bench.TICKER_LABEL + suffix] = {
             "on_time": {"fraction": ticker, "slots": 10_000, "on_time": round(ticker * 10_000)}
+        }
+        results[bench.TICKER_ARM_LABEL + suffix] = {
+            "on_time": {"fraction": ticker - 0.01, "slots": 10_000, "on_time": 0}
         }
         results[bench.SLEEPER_LABEL + suffix] = {
             "on_time": {"fraction": sleeper, "slots": 10_000, "on_time": round(sleeper * 10_000)}
@@ -273,6 +276,7 @@ def test_the_peers_figures_are_context_for_their_own_setting_only():
     by_setting = {(a if a in target else b): measured for target, measured, _ in checks}
     assert "ticker beside the sim arm: 98.71 % (129 of 10000 late)" in by_setting[a]
     assert "no ROS beside the sim arm: 99.02 % (98 of 10000 late)" in by_setting[a]
+    assert "the ticker into the sim arm: 97.71 %" in by_setting[a]
     assert "99.93 %" in by_setting[b] and "98.71 %" not in by_setting[b]
     # the servo's own figure comes first, and decides the verdict
     assert by_setting[a].startswith("99.95 % (10 of 20000 late)")
