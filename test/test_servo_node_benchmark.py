@@ -274,12 +274,12 @@ def test_the_peers_figures_are_context_for_their_own_setting_only():
     checks = bench.target_checks(results)
     assert len(checks) == 2 and all(met for _, _, met in checks)  # the servo's 99.95 %, twice
     by_setting = {(a if a in target else b): measured for target, measured, _ in checks}
-    assert "ticker beside the sim arm: 98.71 % (129 of 10000 late)" in by_setting[a]
-    assert "no ROS beside the sim arm: 99.02 % (98 of 10000 late)" in by_setting[a]
-    assert "the ticker into the sim arm: 97.71 %" in by_setting[a]
-    assert "99.93 %" in by_setting[b] and "98.71 %" not in by_setting[b]
+    assert "ticker beside the sim arm: 98.710 % (129 of 10000 late)" in by_setting[a]
+    assert "no ROS beside the sim arm: 99.020 % (98 of 10000 late)" in by_setting[a]
+    assert "the ticker into the sim arm: 97.710 %" in by_setting[a]
+    assert "99.930 %" in by_setting[b] and "98.710 %" not in by_setting[b]
     # the servo's own figure comes first, and decides the verdict
-    assert by_setting[a].startswith("99.95 % (10 of 20000 late)")
+    assert by_setting[a].startswith("99.950 % (10 of 20000 late)")
     results["servo, 1 kHz streaming" + b] = {
         "on_time": {"fraction": 0.998, "slots": 1000, "on_time": 998}
     }
@@ -304,3 +304,13 @@ def test_the_sleeper_window_leaves_out_the_warm_up():
     window = bench.sleeper_window(wakes, 1.0, 1.5)
     assert window[0] == wakes[0] + 1000 * PERIOD and window[-1] == wakes[0] + 2500 * PERIOD
     assert bench.sleeper_window([], 1.0, 1.5) == []
+
+
+def test_a_fraction_just_below_the_target_does_not_print_as_the_target():
+    """Two decimals printed 3977 of 3981 cycles on time (99.8995 %) as "99.90 %" beside a verdict
+    of not met; three keep the figure and the verdict apart."""
+    text = bench._on_time_text({"fraction": 3977 / 3981, "slots": 3981, "on_time": 3977})
+    assert text == "99.899 % (4 of 3981 late)"
+    assert bench._on_time_text({"fraction": 0.999, "slots": 1000, "on_time": 999}).startswith(
+        "99.900 %"
+    )  # exactly the target prints as the target
