@@ -613,6 +613,25 @@ def _child(args: list[str], env: dict[str, str]) -> subprocess.Popen:
     )
 
 
+def _start_sim_arm(
+    description: str, priority: int, directory: Path, env: dict[str, str]
+) -> subprocess.Popen[bytes]:
+    """sim_arm at 1 kHz taking position commands, from HOME, at SCHED_FIFO `priority` (0: none)."""
+    return start_node(
+        "sim_arm",
+        {
+            "robot_description": description,
+            "tip_link": "tool0",
+            "rate": 1.0 / PERIOD_S,
+            "command_mode": "position",
+            "initial_positions": list(HOME),
+            "thread_priority": priority,
+        },
+        directory,
+        env,
+    )
+
+
 def run_phase(
     kind: str,
     seconds: float,
@@ -636,19 +655,7 @@ def run_phase(
         measured = {"echo": system[0]}
     else:
         timeout = TRIAL_TIMEOUT_S if kind == "trials" else 0.1
-        sim = start_node(
-            "sim_arm",
-            {
-                "robot_description": description,
-                "tip_link": "tool0",
-                "rate": 1.0 / PERIOD_S,
-                "command_mode": "position",
-                "initial_positions": list(HOME),
-                "thread_priority": priorities[1],
-            },
-            directory,
-            env,
-        )
+        sim = _start_sim_arm(description, priorities[1], directory, env)
         servo = (
             _child(
                 ["--role", "ticker", "--priority", str(priorities[0])]
@@ -761,19 +768,7 @@ def run_sleeper_phase(
     (`role_sleeper`, at the servo's `priorities[0]`) for `seconds` after the start-up; no sender
     and no receiver (nothing to send to, nothing published), so the machine carries less than in
     the other phases. Its wake-ups after the warm-up are judged with `on_time`."""
-    sim = start_node(
-        "sim_arm",
-        {
-            "robot_description": ROBOT.read_text(encoding="utf-8"),
-            "tip_link": "tool0",
-            "rate": 1.0 / PERIOD_S,
-            "command_mode": "position",
-            "initial_positions": list(HOME),
-            "thread_priority": priorities[1],
-        },
-        directory,
-        env,
-    )
+    sim = _start_sim_arm(ROBOT.read_text(encoding="utf-8"), priorities[1], directory, env)
     out = directory / "sleeper.json"
     out.unlink(missing_ok=True)
     system = [sim]
