@@ -160,7 +160,8 @@ def test_a_held_general_arm_sweeps_its_held_joint_in_chunks_within_the_deadline(
     """The sweep of a 7r_general_6r arm solves several held values at once (`nearest_batch`:
     their arms built as one stack, ~2.6x cheaper a value on Baxter): its answer reproduces the
     target within the limits at one of the values of `held_order`; past the deadline only the
-    first chunk is solved, before it chunks of at most MAX_CHUNK until every value is tried."""
+    first value is solved (as before the chunks), before it chunks of at most MAX_CHUNK until
+    every value is tried."""
     import time
 
     from kinematics_node.core.closed_form import api
@@ -193,7 +194,7 @@ def test_a_held_general_arm_sweeps_its_held_joint_in_chunks_within_the_deadline(
     monkeypatch.setattr(api, "nearest_batch", counted)
     far = np.eye(4)
     far[:3, 3] = 100.0  # out of reach: no value gives a solution
-    for deadline, expected in ((time.perf_counter() - 1.0, api.FIRST_CHUNK), (np.inf, 37)):
+    for deadline, expected in ((time.perf_counter() - 1.0, 1), (np.inf, 37)):
         chunks.clear()
         got = api.nearest(chain, far, seed, 1, 1e-9, 1e-9, w, 1e-3, deadline, 37)
         assert got is not None and not got.solutions and f"at {expected} values" in got.reason
