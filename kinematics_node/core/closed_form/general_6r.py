@@ -1003,12 +1003,7 @@ def solve_general_6r_shifted(
     L = R.shape[0]
     order = _loop_order(shift)
     if shift >= 4 and arm is not None and arm.lanes == 1 and w.shape[0] == 1:
-        moved = 6 - shift
-        wl = np.broadcast_to(w[:, order[:2]], (L, 2, 3)).copy()
-        rl = np.broadcast_to(r[:, order[:2]], (L, 2, 3)).copy()
-        wl[:, :moved] = np.einsum("lij,lkj->lki", R, wl[:, :moved])
-        rl[:, :moved] = np.einsum("lij,lkj->lki", R, rl[:, :moved]) + t[:, None]
-        Q, ok = solve_general_6r(arm.with_first_two(wl, rl), R, t, trace)
+        Q, ok = solve_general_6r(arm.with_first_two(*_moved_first(w, r, shift, R, t)), R, t, trace)
         return Q[..., np.argsort(order)], ok
     Rt = R.swapaxes(1, 2)
     wl = np.broadcast_to(w, (L,) + w.shape[1:]).copy()
@@ -1020,6 +1015,22 @@ def solve_general_6r_shifted(
         Arm(wl[:, order], rl[:, order], scale, fit=False, base=base), R, t, trace
     )
     return Q[..., np.argsort(order)], ok
+
+
+def _moved_first(
+    w: FloatArray, r: FloatArray, shift: int, R: FloatArray, t: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """The axes (L, 2, 3) of the first two joints of the loop read from joint `shift` + 1 ≥ 5
+    with the moved joints first (`solve_one_shifted`): its first 6 − shift joints moved by each
+    lane's G = (R (L, 3, 3), t (L, 3)), direction R w and point R r + t. Axes w, r (1, 6, 3)."""
+    first = _loop_order(shift)[:2]
+    moved, L = 6 - shift, R.shape[0]
+    wl = np.broadcast_to(w[:, first], (L, 2, 3)).copy()
+    rl = np.broadcast_to(r[:, first], (L, 2, 3)).copy()
+    Rt = R.swapaxes(1, 2)
+    wl[:, :moved] = wl[:, :moved] @ Rt  # R w, row by row
+    rl[:, :moved] = rl[:, :moved] @ Rt + t[:, None]
+    return wl, rl
 
 
 def _loop_order(shift: int) -> list[int]:
@@ -1048,11 +1059,8 @@ def solve_one_shifted(
     Ra, ta = np.array(R), np.array(t)
     order = _loop_order(shift)
     if shift >= 4:
-        moved = 6 - shift
-        wl, rl = w[:, order[:2]].copy(), r[:, order[:2]].copy()
-        wl[:, :moved] = wl[:, :moved] @ Ra.T  # R w, row by row
-        rl[:, :moved] = rl[:, :moved] @ Ra.T + ta
-        q = solve_one_target(base.with_first_two(wl, rl), Ra, ta, polish)
+        first_two = _moved_first(w, r, shift, Ra[None], ta[None])
+        q = solve_one_target(base.with_first_two(*first_two), Ra, ta, polish)
     else:
         wl, rl = w.copy(), r.copy()
         wl[:, :shift] = wl[:, :shift] @ Ra  # Rᵀ w, row by row
