@@ -357,13 +357,19 @@ def _param(client: RosClient, args: argparse.Namespace, emit: Callable[[str], No
 def _typed_as(value: Any, current: Any, text: str) -> Any:
     """`value` (read as YAML) in the type of the parameter's `current` value where YAML read the
     text otherwise but it fits: 1 for a double is 1.0 (ros2 param set refuses it: "expected
-    'Type.DOUBLE' got 'Type.INTEGER'"), 42 or true for a string is the text. Else unchanged: the
+    'Type.DOUBLE' got 'Type.INTEGER'"), so is nan or inf (then the node says why it refuses
+    them, not that they are text), and 42 or true for a string is the text. Else unchanged: the
     node judges it."""
     from rcl_interfaces.msg import ParameterType as T
     from rcl_interfaces.msg import ParameterValue
 
     if current.type == T.PARAMETER_DOUBLE and value.type == T.PARAMETER_INTEGER:
         return ParameterValue(type=T.PARAMETER_DOUBLE, double_value=float(value.integer_value))
+    if current.type == T.PARAMETER_DOUBLE and value.type == T.PARAMETER_STRING:
+        try:  # nan, inf (YAML reads them as text): a double, for the node to judge
+            return ParameterValue(type=T.PARAMETER_DOUBLE, double_value=float(text))
+        except ValueError:
+            return value
     if current.type == T.PARAMETER_DOUBLE_ARRAY and value.type == T.PARAMETER_INTEGER_ARRAY:
         doubles = [float(v) for v in value.integer_array_value]
         return ParameterValue(type=T.PARAMETER_DOUBLE_ARRAY, double_array_value=doubles)

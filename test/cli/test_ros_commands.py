@@ -94,6 +94,8 @@ def test_param_usage_errors_name_what_is_missing(capsys, args, says):
         ("double", "1", ("double_value", 1.0)),
         ("double", "0.25", ("double_value", 0.25)),
         ("double_array", "[1, 2]", ("double_array_value", [1.0, 2.0])),
+        ("double", "inf", ("double_value", float("inf"))),
+        ("double", "fast", ("string_value", "fast")),  # left to the node to refuse
         ("string", "42", ("string_value", "42")),
         ("string", "true", ("string_value", "true")),
         ("string", "tool0", ("string_value", "tool0")),
