@@ -75,7 +75,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -613,6 +613,19 @@ def _child(args: list[str], env: dict[str, str]) -> subprocess.Popen:
     )
 
 
+def _cpu_percent(
+    measured: dict[str, subprocess.Popen[Any]], wait: Callable[[], object]
+) -> dict[str, float]:
+    """CPU of each measured process [% of one core] while `wait()` runs (the phase's window)."""
+    cpu0 = {name: nb._cpu_seconds(p.pid) for name, p in measured.items()}
+    wall0 = time.monotonic()
+    wait()
+    wall = time.monotonic() - wall0
+    return {
+        name: 100.0 * (nb._cpu_seconds(p.pid) - cpu0[name]) / wall for name, p in measured.items()
+    }
+
+
 def _start_sim_arm(
     description: str, priority: int, directory: Path, env: dict[str, str]
 ) -> subprocess.Popen[bytes]:
@@ -711,11 +724,7 @@ def run_phase(
             env,
         )
         time.sleep(0.5)
-        cpu0 = {name: nb._cpu_seconds(p.pid) for name, p in measured.items()}
-        wall0 = time.monotonic()
-        sender.wait()
-        wall1 = time.monotonic()
-        cpu1 = {name: nb._cpu_seconds(p.pid) for name, p in measured.items()}
+        cpu_percent = _cpu_percent(measured, sender.wait)
         time.sleep(0.5)
         receiver.send_signal(signal.SIGINT)
         receiver.wait(30)
@@ -731,9 +740,7 @@ def run_phase(
     counted = [s for s in sends if s >= first]
     result: dict[str, Any] = {
         "twists_sent": len(counted),
-        "cpu_percent": {
-            name: 100.0 * (cpu1[name] - cpu0[name]) / (wall1 - wall0) for name in measured
-        },
+        "cpu_percent": cpu_percent,
         "receiver_worst_stall_ms": float(got.get("worst_stall", math.nan)) * 1e3,
         "node_counts": node_counts(got.get("statuses", []), first, sends[-1] if sends else 0),
     }
@@ -782,11 +789,8 @@ def run_sleeper_phase(
         system.append(sleeper)
         time.sleep(0.5)
         measured = {"sleeper": sleeper, "sim_arm": sim}
-        cpu0 = {name: nb._cpu_seconds(p.pid) for name, p in measured.items()}
-        wall0 = time.monotonic()
-        time.sleep(seconds + 0.5)  # the window (`sleeper_window`) ends before this does
-        wall1 = time.monotonic()
-        cpu1 = {name: nb._cpu_seconds(p.pid) for name, p in measured.items()}
+        # the window (`sleeper_window`) ends before this does
+        cpu_percent = _cpu_percent(measured, lambda: time.sleep(seconds + 0.5))
         sleeper.send_signal(signal.SIGINT)
         sleeper.wait(30)
         if sleeper.returncode != 0 or not out.exists():
@@ -798,9 +802,7 @@ def run_sleeper_phase(
     return {
         SLEEPER_LABEL: {
             "twists_sent": 0,
-            "cpu_percent": {
-                name: 100.0 * (cpu1[name] - cpu0[name]) / (wall1 - wall0) for name in measured
-            },
+            "cpu_percent": cpu_percent,
             "receiver_worst_stall_ms": math.nan,
             "node_counts": {},
             "on_time": on_time(window, int(PERIOD_S * 1e9)),
