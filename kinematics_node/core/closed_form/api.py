@@ -265,15 +265,15 @@ def nearest(
         sols, reason = _nearest_at(solver, Tl, T_target, seed, None, count, tols, w, separation)
         return Nearest([s for s, _ in sols], [e for _, e in sols], True, reason)
     j = solver.held
+    values = held_order_one(solver, seed[j], tries)[first:]
     if solver.structure.kind == "general_6r":  # each value an eigenvalue problem: in chunks
-        values = held_order_one(solver, seed[j], tries)[first:]
         return _nearest_in_chunks(
             chain, solver, T_target, q_seed, values, tols, joint_weights, deadline
         )
     found: list[tuple[FloatArray, tuple[float, float]]] = []
     first_reason = ""
     tried = 0
-    for value in held_order_one(solver, seed[j], tries)[first:]:
+    for value in values:
         if tried and time.perf_counter() > deadline:
             break
         found, reason = _nearest_at(solver, Tl, T_target, seed, value, 1, tols, w, separation)
