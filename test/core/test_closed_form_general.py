@@ -532,3 +532,24 @@ def _reproduces(
     """Whether the solver's candidate s (read from the tip if `reversed_`) reaches target."""
     ep, er = pose_errors(chain.fk(-s[::-1] if reversed_ else s)[None], target[None])
     return bool(ep[0] < tol and er[0] < tol)
+
+
+def test_the_polishing_step_is_the_gauss_newton_step_and_skips_large_or_singular_ones():
+    """`_polish_steps` solves J Jᵀ Δ = −J r by the adjugate: the step of a least-squares solve
+    where it is small, none where it is large (a root far off) or J Jᵀ is singular."""
+    from kinematics_node.core.closed_form.general_6r import _POLISH_LIMIT, _polish_steps
+
+    rng = np.random.default_rng(5)
+    J = rng.standard_normal((16, 3, 6))
+    res = rng.standard_normal((16, 6)) * 1e-3
+    res[3] *= 1e4  # a root far from converging
+    J[5, 2] = J[5, 0]  # rank 2: J Jᵀ singular
+    J[6] = np.nan
+    step = _polish_steps(J, res)
+    for i in range(16):
+        gn = np.linalg.lstsq(J[i].T, -res[i], rcond=None)[0] if i != 6 else np.full(3, np.nan)
+        if i in (5, 6) or not np.abs(gn).max() < _POLISH_LIMIT:
+            assert (step[i] == 0.0).all(), i
+        else:
+            np.testing.assert_allclose(step[i], gn, rtol=1e-10, atol=1e-15)
+    assert (step[3] == 0.0).all() and np.isfinite(step).all()
