@@ -22,12 +22,11 @@ from .chain_solver import (
     fk_check,
     fk_errors,
     general_solutions,
-    refine_one,
+    refine_until,
     scalar_candidates,
     solve_arrays,
     solve_branches,
     solve_single,
-    steps_for,
 )
 from .detection import require_solver, solver_of
 from .geometry import INV_TWO_PI, BoolArray, FloatArray, Stages, pose_errors_list
@@ -401,14 +400,7 @@ def _nearest_at(
             and ep < REFINE_BELOW * solver.scale
             and er < REFINE_BELOW
         ):
-            refined = refine_one(solver, q, Tl, steps_for(solver, ep, er))
-            qr = [
-                min(max(x, a), b)
-                for x, a, b in zip(refined, solver.lower, solver.upper, strict=True)
-            ]
-            ep_r, er_r = fk_errors(solver, qr, Tl)
-            if max(ep_r / solver.scale, er_r) < max(ep / solver.scale, er):
-                q, ep, er = qr, ep_r, er_r
+            q, ep, er = refine_until(solver, q, Tl, (ep, er), NEAREST_REFINE_ABOVE, solver.clipped)
         if ep > tols[0] or er > tols[1]:
             continue
         found.append((np.array(q), (ep, er)))

@@ -490,14 +490,22 @@ def fk_check(
         & (ep < REFINE_BELOW * solver.scale)
         & (er < REFINE_BELOW)
     )
-    if redo.any():
-        Qr = fix(_refine(chain, Q[redo], T_t[redo], solver.held))
-        ep_r, er_r = pose_errors(chain.fk(Qr), T_t[redo])
-        better = np.maximum(ep_r / solver.scale, er_r) < np.maximum(
-            ep[redo] / solver.scale, er[redo]
+    # Gauss–Newton on the near misses, the best of each kept where it helps; those still off (near
+    # a singularity, where the steps converge slowly and not monotonically) go on one step a round
+    sel, steps = np.flatnonzero(redo), 2
+    cur = Q[sel]
+    for _ in range(MAX_REFINE_ROUNDS):
+        if not sel.size:
+            break
+        cur = fix(_refine(chain, cur, T_t[sel], solver.held, steps))
+        ep_r, er_r = pose_errors(chain.fk(cur), T_t[sel])
+        better = np.maximum(ep_r / solver.scale, er_r) < np.maximum(ep[sel] / solver.scale, er[sel])
+        b = sel[better]
+        Q[b], ep[b], er[b] = cur[better], ep_r[better], er_r[better]
+        go = ((ep[sel] > floor * solver.scale) | (er[sel] > floor)) & (
+            (ep_r < REFINE_BELOW * solver.scale) & (er_r < REFINE_BELOW)
         )
-        sel = np.flatnonzero(redo)[better]
-        Q[sel], ep[sel], er[sel] = Qr[better], ep_r[better], er_r[better]
+        sel, cur, steps = sel[go], cur[go], 1
     return Q, ep, er
 
 
@@ -963,15 +971,28 @@ def solve_single(
         if (ep > floor * scale or er > floor) and ep < REFINE_BELOW * scale and er < REFINE_BELOW:
             redo.append(len(checked))
         checked.append((q, ep, er, False))
-    if redo:  # Gauss–Newton on the near misses, stacked (`refine_many`); kept where it helps
-        steps = [steps_for(solver, checked[i][1], checked[i][2]) for i in redo]
-        refined = refine_many(solver, [checked[i][0] for i in redo], T, steps)
+    # Gauss–Newton on the near misses, stacked (`refine_many`), the best of each kept where it
+    # helps; those still off (near a singularity: slow, not monotone) go on one step a round
+    steps = [steps_for(solver, checked[i][1], checked[i][2]) for i in redo]
+    cur = [checked[i][0] for i in redo]
+    for _ in range(MAX_REFINE_ROUNDS):
+        if not redo:
+            break
+        refined = refine_many(solver, cur, T, steps)
+        again, cur = [], []
         for i, qr in zip(redo, refined, strict=True):
             qr = [wrap_angle(x) for x in qr]
             ep_r, er_r = fk_errors(solver, qr, T)
             _, ep, er, _ = checked[i]
             if max(ep_r / scale, er_r) < max(ep / scale, er):
                 checked[i] = (qr, ep_r, er_r, False)
+                ep, er = ep_r, er_r
+            if (ep > floor * scale or er > floor) and (
+                ep_r < REFINE_BELOW * scale and er_r < REFINE_BELOW
+            ):
+                again.append(i)
+                cur.append(qr)
+        redo, steps = again, [1] * len(again)
     accepted: list[list[float]] = []
     errors: list[tuple[float, float]] = []
     squared: list[bool] = []
@@ -1057,6 +1078,35 @@ def refine_one(
     return q
 
 
+def refine_until(
+    solver: ChainSolver,
+    q: list[float],
+    T: list[list[float]],
+    errors: tuple[float, float],
+    floor: float,
+    fix: Callable[[list[float]], list[float]],
+) -> tuple[list[float], float, float]:
+    """`refine_one` of a near miss q with (position, rotation) `errors`, its `steps_for` steps,
+    then one step a round while it is still off by more than `floor` (position / scale,
+    rotation [rad]) and within `REFINE_BELOW`, at most `MAX_REFINE_ROUNDS` rounds: near a
+    singularity Gauss–Newton converges slowly and not monotonically (a candidate 1.4e-7 off went
+    to 5e-8, 2e-7, 2e-8, then 1e-12 at its fifth step). `fix` maps a refined q back into the
+    candidates' range. Returns the best q met and its errors."""
+    ep, er = errors
+    steps, cur = steps_for(solver, ep, er), q
+    for _ in range(MAX_REFINE_ROUNDS):
+        cur = fix(refine_one(solver, cur, T, steps))
+        ep_r, er_r = fk_errors(solver, cur, T)
+        if max(ep_r / solver.scale, er_r) < max(ep / solver.scale, er):
+            q, ep, er = cur, ep_r, er_r
+        if ep <= floor * solver.scale and er <= floor:
+            break
+        if ep_r >= REFINE_BELOW * solver.scale or er_r >= REFINE_BELOW:
+            break  # walked off: no longer a near miss
+        steps = 1
+    return q, ep, er
+
+
 def refine_many(
     solver: ChainSolver, Q: list[list[float]], T: list[list[float]], steps: list[int]
 ) -> list[list[float]]:
@@ -1099,6 +1149,12 @@ def refine_many(
 #: A candidate within this of its target (position / scale, and rotation [rad]) is refined by one
 #: Gauss–Newton step (quadratic convergence: the next error is of its square), else by two.
 ONE_STEP_BELOW = 1e-6
+#: Rounds of refinement at most: the first (`steps_for`'s steps), then one step a round for a
+#: candidate still off. Near a singular configuration convergence is neither quadratic nor
+#: monotone: a random 6R arm's target at σ_min/σ_max ≈ 2e-5 left its candidates 1e-7 off after
+#: the first step, and every candidate was rejected, so `ik_all` said the reachable target was
+#: unreachable.
+MAX_REFINE_ROUNDS = 6
 _EYE6 = np.eye(6)
 
 

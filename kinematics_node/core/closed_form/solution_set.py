@@ -51,6 +51,10 @@ class JointLimits:
             min(hi, a + TWO_PI) - 1e-9 for hi, a in zip(self.upper, self.lo_wide_list, strict=True)
         ]
 
+    def clipped(self, q: list[float]) -> list[float]:
+        """q (floats) clipped into the limits."""
+        return [min(max(x, a), b) for x, a, b in zip(q, self.lower, self.upper, strict=True)]
+
     def lo_eff(self, seed: FloatArray) -> FloatArray:
         """Lower bounds for the equivalents: the limit, or seed − π for an unbounded side."""
         return np.where(np.isfinite(self.lower_arr), self.lower_arr, seed - math.pi)
