@@ -181,8 +181,8 @@ def _urdf_surface() -> tuple[Callable[[np.random.Generator], Any], Callable[[Any
                 text = text[: m.start()] + text[m.end() :]
             elif op == 4:
                 text = re.sub(r'type="\w*"', f'type="{rng.choice(types)}"', text, count=1)
-            elif op == 5:
-                cut = int(rng.integers(len(text)))
+            elif op == 5:  # (an earlier cut may have left nothing to cut)
+                cut = int(rng.integers(len(text))) if text else 0
                 text = text[:cut] if rng.random() < 0.5 else text[:cut] + "é\0\x01" + text[cut:]
             elif op == 6:
                 text = text.replace("<robot", "<robt", 1).replace("</robot>", "</robt>")
