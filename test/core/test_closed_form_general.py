@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from kinematics_node.core import IKOptions, SerialChain
-from kinematics_node.core.closed_form import family_of
+from kinematics_node.core.closed_form import family_of, no_closed_form_reason
 from kinematics_node.core.closed_form.geometry import pose_errors
 
 PI = np.pi
@@ -586,4 +586,20 @@ def test_a_target_near_a_singularity_is_not_called_unreachable():
     assert np.abs(np.asarray(out.solutions) - q).max(axis=1).min() < 1e-2
     opts = IKOptions(method="closed_form", position_tolerance=1e-9, orientation_tolerance=1e-9)
     res = chain.ik(T, options=opts)
+    assert res.success, res.message
+
+
+@pytest.mark.parametrize("twist", [0.0, PI])
+def test_a_six_joint_arm_with_two_collinear_axes_has_no_closed_form_and_says_why(twist):
+    """Joints 3 and 4 on one line (a = 0, α = 0 or π): a redundant arm whose every reachable
+    pose has infinitely many solutions. Detection says so (it said the wrist axes miss a point),
+    and the numeric search still solves it."""
+    rows = [(0.3, PI / 2, 0.2), (0.4, 0.7, 0.1), (0.0, twist, 0.25),
+            (0.35, -1.1, 0.1), (0.2, 0.9, 0.15), (0.1, 0.4, 0.1)]  # fmt: skip
+    chain = dh_chain(rows)
+    assert chain.ik_family is None
+    reason = no_closed_form_reason(chain)
+    assert "'joint3' and 'joint4'" in reason and "collinear" in reason, reason
+    q = np.array([0.3, -0.5, 0.8, 0.4, -0.6, 1.1])
+    res = chain.ik(chain.fk(q), options=IKOptions(method="numeric", rng_seed=1))
     assert res.success, res.message

@@ -16,7 +16,7 @@ from .. import subproblems as sp
 from ..exceptions import InvalidInputError, NoClosedFormError
 from ..model import KinematicChain
 from .chain_solver import ChainSolver, solve_arrays, solve_branches
-from .geometry import axis_lines, exp_rotation, meet_point, wrap_angles
+from .geometry import FloatArray, axis_lines, exp_rotation, meet_point, wrap_angles
 from .structure import (
     ANGLE_TOLERANCE,
     CASE_LABEL,
@@ -48,6 +48,22 @@ def _confirm(solver: ChainSolver) -> bool:
     return True
 
 
+def collinear_axes(w: FloatArray, r: FloatArray) -> tuple[int, int] | None:
+    """The first two consecutive joints (0-based) whose axes (unit directions w, points r
+    (n, 3), at the home configuration) lie on one line, to `ANGLE_TOLERANCE` and
+    `DISTANCE_TOLERANCE`, or None. With no joint between them they stay on one line in every
+    configuration and act as one: the tip moves with the sum of their angles (the difference,
+    where the axes are opposed). (Axes further apart that meet at home, as a Kinova's wrist,
+    are parted by the joints between them.)"""
+    for i in range(w.shape[0] - 1):
+        if np.linalg.norm(np.cross(w[i], w[i + 1])) > ANGLE_TOLERANCE:
+            continue
+        d = r[i + 1] - r[i]
+        if np.linalg.norm(d - np.dot(d, w[i]) * w[i]) <= DISTANCE_TOLERANCE:
+            return i, i + 1
+    return None
+
+
 def _why_not(chain: KinematicChain) -> str:
     """Why a chain has no closed form, in a sentence (for NoClosedFormError)."""
     if any(t == "prismatic" for t in chain.joint_types):
@@ -57,6 +73,14 @@ def _why_not(chain: KinematicChain) -> str:
     if chain.solver_model.G is not None:
         return "it has mimic joints (closed forms here are for arms whose joints move alone)"
     w, r = axis_lines(np.asarray(chain.S))
+    pair = collinear_axes(w, r) if chain.dof == 6 else None
+    if pair is not None:
+        a, b = (chain.joint_names[k] for k in pair)
+        return (
+            f"joints {a!r} and {b!r} turn about one line (collinear axes), so the tip moves "
+            "with their sum (or difference) alone: every reachable pose has infinitely many "
+            "solutions, which no closed form lists"
+        )
     parts = []
     for rev, label in ((False, "last"), (True, "first")):
         ww, rr = (w[::-1], r[::-1]) if rev else (w, r)
@@ -86,6 +110,8 @@ def detect(chain: KinematicChain) -> ChainSolver | None:
     if not np.allclose(sp.norm(w), 1.0, atol=1e-9) or np.abs(sp.dot(w, S[3:].T)).max() > 1e-9:
         return None  # not pure revolute screws
     if chain.dof == 6:
+        if collinear_axes(w, r) is not None:
+            return None  # a redundant arm: infinitely many solutions (`_why_not`)
         scale = float(max(1e-3, np.abs(r).max(), np.abs(np.asarray(chain.M)[:3, 3]).max()))
         for st in structure_candidates(w, r):
             if structure_residual(st, w, r, scale) > EXACT_RELATION:
