@@ -22,6 +22,7 @@ from ..model import TWO_PI, KinematicChain
 from .general_6r import (
     Arm,
     shifted_base,
+    solve_general_6r,
     solve_general_6r_shifted,
     solve_one_rows,
     solve_one_shifted,
@@ -96,7 +97,7 @@ Prepared = ThreeParallel | Spherical
 
 def _solve_6r(
     st: Structure,
-    g: LaneGeometry,
+    g: LaneGeometry | None,
     R: FloatArray,
     p: FloatArray,
     dflt: FloatArray,
@@ -112,9 +113,13 @@ def _solve_6r(
     """
     if st.kind == "general_6r":
         arm = prepared if isinstance(prepared, Arm) else None
+        if g is None:  # (the arm alone: `held_general`)
+            assert arm is not None and not st.case
+            return solve_general_6r(arm, R, p, trace)
         return solve_general_6r_shifted(g.w, g.r, arm, R, p, g.scale, trace, int(st.case or 0))
     if isinstance(prepared, ThreeParallel):
         return solve_three_parallel_prepared(prepared, R, p, dflt, trace)
+    assert g is not None
     if st.kind == "three_parallel":
         return solve_three_parallel(g, R, p, dflt, trace)
     return solve_spherical(
@@ -181,8 +186,11 @@ class ChainSolver(JointLimits):
         # None, the rows of M⁻¹ E⁻¹); see `held_prepared`. A plain dict (a lost race only
         # recomputes an entry), emptied when full.
         self._held_cache: dict[float, tuple[Geometry, Prepared, Rows]] = {}
-        # A 7R arm held for the general 6R solver, per tuple of held values (`held_general`).
-        self._general_cache: dict[bytes, tuple[LaneGeometry, FloatArray, Arm]] = {}
+        # A 7R arm held for the general 6R solver: its one-lane Arm per held value (`held_general`),
+        # and how long its chunks of held values take against their estimate (a running mean,
+        # `closed_form.api._nearest_in_chunks`).
+        self._general_cache: dict[float, Arm] = {}
+        self.chunk_speed = 1.0
         self._held_static = self.held_moves is not None and not any(
             any(flags) for flags in self.held_moves.values()
         )
@@ -293,20 +301,31 @@ class ChainSolver(JointLimits):
         g = LaneGeometry(w, r, pt(g0.c[0], m["c"][0]), pt(g0.b[0], m["b"][0]), h, x, s, self.scale)
         return g, E
 
-    def held_general(self, theta: FloatArray) -> tuple[LaneGeometry, FloatArray, Arm]:
-        """`held_lanes` of K held values θ (K,) and the general 6R solver's `Arm` of those lanes,
-        kept per θ: building an Arm costs ~0.1 ms a lane (its eigenproblem's deflating basis is a
-        complex SVD), and `ik_all` sweeps the same 36 values, `ik` the same spread of them, on
-        every call. A plain dict (a lost race only recomputes an entry), emptied when full."""
-        key = theta.tobytes()
-        got = self._general_cache.get(key)
-        if got is None:
-            g, E = self.held_lanes(theta)
-            got = (g, E, Arm(g.w, g.r, self.scale, fit=False))
-            if len(self._general_cache) >= 64:
-                self._general_cache.clear()
-            self._general_cache[key] = got
-        return got
+    def held_general(self, theta: FloatArray) -> tuple[FloatArray, Arm]:
+        """E = e^{[S_j]θ} (K, 4, 4) of K held values θ (K,) and the general 6R solver's `Arm` of
+        the K lanes (no `LaneGeometry`: that solver reads the arm alone), its lanes kept per
+        value: building an Arm costs ~0.1-0.3 ms a lane (its eigenproblem's deflating basis is a
+        complex SVD), and `ik_all` sweeps the same 36 values, `ik` the same spread of them after
+        the seed's own, on every call. The values not kept are built as one stack; the lanes are
+        then stacked in θ's order (`Arm.stack`). A plain dict (a lost race only recomputes an
+        entry), emptied when full."""
+        j = self.held
+        assert j is not None
+        E = exp_rotation(self.w_all[j], self.r_all[j], theta)
+        cache = self._general_cache
+        values = theta.tolist()
+        missing = list(dict.fromkeys(v for v in values if v not in cache))
+        if missing:
+            gm, _ = self.held_lanes(np.array(missing))
+            # fitted: one target's right-hand side is then a product on floats (`target_floats`)
+            built = Arm(gm.w, gm.r, self.scale, fit=True)
+            if len(cache) + len(missing) > GENERAL_CACHE_SIZE:
+                cache.clear()
+            for k, v in enumerate(missing):
+                cache[v] = built.lane(k) if len(missing) > 1 else built
+            if len(missing) == len(values) and len(set(values)) == len(values):
+                return E, built  # (built in θ's order already)
+        return E, Arm.stack([cache[v] for v in values])
 
     def held_scalar_geometry(self, theta: float) -> tuple[Geometry, list[list[float]]]:
         """`held_geometry` of one value θ as the scalar solvers' geometry, and E⁻¹ (4 × 4 lists),
@@ -471,6 +490,12 @@ def _batch_fk_errors(
     return dp, 2.0 * np.arcsin(np.minimum(f / (2.0 * math.sqrt(2.0)), 1.0))
 
 
+#: Candidates up to this many are checked by the scalar FK, one by one (~5 µs each), not by the
+#: batched kernel (~100 µs however few): `ik` sweeping a 7R arm's held joint checks a few
+#: candidates of one target per chunk of held values.
+SCALAR_FK_CHECK = 16
+
+
 def fk_check(
     solver: ChainSolver,
     Q: FloatArray,
@@ -484,7 +509,11 @@ def fk_check(
     range), and the position [m] and rotation [rad] errors."""
     chain = solver.chain
     Q = Q.copy()
-    ep, er = _batch_fk_errors(solver, Q, T_t)
+    if Q.shape[0] <= SCALAR_FK_CHECK and solver.fk_pose is not None:  # (`SCALAR_FK_CHECK`)
+        errors = [fk_errors(solver, q, t) for q, t in zip(Q.tolist(), T_t.tolist(), strict=True)]
+        ep, er = np.array(errors).reshape(-1, 2).T.copy()
+    else:
+        ep, er = _batch_fk_errors(solver, Q, T_t)
     redo = (
         ((ep > floor * solver.scale) | (er > floor))
         & (ep < REFINE_BELOW * solver.scale)
@@ -547,12 +576,16 @@ def solve_branches(
         assert held is not None
         K = held.shape[-1]
         owner_lane = np.repeat(np.arange(N), K)
-        if held.ndim == 1:  # shared values: the geometry of K lanes, tiled over the targets
-            if st.kind == "general_6r" and not st.case:  # the K lanes' arms, tiled likewise
-                gK, EK, armK = solver.held_general(held)
-                general_arm = armK.tile(N)
-            else:
-                gK, EK = solver.held_lanes(held)
+        if held.ndim == 2 and N == 1:  # one target's values: as shared ones (kept Arms)
+            held = held[0]
+        if held.ndim == 1 and st.kind == "general_6r" and not st.case:
+            # shared values of an arm read by the general solver alone: its K lanes' arms, tiled
+            EK, armK = solver.held_general(held)
+            general_arm, g = armK.tile(N), None
+            E = np.tile(EK, (N, 1, 1))
+            held_lane = np.tile(held, N)
+        elif held.ndim == 1:  # shared values: the geometry of K lanes, tiled over the targets
+            gK, EK = solver.held_lanes(held)
             g = tile_lanes(gK, N)
             E = np.tile(EK, (N, 1, 1))
             held_lane = np.tile(held, N)
@@ -1149,6 +1182,8 @@ def refine_many(
 #: A candidate within this of its target (position / scale, and rotation [rad]) is refined by one
 #: Gauss–Newton step (quadratic convergence: the next error is of its square), else by two.
 ONE_STEP_BELOW = 1e-6
+#: Held values whose general 6R `Arm` a 7R arm keeps (`ChainSolver.held_general`; ~40 KB each).
+GENERAL_CACHE_SIZE = 256
 #: Rounds of refinement at most: the first (`steps_for`'s steps), then one step a round for a
 #: candidate still off. Near a singular configuration convergence is neither quadratic nor
 #: monotone: a random 6R arm's target at σ_min/σ_max ≈ 2e-5 left its candidates 1e-7 off after

@@ -293,8 +293,12 @@ class Arm:
         self.Bay = np.concatenate(
             (np.einsum("li,lnij->lnj", a, R345), np.einsum("li,lnij->lnj", self.x6, R345)), axis=2
         )
-        self.Q2, self.S, self.W, Wi = _deflating_basis(self.P)
-        # lane 0's arrays for `_solve_one` (contiguous 2-D: one lane's products skip the stacks).
+        self.Q2, self.S, self.W, self.Wi = _deflating_basis(self.P)
+        self._lane_zero()
+
+    def _lane_zero(self) -> None:
+        """Lane 0's arrays for `_solve_one` (contiguous 2-D: one lane's products skip the stacks)
+        and its constants as floats (`target_floats`)."""
         # `_solve_one` makes [C₂ | C₀ Q₂[:12] + C₁ Q₂[12:]] (12 × 28) as one product F E, with
         # E (2, 27, 28) stacking, for the equations and their products by x₄, the rows of Q₂ that
         # [F₀ F₁] multiplies and the columns of C₂ that F₂ fills (one product where five array
@@ -304,6 +308,7 @@ class Arm:
         # `_shift_angles`: Wᵢ (24, 8), the ±i subspace's orthonormal basis, on which M acts as J;
         # with y = Wᵢ a + Q₂ z, a = (x I − J)⁻¹ Wᵢᵀ M Q₂ z and Wᵢᵀ M Q₂ = Wᵢ[:12]ᵀ Q₂[12:] −
         # Wᵢ[12:]ᵀ Y: the rows of that and of J times it, and the top rows of [Wᵢ Q₂]
+        Wi = self.Wi
         Wt, Wb, Q2t, Q2b = Wi[0, :12], Wi[0, 12:], self.Q2[0, :12], self.Q2[0, 12:]
         WtQ = Wt.T @ Q2b
         top = np.concatenate((Wt, Q2t), axis=1)  # (12, 24): v = [Wᵢ Q₂][:12] (a, z)
@@ -319,13 +324,51 @@ class Arm:
             np.concatenate((top[_PROD_A], top[_PROD_B])),  # (68, 24)
         )
         self.PfBay = np.concatenate((self.Pf[0], self.Bay[0]), axis=1)  # (27, 20): `_angles_one`
-        # one lane's constants as floats (`target_side`)
         self.floats = (
             self.r[0, 5].tolist(),
-            w[0, 5].tolist(),
+            self.w[0, 5].tolist(),
             self.origin[0].tolist(),
             self.x6[0].tolist(),
         )
+
+    def lane(self, k: int) -> Arm:
+        """Lane k of this arm as an arm of its own (its arrays views of this one's)."""
+        out = Arm.__new__(Arm)
+        for name, value in vars(self).items():
+            if isinstance(value, np.ndarray):
+                value = value[k : k + 1]
+            elif name == "G":
+                value = tuple(None if v is None else v[k : k + 1] for v in value)
+            elif name == "samples":
+                value = {key: v[k : k + 1] for key, v in value.items()}
+            setattr(out, name, value)
+        out.lanes = 1
+        out._lane_zero()
+        return out
+
+    @staticmethod
+    def stack(arms: Sequence[Arm]) -> Arm:
+        """One arm whose lanes are those of `arms` in turn (arms of one chain, unfitted: K None).
+        Its `samples` are left out: they serve arms built on a one-lane base."""
+        if len(arms) == 1:
+            return arms[0]
+        out = Arm.__new__(Arm)
+        for name, value in vars(arms[0]).items():
+            if isinstance(value, np.ndarray):
+                value = np.concatenate([getattr(a, name) for a in arms])
+            elif name == "G":
+                parts = [a.G for a in arms]
+                value = tuple(
+                    None
+                    if any(p[i] is None for p in parts)
+                    else np.concatenate([p[i] for p in parts])
+                    for i in range(2)
+                )
+            elif name == "samples":
+                value = {}
+            setattr(out, name, value)
+        out.lanes = sum(a.lanes for a in arms)
+        return out
 
     def with_first_two(self, w: FloatArray, r: FloatArray) -> Arm:
         """This one-lane arm with joints 1 and 2 on the axes w, r (L, 2, 3) [m], one pair per

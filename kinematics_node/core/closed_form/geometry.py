@@ -79,10 +79,11 @@ def perpendicular_lanes(a: FloatArray) -> FloatArray:
 def exp_rotation(w: FloatArray, r: FloatArray, theta: FloatArray) -> FloatArray:
     """e^{[S]θ} (K, 4, 4) of a revolute axis through r with unit direction w (MR eq. 3.51, 3.88)."""
     K = theta.shape[0]
+    W = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])  # [ω]×
     E = np.zeros((K, 4, 4))
-    eye = np.eye(3)
-    E[:, :3, :3] = sp.rotate(w, theta[:, None], np.broadcast_to(eye, (K, 3, 3))).swapaxes(1, 2)
-    E[:, :3, 3] = r - np.einsum("kij,j->ki", E[:, :3, :3], r)
+    s, c = np.sin(theta)[:, None, None], np.cos(theta)[:, None, None]
+    E[:, :3, :3] = np.eye(3) + s * W + (1.0 - c) * (W @ W)  # Rodrigues
+    E[:, :3, 3] = r - E[:, :3, :3] @ r
     E[:, 3, 3] = 1.0
     return E
 
