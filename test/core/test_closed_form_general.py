@@ -157,11 +157,11 @@ def test_auto_on_a_held_general_arm_searches_numerically_before_it_sweeps():
 
 
 def test_a_held_general_arm_sweeps_its_held_joint_in_chunks_within_the_deadline(monkeypatch):
-    """The sweep of a 7r_general_6r arm solves several held values at once (`nearest_batch`:
-    their arms built as one stack, ~2.6x cheaper a value on Baxter): its answer reproduces the
-    target within the limits at one of the values of `held_order`; past the deadline only the
-    first value is solved (as before the chunks), before it chunks of at most MAX_CHUNK until
-    every value is tried."""
+    """The sweep of a 7r_general_6r arm solves several held values at once (`nearest_batch`: a
+    chunk costs nearly the same for 1 or 8 values on Baxter): its answer reproduces the target
+    within the limits at one of the values of `held_order`; past the deadline only the first
+    value is solved (as before the chunks), before it chunks of at most MAX_CHUNK until every
+    value is tried."""
     import time
 
     from kinematics_node.core.closed_form import api
@@ -603,3 +603,87 @@ def test_a_six_joint_arm_with_two_collinear_axes_has_no_closed_form_and_says_why
     q = np.array([0.3, -0.5, 0.8, 0.4, -0.6, 1.1])
     res = chain.ik(chain.fk(q), options=IKOptions(method="numeric", rng_seed=1))
     assert res.success, res.message
+
+
+def test_the_held_sweep_sizes_its_chunks_to_end_by_the_deadline(monkeypatch):
+    """`_nearest_in_chunks` on a clock of its own, where a chunk of k values takes twice the cost
+    estimate (a slower machine): the first chunk is as large as the estimate allows; from its
+    measured cost the next is sized to end before the deadline, and the sweep stops when not one
+    more value fits (it overran a 5 ms budget by up to 1.7 ms when a chunk's cost was taken as
+    proportional to its size). The pace measured is kept for the next call."""
+    from kinematics_node.core.closed_form import api
+    from kinematics_node.core.closed_form.detection import solver_of
+    from kinematics_node.core.closed_form.held import held_order_one
+
+    chain = dh_chain(random_rows(np.random.default_rng(7), 7))
+    solver = solver_of(chain)
+    now = [100.0]
+    chunks: list[int] = []
+
+    def cost(k: int) -> float:
+        return 2.0 * (api.CHUNK_FIXED_COST + k * api.CHUNK_VALUE_COST)
+
+    def slow(*args, **kwargs):
+        k = np.asarray(args[-1]).shape[1]
+        chunks.append(k)
+        now[0] += cost(k)
+        return api.NearestBatch(np.zeros((1, 7)), np.array([False]), np.ones(1), np.ones(1))
+
+    monkeypatch.setattr(api, "nearest_batch", slow)
+    monkeypatch.setattr(api.time, "perf_counter", lambda: now[0])
+    monkeypatch.setattr(solver, "chunk_speed", 1.0)  # (no chunk measured before)
+    far = np.eye(4)
+    far[:3, 3] = 100.0
+    budget = 8.0e-3
+    values = held_order_one(solver, 0.0, 37)
+    got = api._nearest_in_chunks(
+        chain, solver, far, np.zeros(7), values, (1e-9, 1e-9), np.ones(7), now[0] + budget
+    )
+    assert not got.solutions and f"at {sum(chunks)} values" in got.reason
+    assert chunks[0] == api.MAX_CHUNK
+    left = budget - cost(chunks[0])  # sized at the pace just measured, twice the estimate
+    assert chunks[1:] == [int((left / 2.0 - api.CHUNK_FIXED_COST) / api.CHUNK_VALUE_COST)]
+    spent = now[0] - 100.0
+    assert spent <= budget < spent + cost(1)  # within the budget; not one more value fitted
+    # the pace kept for the next call: a running mean of the two chunks' (2x the estimate)
+    assert solver.chunk_speed == pytest.approx(0.7 * (0.7 * 1.0 + 0.3 * 2.0) + 0.3 * 2.0)
+
+
+def test_held_arms_kept_per_value_and_stacked_solve_as_arms_built_whole():
+    """A 7r_general_6r arm keeps its held general arms per value (`held_general`) and stacks
+    them for a chunk (`Arm.stack`), a lane taken alone by `Arm.lane`: every mix of values
+    kept and built gives the solutions of an arm built whole for those values."""
+    from kinematics_node.core.closed_form.chain_solver import solve_branches
+    from kinematics_node.core.closed_form.detection import solver_of
+    from kinematics_node.core.closed_form.general_6r import Arm
+
+    chain = dh_chain(random_rows(np.random.default_rng(7), 7))
+    solver = solver_of(chain)
+    assert chain.ik_family == "7r_general_6r"
+    rng = np.random.default_rng(3)
+    q = rng.uniform(-PI, PI, size=(4, 7))
+    T = chain.fk(q)
+    values = np.array([0.4, -1.1, 2.0, 0.9, -2.5])
+
+    def fresh(held):
+        g, _ = solver.held_lanes(held)
+        return Arm(g.w, g.r, solver.scale, fit=False)
+
+    solver._general_cache.clear()
+    solver.held_general(values[[3, 1]])  # two kept, built as one stack (then taken per lane)
+    solver.held_general(values[[0]])  # one kept, built alone
+    for held in (values, values[[1]], values[[2, 3]]):
+        _, arm = solver.held_general(held)
+        whole = fresh(held)
+        for name in ("P", "Q2", "S", "K", "M12", "B12", "Bay"):
+            a, b = getattr(arm, name), getattr(whole, name)
+            if b is not None:
+                np.testing.assert_allclose(a, b, atol=1e-12, err_msg=name)
+        for i, t in enumerate(T):
+            Q, ok, *_ = solve_branches(solver, t[None], q[i][None], held[None])
+            assert ok.any()
+            got = Q[ok]
+            # each accepted branch reproduces the target at its lane's held value
+            ep, er = pose_errors(chain.fk(got), np.repeat(t[None], len(got), 0))
+            assert np.median(ep) < 1e-6 and np.median(er) < 1e-6
+    assert set(solver._general_cache) == set(values.tolist())

@@ -287,13 +287,16 @@ def nearest(
     return Nearest([], [], False, why)
 
 
-#: Held values solved at once by `_nearest_in_chunks`: the first chunk, and at most. Baxter's left
-#: arm, one target (`solve_branches`): 0.42 ms for one value, 0.89 ms for 4, 1.28 ms for 8 (0.16
-#: ms a value: the K arms are built as one stack), 2.1 ms for 16.
-FIRST_CHUNK, MAX_CHUNK = 4, 8
-#: The cost of a value [s] that sizes the first chunk to the time left (at least one value is
-#: solved, as one value was before the chunks): Baxter's 0.22 ms a value in a chunk of 4.
-FIRST_VALUE_COST = 2.5e-4
+#: Held values solved at once by `_nearest_in_chunks`, at most: a chunk's cost is nearly fixed
+#: plus a little per value, so larger chunks cost less a value (and the most a sweep of 36 values
+#: solves twice).
+MAX_CHUNK = 16
+#: A chunk's expected cost [s]: fixed, and per held value. Baxter's left arm, one target, its
+#: arms kept (`ChainSolver.held_general`): 0.45 ms for one value, 1.1 for 4, 1.7 for 8, 2.8 for
+#: 16 (one run; the same machine gave 1.25, 1.9, 2.55 and 3.8 ms before the arms were kept per
+#: value and the candidates checked by the scalar FK). `_nearest_in_chunks` scales both by how
+#: long its chunks took against this estimate (another arm, another machine).
+CHUNK_FIXED_COST, CHUNK_VALUE_COST = 3.0e-4, 1.6e-4
 
 
 def _nearest_in_chunks(
@@ -308,23 +311,31 @@ def _nearest_in_chunks(
 ) -> Nearest:
     """`nearest` for a 7R arm whose held joint leaves a general 6R arm: its held joint at
     `values` in turn, several at once (`nearest_batch`, whose solution is the nearest the seed
-    of the chunk's), each chunk no larger than the time left allows at the last chunk's cost per
-    value (the first at `FIRST_VALUE_COST`), until one gives a solution or `deadline` passes (the
-    first value is always solved)."""
-    tried, per_value, chunk_max = 0, FIRST_VALUE_COST, FIRST_CHUNK
+    of the chunk's), each chunk the largest that the time left allows by the cost estimate
+    (`CHUNK_FIXED_COST`, `CHUNK_VALUE_COST`, scaled by the chunks' measured costs: the solver's
+    `chunk_speed`, a running mean kept from call to call, or this call's last chunk's where that
+    was slower), until one gives a solution or `deadline` passes (the first value is always
+    solved)."""
+    tried = 0
+    speed = solver.chunk_speed  # measured cost over the estimate
     while tried < len(values):
         left = deadline - time.perf_counter()
         if tried and left <= 0.0:
             break
-        k = chunk_max if left >= chunk_max * per_value else max(1, int(left / per_value))
-        chunk_max = MAX_CHUNK
+        fits = (left / speed - CHUNK_FIXED_COST) / CHUNK_VALUE_COST  # values that fit
+        if tried and fits < 1.0:
+            break  # not one more value before the deadline
+        k = MAX_CHUNK if fits >= MAX_CHUNK else max(1, int(fits))
         chunk = values[tried : tried + k]
         start = time.perf_counter()
         out = nearest_batch(
             chain, T_target[None], q_seed[None], *tols, joint_weights, np.array([chunk])
         )
         assert out is not None
-        per_value = max((time.perf_counter() - start) / len(chunk), 1e-6)
+        estimate = CHUNK_FIXED_COST + len(chunk) * CHUNK_VALUE_COST
+        measured = min(max((time.perf_counter() - start) / estimate, 0.1), 10.0)
+        solver.chunk_speed = 0.7 * solver.chunk_speed + 0.3 * measured
+        speed = max(solver.chunk_speed, measured)  # (a machine slower just now: its pace)
         tried += len(chunk)
         if out.found[0]:
             errors = (float(out.position_error[0]), float(out.orientation_error[0]))
