@@ -670,6 +670,7 @@ def test_held_arms_kept_per_value_and_stacked_solve_as_arms_built_whole():
         return Arm(g.w, g.r, solver.scale, fit=False)
 
     solver._general_cache.clear()
+    solver._stacked_cache.clear()
     solver.held_general(values[[3, 1]])  # two kept, built as one stack (then taken per lane)
     solver.held_general(values[[0]])  # one kept, built alone
     for held in (values, values[[1]], values[[2, 3]]):

@@ -190,6 +190,7 @@ class ChainSolver(JointLimits):
         # and how long its chunks of held values take against their estimate (a running mean,
         # `closed_form.api._nearest_in_chunks`).
         self._general_cache: dict[float, Arm] = {}
+        self._stacked_cache: dict[bytes, Arm] = {}  # the stacks, per tuple of values
         self.chunk_speed = 1.0
         self._held_static = self.held_moves is not None and not any(
             any(flags) for flags in self.held_moves.values()
@@ -307,25 +308,36 @@ class ChainSolver(JointLimits):
         value: building an Arm costs ~0.1-0.3 ms a lane (its eigenproblem's deflating basis is a
         complex SVD), and `ik_all` sweeps the same 36 values, `ik` the same spread of them after
         the seed's own, on every call. The values not kept are built as one stack; the lanes are
-        then stacked in θ's order (`Arm.stack`). A plain dict (a lost race only recomputes an
-        entry), emptied when full."""
+        then stacked in θ's order (`Arm.stack`), and the stack kept too: `ik_all` asks for the
+        same 36 values every call (stacking them costs ~0.4 ms). Plain dicts (a lost race only
+        recomputes an entry), emptied when full."""
         j = self.held
         assert j is not None
         E = exp_rotation(self.w_all[j], self.r_all[j], theta)
+        key = theta.tobytes()
+        stacked = self._stacked_cache.get(key)
+        if stacked is not None:  # the same values as a call before (`ik_all`'s 36)
+            return E, stacked
+        arm = self._held_arms(theta.tolist())
+        if len(self._stacked_cache) >= 16:
+            self._stacked_cache.clear()
+        self._stacked_cache[key] = arm
+        return E, arm
+
+    def _held_arms(self, values: list[float]) -> Arm:
+        """`held_general`'s Arm of the held values, from those kept per value."""
         cache = self._general_cache
-        values = theta.tolist()
         missing = list(dict.fromkeys(v for v in values if v not in cache))
         if missing:
             gm, _ = self.held_lanes(np.array(missing))
-            # fitted: one target's right-hand side is then a product on floats (`target_floats`)
-            built = Arm(gm.w, gm.r, self.scale, fit=True)
+            built = Arm(gm.w, gm.r, self.scale, fit=False)
             if len(cache) + len(missing) > GENERAL_CACHE_SIZE:
                 cache.clear()
             for k, v in enumerate(missing):
                 cache[v] = built.lane(k) if len(missing) > 1 else built
             if len(missing) == len(values) and len(set(values)) == len(values):
-                return E, built  # (built in θ's order already)
-        return E, Arm.stack([cache[v] for v in values])
+                return built  # (built in the values' order already)
+        return Arm.stack([cache[v] for v in values])
 
     def held_scalar_geometry(self, theta: float) -> tuple[Geometry, list[list[float]]]:
         """`held_geometry` of one value θ as the scalar solvers' geometry, and E⁻¹ (4 × 4 lists),
