@@ -692,15 +692,14 @@ def _clusters(
         U = (vt if info == 0 else np.linalg.svd(S)[2])[-m:].T  # (12, m)
         c = 0.5772156649015329  # any constant: x₄ + c x₅ also separates roots sharing x₄
         Ub, rhs = U[_BASE], U[_BASE + 3] + c * U[_BASE + 1]
-        # One target's clusters (R ≤ 16) by LAPACK's dgels directly (~2 µs against lstsq's ~10);
-        # a stack's by NumPy's lstsq (an SVD): dgels solves through dtrsm, which OpenBLAS may run
-        # on its threads, and after the stack's large calls each of those small ones waited up to
-        # ~1 ms for them (the xArm 6's 74 clusters in 2000 targets: 24-66 ms against 5.5). lstsq
-        # also takes the clusters of more than 6 roots that dgels refuses (a fuzzed degenerate
-        # arm gave one: dgels takes a right-hand side of max(6, m) rows).
+        # By LAPACK's dgelss (an SVD) directly (~2 µs; NumPy's lstsq ~8), not dgels: OpenBLAS
+        # may hand dgels's small triangular products to its threads, and after a large call (a
+        # stack's, or any 400 × 400 product in the same process) each one waited for them, 2.6
+        # ms at the median (`docs/closed_form.md`). A cluster of more than 6 roots (a fuzzed
+        # degenerate arm gave one) has more unknowns than rows: NumPy's lstsq, minimum norm.
         info = 1
-        if R <= BRANCHES and m <= Ub.shape[0]:
-            _, X, info = lapack.dgels(Ub, rhs)
+        if m <= Ub.shape[0]:
+            _, X, _, _, _, info = lapack.dgelss(Ub, rhs)
         W = X[:m] if info == 0 else np.linalg.lstsq(Ub, rhs, rcond=None)[0]
         _, wi, _, vr, info = lapack.dgeev(W, compute_vl=0)
         if info == 0 and not wi.any():
