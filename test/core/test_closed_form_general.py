@@ -688,3 +688,40 @@ def test_held_arms_kept_per_value_and_stacked_solve_as_arms_built_whole():
             ep, er = pose_errors(chain.fk(got), np.repeat(t[None], len(got), 0))
             assert np.median(ep) < 1e-6 and np.median(er) < 1e-6
     assert set(solver._general_cache) == set(values.tolist())
+
+
+def test_a_held_arm_whose_loop_is_read_shifted_keeps_its_arm_per_held_value():
+    """A random 7R arm whose held 6R arm is read from joint 6 (`Structure.case` "5"): its held
+    values' prepared arms are kept per value and stacked (`held_shifted`), every lane solved on
+    its own value's arm. One target with its own held value among others gives that
+    configuration back; a batch over shared values reproduces every target."""
+    from kinematics_node.core.closed_form.detection import solver_of
+
+    rows = [
+        (0.20381491162431287, -PI / 2, 0.16452968642577726),
+        (0.04442216899891991, -1.9250859696185127, -0.09491131456609814),
+        (0.46135378985587866, -1.5013356286702075, 0.17776644409069275),
+        (0.05, 0.0, -0.37951388874121617),
+        (0.07186764468028947, 0.0, -0.31315028947643886),
+        (0.48568602554324136, PI, 0.0),
+        (0.2840611054932753, 2.8622539345457794, 0.04758177001805963),
+    ]
+    chain = dh_chain(rows)
+    solver = solver_of(chain)
+    assert chain.ik_family == "7r_general_6r" and solver.structure.case == "5"
+    j = solver.held
+    rng = np.random.default_rng(4)
+    q = rng.uniform(-PI, PI, size=(8, 7))
+    T = chain.fk(q)
+    for i in range(len(q)):
+        held = np.array([q[i, j], 0.1, -2.0])
+        for _ in range(2):  # built, then kept
+            out = chain.ik_all(T[i], held=held)
+            assert _contains(np.array(out.solutions), q[i], 1e-6)
+            ep, er = pose_errors(chain.fk(np.array(out.solutions)), T[[i] * len(out.solutions)])
+            assert ep.max() <= 1e-9 and er.max() <= 1e-9
+    batch = chain.ik_all_batch(T, held=np.linspace(-2.5, 2.5, 6))
+    assert batch.count.sum() > 0
+    ep, er = pose_errors(chain.fk(batch.solutions), T[np.repeat(np.arange(len(T)), batch.count)])
+    assert ep.max() <= 1e-9 and er.max() <= 1e-9
+    assert {0.1, -2.0} <= set(solver._shifted_cache)

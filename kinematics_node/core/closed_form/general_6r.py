@@ -1048,12 +1048,14 @@ def solve_general_6r_shifted(
     w, r in the loop's order (`shifted_base`), whose first 6 − k joints (those G does not move)
     one target's arm takes from it (the arm is built per call: that part of it once). With such
     an arm and k ≥ 4, the loop is written with the moved joints first, as `solve_one_shifted`
-    does: every lane then shares all of the arm but its first two joints."""
+    does: every lane then shares all of the arm but its first two joints. For k ≥ 4 `arm` may
+    also hold one such lane per lane of w, r and the targets (a 7R arm's held values)."""
     if shift == 0:
         return solve_general_6r(arm or Arm(w, r, scale, fit=False), R, t, trace)
     L = R.shape[0]
     order = _loop_order(shift)
-    if shift >= 4 and arm is not None and arm.lanes == 1 and w.shape[0] == 1:
+    if shift >= 4 and arm is not None and arm.lanes == w.shape[0] and arm.lanes in (1, L):
+        # (one arm for every lane, or one per lane: a 7R arm's held values, `held_shifted`)
         Q, ok = solve_general_6r(arm.with_first_two(*_moved_first(w, r, shift, R, t)), R, t, trace)
         return Q[..., np.argsort(order)], ok
     Rt = R.swapaxes(1, 2)
@@ -1073,7 +1075,8 @@ def _moved_first(
 ) -> tuple[FloatArray, FloatArray]:
     """The axes (L, 2, 3) of the first two joints of the loop read from joint `shift` + 1 ≥ 5
     with the moved joints first (`solve_one_shifted`): its first 6 − shift joints moved by each
-    lane's G = (R (L, 3, 3), t (L, 3)), direction R w and point R r + t. Axes w, r (1, 6, 3)."""
+    lane's G = (R (L, 3, 3), t (L, 3)), direction R w and point R r + t. Axes w, r (1 or L,
+    6, 3)."""
     first = _loop_order(shift)[:2]
     moved, L = 6 - shift, R.shape[0]
     wl = np.broadcast_to(w[:, first], (L, 2, 3)).copy()
