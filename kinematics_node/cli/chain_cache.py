@@ -6,7 +6,7 @@ cache format, so an edited file is simply a new entry (never a stale one). They 
 `ChainSpec` as JSON (no pickle: nothing in the cache is executed). Descriptions that need xacro
 are not cached, because their result also depends on the files they include.
 
-An entry also keeps the chain's closed-form family once `ik` has detected it (`remember_family`;
+An entry also keeps the chain's closed-form family once `ik` has detected it (`detect_family`;
 detection solves sample targets: ~0.1 s for a general 6R arm, ~0.3 s for Baxter), tagged with a
 fingerprint of the detection's source (`_detector_fingerprint`), so that code which detects
 differently never takes an old answer.
@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from ..core import SerialChain
+from ..core.exceptions import InvalidInputError
 from ..core.model import ChainSpec, JointModel
 
 FORMAT = "kinematics-chain-cache-2"
@@ -67,8 +68,7 @@ def chain_from_urdf_file(
     except (OSError, ValueError, KeyError, TypeError, IndexError):
         pass  # no entry yet, or an unreadable one: parse and (re)write it
     else:
-        _ENTRIES[chain] = (directory, entry)
-        _import_family(chain, payload.get("family"))
+        _ENTRIES[chain] = (directory, entry, payload.get("family"))
         return chain
     from ..core.urdf import RobotDescription, decode_xml
 
@@ -77,49 +77,44 @@ def chain_from_urdf_file(
     chain = SerialChain.from_spec(spec)
     if description.xml == decode_xml(data):  # no xacro expansion took place
         _write(directory, entry, _spec_to_json(spec))
-        _ENTRIES[chain] = (directory, entry)
+        _ENTRIES[chain] = (directory, entry, None)
     return chain
 
 
-#: The cache entry each chain came from (or was written to), for `remember_family`.
-_ENTRIES: weakref.WeakKeyDictionary[SerialChain, tuple[Path, Path]] = weakref.WeakKeyDictionary()
+#: The cache entry each chain came from (or was written to), and the family kept in it.
+_ENTRIES: weakref.WeakKeyDictionary[SerialChain, tuple[Path, Path, Any]] = (
+    weakref.WeakKeyDictionary()
+)
 
 
-def remember_family(chain: SerialChain) -> None:
-    """Keep `chain`'s closed-form family (detecting it if needed) in the entry it came from, so
-    that the next run on the same file skips the detection. Nothing for a chain not from the
-    cache, or an entry that has it already."""
+def detect_family(chain: SerialChain) -> None:
+    """Settle `chain`'s closed-form family before `ik` needs it: the one an earlier run of this
+    code kept in the chain's cache entry, else detected now and kept there (a chain not from the
+    cache: detected). Only `ik` calls this: the closed form imports SciPy, which `fk` need not."""
+    from ..core.closed_form import export_family, import_family
+
     place = _ENTRIES.get(chain)
     if place is None:
+        export_family(chain)  # (detects it)
         return
-    directory, entry = place
-    from ..core.closed_form import export_family
-
+    directory, entry, kept = place
+    fingerprint = _detector_fingerprint()
+    if isinstance(kept, dict) and kept.get("detector") == fingerprint:
+        value = kept.get("value")
+        try:
+            import_family(chain, None if value is None else tuple(value))
+            return
+        except (InvalidInputError, TypeError):
+            pass  # not a family of this chain: detect it
     value = export_family(chain)
-    family = {"detector": _detector_fingerprint(), "value": None if value is None else list(value)}
+    family = {"detector": fingerprint, "value": None if value is None else list(value)}
     try:
         payload = json.loads(entry.read_text("utf-8"))
     except (OSError, ValueError):
         return
-    if payload.get("family") == family:
-        return
     payload["family"] = family
     _write(directory, entry, payload)
-
-
-def _import_family(chain: SerialChain, family: Any) -> None:
-    """Install a family kept by `remember_family` if this code detected it (else nothing: the
-    chain detects its own when first asked)."""
-    if not isinstance(family, dict) or family.get("detector") != _detector_fingerprint():
-        return
-    from ..core.closed_form import import_family
-    from ..core.exceptions import InvalidInputError
-
-    value = family.get("value")
-    try:
-        import_family(chain, None if value is None else tuple(value))
-    except (InvalidInputError, TypeError):
-        pass
+    _ENTRIES[chain] = (directory, entry, family)
 
 
 @functools.lru_cache(maxsize=1)

@@ -507,10 +507,9 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
     # 4 ms, a Panda ~50 ms) happen now, before the clock starts: the time reported is the
     # solve's, as in a program that calls ik more than once.
     from ..core.ik import duration_text
-    from .chain_cache import remember_family
+    from .chain_cache import detect_family
 
-    _ = chain.ik_family
-    remember_family(chain)  # (the next run on the same file skips the detection)
+    detect_family(chain)  # (kept in the chain's cache entry: the next run skips it)
     t0 = time.perf_counter()
     res = chain.ik(T, q_seed=seed, options=options)
     ms = (time.perf_counter() - t0) * 1e3
@@ -551,9 +550,9 @@ def _ik_all(
     args: argparse.Namespace, chain: SerialChain, T: np.ndarray, seed: np.ndarray | None
 ) -> Output:
     """`ik --all`: every closed-form solution, nearest the seed first (7R arms: held joint swept)."""
-    from .chain_cache import remember_family
+    from .chain_cache import detect_family
 
-    remember_family(chain)
+    detect_family(chain)
     res = chain.ik_all(T, q_seed=seed)
     data = {
         "success": bool(res.success),

@@ -50,16 +50,16 @@ def test_a_warm_fk_call_imports_neither_yourdfpy_nor_scipy(tmp_path):
 def test_the_family_detected_by_ik_is_kept_and_taken_back_only_by_the_same_detector(
     tmp_path, monkeypatch
 ):
-    """`remember_family` keeps the detected closed-form family in the chain's entry; the next
-    load installs it without detecting (a UR5e here; Baxter's run of `kinematics ik` went from
-    0.78 to ~0.55 s), and not when the detection's source differs."""
+    """`detect_family` keeps the detected closed-form family in the chain's entry; on the next
+    load it installs that without detecting (a UR5e here; Baxter's run of `kinematics ik` went
+    from 0.78 to ~0.55 s), and not when the detection's source differs."""
     from kinematics_node.cli import chain_cache
     from kinematics_node.core.closed_form import detection, family_of
 
     monkeypatch.setenv("KINEMATICS_CACHE_DIR", str(tmp_path / "cache"))
     path = robot_path("ur5e")
     first = chain_from_urdf_file(path, None, None)
-    chain_cache.remember_family(first)
+    chain_cache.detect_family(first)
     (entry,) = (tmp_path / "cache").glob("*.json")
     kept = json.loads(entry.read_text())["family"]
     assert kept["value"][0] == "three_parallel" and kept["detector"]
@@ -69,6 +69,7 @@ def test_the_family_detected_by_ik_is_kept_and_taken_back_only_by_the_same_detec
 
     monkeypatch.setattr(detection, "detect", no_detection)
     again = chain_from_urdf_file(path, None, None)
+    chain_cache.detect_family(again)
     assert family_of(again).name == "three_parallel"
     q = np.array([0.3, -1.1, 1.2, -0.4, 0.9, 0.2])
     assert again.ik_all(again.fk(q)).success
@@ -76,7 +77,7 @@ def test_the_family_detected_by_ik_is_kept_and_taken_back_only_by_the_same_detec
     monkeypatch.setattr(chain_cache, "_detector_fingerprint", lambda: "another detector")
     other = chain_from_urdf_file(path, None, None)
     with pytest.raises(AssertionError, match="detected again"):
-        family_of(other)
+        chain_cache.detect_family(other)
 
 
 def test_a_chain_without_a_closed_form_keeps_that_too(tmp_path, monkeypatch):
@@ -85,6 +86,25 @@ def test_a_chain_without_a_closed_form_keeps_that_too(tmp_path, monkeypatch):
 
     monkeypatch.setenv("KINEMATICS_CACHE_DIR", str(tmp_path / "cache"))
     path = robot_path("planar3r")
-    chain_cache.remember_family(chain_from_urdf_file(path, None, None))
+    chain_cache.detect_family(chain_from_urdf_file(path, None, None))
     monkeypatch.setattr(detection, "detect", lambda chain: 1 / 0)
-    assert family_of(chain_from_urdf_file(path, None, None)) is None
+    again = chain_from_urdf_file(path, None, None)
+    chain_cache.detect_family(again)
+    assert family_of(again) is None
+
+
+def test_a_kept_family_does_not_make_a_warm_fk_call_import_scipy(tmp_path):
+    """The family that `ik` kept is installed by `ik` alone (the closed form imports SciPy)."""
+    env = dict(os.environ, KINEMATICS_CACHE_DIR=str(tmp_path))
+    ik = "from kinematics_node.cli.main import main\nmain(['ik', '--robot', 'ur5e', '--target', '0.3,0.2,0.4,0,1,0,0'])\n"
+    subprocess.run([sys.executable, "-c", ik], env=env, capture_output=True, text=True, check=True)
+    (entry,) = tmp_path.glob("*.json")
+    assert json.loads(entry.read_text())["family"]["value"][0] == "three_parallel"
+    fk = (
+        "import sys\n"
+        "from kinematics_node.cli.main import main\n"
+        "assert main(['fk', '--robot', 'ur5e', '--q', '0,0,0,0,0,0']) == 0\n"
+        "print(sorted(m for m in ('scipy', 'yourdfpy') if m in sys.modules))\n"
+    )
+    warm = subprocess.run([sys.executable, "-c", fk], env=env, capture_output=True, text=True)
+    assert warm.stdout.splitlines()[-1] == "[]", warm.stderr
