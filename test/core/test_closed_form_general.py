@@ -725,3 +725,26 @@ def test_a_held_arm_whose_loop_is_read_shifted_keeps_its_arm_per_held_value():
     ep, er = pose_errors(chain.fk(batch.solutions), T[np.repeat(np.arange(len(T)), batch.count)])
     assert ep.max() <= 1e-9 and er.max() <= 1e-9
     assert {0.1, -2.0} <= set(solver._shifted_cache)
+
+
+def test_held_arms_kept_per_value_survive_their_cache_filling_up(monkeypatch):
+    """When the values kept per held value would exceed `GENERAL_CACHE_SIZE`, the cache is
+    emptied and every value of the call built again: a call mixing kept values and new ones
+    then found the kept ones gone (KeyError), as `ik` with a new seed each call would after
+    ~250 calls."""
+    from kinematics_node.core.closed_form import chain_solver
+    from kinematics_node.core.closed_form.detection import solver_of
+    from kinematics_node.core.closed_form.general_6r import Arm
+
+    chain = dh_chain(random_rows(np.random.default_rng(7), 7))
+    solver = solver_of(chain)
+    monkeypatch.setattr(chain_solver, "GENERAL_CACHE_SIZE", 3)
+    solver._general_cache.clear()
+    solver._stacked_cache.clear()
+    solver.held_general(np.array([0.1, 0.2]))
+    solver.held_general(np.array([0.3]))
+    _, arm = solver.held_general(np.array([0.2, 0.4]))  # 0.2 kept, 0.4 new: 4 > 3
+    assert arm.lanes == 2 and set(solver._general_cache) == {0.2, 0.4}
+    g, _ = solver.held_lanes(np.array([0.2, 0.4]))
+    whole = Arm(g.w, g.r, solver.scale, fit=False)
+    np.testing.assert_allclose(arm.S, whole.S, atol=1e-12)

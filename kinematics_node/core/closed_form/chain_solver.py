@@ -14,6 +14,7 @@ import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 from scipy.linalg.lapack import dposv
@@ -312,20 +313,20 @@ class ChainSolver(JointLimits):
         complex SVD), and `ik_all` sweeps the same 36 values, `ik` the same spread of them after
         the seed's own, on every call. The values not kept are built as one stack; the lanes are
         then stacked in θ's order (`Arm.stack`), and the stack kept too: `ik_all` asks for the
-        same 36 values every call (stacking them costs ~0.4 ms). Plain dicts (a lost race only
-        recomputes an entry), emptied when full."""
+        same 36 values every call (stacking them costs ~0.4 ms)."""
         j = self.held
         assert j is not None
+
+        def lanes(values: FloatArray) -> list[Arm]:
+            g, _ = self.held_lanes(values)
+            built = Arm(g.w, g.r, self.scale, fit=False)
+            return [built.lane(k) for k in range(len(values))] if len(values) > 1 else [built]
+
+        def stack(values: list[float]) -> Arm:
+            return Arm.stack(_kept_per_value(self._general_cache, values, lanes))
+
         E = exp_rotation(self.w_all[j], self.r_all[j], theta)
-        key = theta.tobytes()
-        stacked = self._stacked_cache.get(key)
-        if stacked is not None:  # the same values as a call before (`ik_all`'s 36)
-            return E, stacked
-        arm = self._held_arms(theta.tolist())
-        if len(self._stacked_cache) >= 16:
-            self._stacked_cache.clear()
-        self._stacked_cache[key] = arm
-        return E, arm
+        return E, _kept_per_tuple(self._stacked_cache, theta, stack)
 
     def held_shifted(
         self, theta: FloatArray
@@ -338,47 +339,25 @@ class ChainSolver(JointLimits):
         call before; `ik_all`'s 36 values as one stack, not one solve per value)."""
         j = self.held
         assert j is not None
-        E = exp_rotation(self.w_all[j], self.r_all[j], theta)
-        key = theta.tobytes()
-        got = self._shifted_stacks.get(key)
-        if got is not None:
-            return E, got
-        cache = self._shifted_cache
-        values = theta.tolist()
-        missing = list(dict.fromkeys(v for v in values if v not in cache))
-        if missing:
-            g, _ = self.held_lanes(np.array(missing))
-            if len(cache) + len(missing) > GENERAL_CACHE_SIZE:
-                cache.clear()
-            shift = int(self.structure.case or 0)
-            for k, v in enumerate(missing):
-                w, r = g.w[k : k + 1], g.r[k : k + 1]
-                cache[v] = (w, r, shifted_base(w, r, self.scale, shift))
-        parts = [cache[v] for v in values]
-        got = (
-            np.concatenate([w for w, _, _ in parts]),
-            np.concatenate([r for _, r, _ in parts]),
-            Arm.stack([a for _, _, a in parts]),
-        )
-        if len(self._shifted_stacks) >= 16:
-            self._shifted_stacks.clear()
-        self._shifted_stacks[key] = got
-        return E, got
+        shift = int(self.structure.case or 0)
 
-    def _held_arms(self, values: list[float]) -> Arm:
-        """`held_general`'s Arm of the held values, from those kept per value."""
-        cache = self._general_cache
-        missing = list(dict.fromkeys(v for v in values if v not in cache))
-        if missing:
-            gm, _ = self.held_lanes(np.array(missing))
-            built = Arm(gm.w, gm.r, self.scale, fit=False)
-            if len(cache) + len(missing) > GENERAL_CACHE_SIZE:
-                cache.clear()
-            for k, v in enumerate(missing):
-                cache[v] = built.lane(k) if len(missing) > 1 else built
-            if len(missing) == len(values) and len(set(values)) == len(values):
-                return built  # (built in the values' order already)
-        return Arm.stack([cache[v] for v in values])
+        def lanes(values: FloatArray) -> list[tuple[FloatArray, FloatArray, Arm]]:
+            g, _ = self.held_lanes(values)
+            w, r = g.w[:, None], g.r[:, None]  # (K, 1, 6, 3): one lane per value
+            return [
+                (w[k], r[k], shifted_base(w[k], r[k], self.scale, shift)) for k in range(len(w))
+            ]
+
+        def stack(values: list[float]) -> tuple[FloatArray, FloatArray, Arm]:
+            parts = _kept_per_value(self._shifted_cache, values, lanes)
+            return (
+                np.concatenate([w for w, _, _ in parts]),
+                np.concatenate([r for _, r, _ in parts]),
+                Arm.stack([a for _, _, a in parts]),
+            )
+
+        E = exp_rotation(self.w_all[j], self.r_all[j], theta)
+        return E, _kept_per_tuple(self._shifted_stacks, theta, stack)
 
     def held_scalar_geometry(self, theta: float) -> tuple[Geometry, list[list[float]]]:
         """`held_geometry` of one value θ as the scalar solvers' geometry, and E⁻¹ (4 × 4 lists),
@@ -1251,6 +1230,42 @@ def refine_many(
 ONE_STEP_BELOW = 1e-6
 #: Held values whose general 6R `Arm` a 7R arm keeps (`ChainSolver.held_general`; ~40 KB each).
 GENERAL_CACHE_SIZE = 256
+#: Tuples of held values whose stacked arms it keeps (`ik_all`'s 36, a sweep's chunks).
+STACKED_CACHE_SIZE = 16
+
+_Part = TypeVar("_Part")
+
+
+def _kept_per_value(
+    cache: dict[float, _Part], values: list[float], build: Callable[[FloatArray], list[_Part]]
+) -> list[_Part]:
+    """The parts of the held values in their order, kept per value in `cache`: those not kept
+    are built at once (`build`: values (m,) → m parts). A cache that would grow past
+    `GENERAL_CACHE_SIZE` is emptied first, and every value built again. (A plain dict: a lost
+    race only recomputes an entry.)"""
+    missing = list(dict.fromkeys(v for v in values if v not in cache))
+    if missing and len(cache) + len(missing) > GENERAL_CACHE_SIZE:
+        cache.clear()
+        missing = list(dict.fromkeys(values))
+    if missing:
+        cache.update(zip(missing, build(np.array(missing)), strict=True))
+    return [cache[v] for v in values]
+
+
+def _kept_per_tuple(
+    cache: dict[bytes, _Part], theta: FloatArray, make: Callable[[list[float]], _Part]
+) -> _Part:
+    """`make`(θ's values), kept per tuple of values θ in `cache` (emptied when full)."""
+    key = theta.tobytes()
+    got = cache.get(key)
+    if got is None:
+        got = make(theta.tolist())
+        if len(cache) >= STACKED_CACHE_SIZE:
+            cache.clear()
+        cache[key] = got
+    return got
+
+
 #: Rounds of refinement at most: the first (`steps_for`'s steps), then one step a round for a
 #: candidate still off. Near a singular configuration convergence is neither quadratic nor
 #: monotone: a random 6R arm's target at σ_min/σ_max ≈ 2e-5 left its candidates 1e-7 off after
