@@ -348,7 +348,7 @@ class Arm:
 
     @staticmethod
     def stack(arms: Sequence[Arm]) -> Arm:
-        """One arm whose lanes are those of `arms` in turn (arms of one chain, unfitted: K None).
+        """One arm whose lanes are those of `arms` in turn (arms of one chain, all fitted or none).
         Its `samples` are left out: they serve arms built on a one-lane base."""
         if len(arms) == 1:
             return arms[0]
@@ -398,19 +398,7 @@ class Arm:
 
     def tile(self, n: int) -> Arm:
         """This arm's K lanes repeated for n targets: lane i·K + k is target i, lane k."""
-        if n == 1:
-            return self
-        out = Arm.__new__(Arm)
-        for name, value in vars(self).items():
-            if isinstance(value, np.ndarray):
-                value = np.tile(value, (n,) + (1,) * (value.ndim - 1))
-            elif name == "G":
-                value = tuple(
-                    None if v is None else np.tile(v, (n,) + (1,) * (v.ndim - 1)) for v in value
-                )
-            setattr(out, name, value)
-        out.lanes = self.lanes * n
-        return out
+        return Arm.stack([self] * n)
 
     def target_floats(
         self, R: Sequence[Sequence[float]], t: Sequence[float]
