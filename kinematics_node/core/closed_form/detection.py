@@ -16,7 +16,7 @@ from .. import subproblems as sp
 from ..exceptions import InvalidInputError, NoClosedFormError
 from ..model import KinematicChain
 from .chain_solver import ChainSolver, solve_arrays, solve_branches
-from .geometry import FloatArray, axis_lines, exp_rotation, meet_point, wrap_angles
+from .geometry import axis_lines, exp_rotation, meet_point, wrap_angles
 from .structure import (
     ANGLE_TOLERANCE,
     CASE_LABEL,
@@ -24,6 +24,7 @@ from .structure import (
     EXACT_RELATION,
     ClosedFormFamily,
     Structure,
+    collinear_axes,
     structure_candidates,
     structure_residual,
 )
@@ -46,22 +47,6 @@ def _confirm(solver: ChainSolver) -> bool:
         if d.min() > 1e-6:
             return False
     return True
-
-
-def collinear_axes(w: FloatArray, r: FloatArray) -> tuple[int, int] | None:
-    """The first two consecutive joints (0-based) whose axes (unit directions w, points r
-    (n, 3), at the home configuration) lie on one line, to `ANGLE_TOLERANCE` and
-    `DISTANCE_TOLERANCE`, or None. With no joint between them they stay on one line in every
-    configuration and act as one: the tip moves with the sum of their angles (the difference,
-    where the axes are opposed). (Axes further apart that meet at home, as a Kinova's wrist,
-    are parted by the joints between them.)"""
-    for i in range(w.shape[0] - 1):
-        if np.linalg.norm(np.cross(w[i], w[i + 1])) > ANGLE_TOLERANCE:
-            continue
-        d = r[i + 1] - r[i]
-        if np.linalg.norm(d - np.dot(d, w[i]) * w[i]) <= DISTANCE_TOLERANCE:
-            return i, i + 1
-    return None
 
 
 def _why_not(chain: KinematicChain) -> str:

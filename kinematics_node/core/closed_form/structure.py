@@ -71,6 +71,20 @@ def _meets(w: FloatArray, r: FloatArray, idx: tuple[int, ...]) -> bool:
     return bool(miss <= DISTANCE_TOLERANCE)
 
 
+def collinear_axes(w: FloatArray, r: FloatArray) -> tuple[int, int] | None:
+    """The first two neighbouring joints (0-based) whose lines (unit directions w, points r
+    (n, 3)) are one line, to `ANGLE_TOLERANCE` and `DISTANCE_TOLERANCE`, or None. With no joint
+    between them they stay one line in every configuration and act as one joint: the tip moves
+    with the sum of their angles (the difference, where the axes are opposed). Only neighbours,
+    as in `_meets`."""
+    for i in range(w.shape[0] - 1):
+        if _parallel(w, i, i + 1):
+            d = r[i + 1] - r[i]
+            if float(sp.norm(d - sp.dot(d, w[i]) * w[i])) <= DISTANCE_TOLERANCE:
+                return i, i + 1
+    return None
+
+
 #: A named family whose axis relations hold only to more than this (angle [rad], distance / the
 #: arm's size) is left to the general 6R solver: its candidates would each need Newton steps.
 EXACT_RELATION = 1e-9
