@@ -33,18 +33,27 @@ def test_hit_equals_parse_and_an_edit_is_a_new_entry(tmp_path, monkeypatch):
     assert not np.array_equal(edited.fk(q), first.fk(q))
 
 
+_FK_IMPORTS = (
+    "import sys\n"
+    "from kinematics_node.cli.main import main\n"
+    "assert main(['fk', '--robot', 'ur5e', '--q', '0,0,0,0,0,0']) == 0\n"
+    "print(sorted(m for m in ('scipy', 'yourdfpy', 'trimesh', 'xacro') if m in sys.modules))\n"
+)
+
+
+def _heavy_imports_of_fk(env: dict[str, str]) -> str:
+    """The heavy modules a `kinematics fk` run in a new process imported, as it prints them."""
+    run = subprocess.run(
+        [sys.executable, "-c", _FK_IMPORTS], env=env, capture_output=True, text=True
+    )
+    assert run.stdout, run.stderr
+    return run.stdout.splitlines()[-1]
+
+
 def test_a_warm_fk_call_imports_neither_yourdfpy_nor_scipy(tmp_path):
     env = dict(os.environ, KINEMATICS_CACHE_DIR=str(tmp_path))
-    code = (
-        "import sys\n"
-        "from kinematics_node.cli.main import main\n"
-        "assert main(['fk', '--robot', 'ur5e', '--q', '0,0,0,0,0,0']) == 0\n"
-        "print(sorted(m for m in ('scipy', 'yourdfpy', 'trimesh', 'xacro') if m in sys.modules))\n"
-    )
-    cold = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
-    warm = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
-    assert "yourdfpy" in cold.stdout.splitlines()[-1]
-    assert warm.stdout.splitlines()[-1] == "[]", warm.stderr
+    assert "yourdfpy" in _heavy_imports_of_fk(env)  # cold
+    assert _heavy_imports_of_fk(env) == "[]"  # warm
 
 
 def test_the_family_detected_by_ik_is_kept_and_taken_back_only_by_the_same_detector(
@@ -100,11 +109,4 @@ def test_a_kept_family_does_not_make_a_warm_fk_call_import_scipy(tmp_path):
     subprocess.run([sys.executable, "-c", ik], env=env, capture_output=True, text=True, check=True)
     (entry,) = tmp_path.glob("*.json")
     assert json.loads(entry.read_text())["family"]["value"][0] == "three_parallel"
-    fk = (
-        "import sys\n"
-        "from kinematics_node.cli.main import main\n"
-        "assert main(['fk', '--robot', 'ur5e', '--q', '0,0,0,0,0,0']) == 0\n"
-        "print(sorted(m for m in ('scipy', 'yourdfpy') if m in sys.modules))\n"
-    )
-    warm = subprocess.run([sys.executable, "-c", fk], env=env, capture_output=True, text=True)
-    assert warm.stdout.splitlines()[-1] == "[]", warm.stderr
+    assert _heavy_imports_of_fk(env) == "[]"
