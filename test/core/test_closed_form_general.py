@@ -467,7 +467,7 @@ def test_an_arm_built_per_target_on_a_shared_base_equals_one_built_whole():
 )
 def test_a_loop_with_the_moved_joints_first_equals_the_loop_read_as_given(name, shift):
     """Read from joint 5 or 6 (shift 4, 5), one target's loop is written in the frame moved by
-    G, so that the joints the target moves come first (`solve_one_shifted`): the same equations
+    G, so that the joints the target moves come first (`MovedFirst`): the same equations
     moved by one rigid motion. Its solutions must be those of the stacked solve, which moves the
     other joints (each set checked by FK, not against each other alone), and contain the
     configuration, one target at a time and all at once; and the arm built on the prepared one
@@ -483,12 +483,13 @@ def test_a_loop_with_the_moved_joints_first_equals_the_loop_read_as_given(name, 
     scale = solver_of(chain).scale
     base = g6.shifted_base(w, r, scale, shift)
     assert base.K is None  # joint 1 of the loop moves with the target: no fitted right-hand side
+    moved_first = g6.MovedFirst(base, shift)
     rng = np.random.default_rng(5 + shift)
     q = rng.uniform(-PI, PI, size=(25, 6))
     G = chain.fk(q) @ M_inv
     for i in range(len(q)):
         R, t = G[i, :3, :3], G[i, :3, 3]
-        one = g6.solve_one_shifted(base, w, r, shift, R.tolist(), t.tolist())
+        one = moved_first.solve(R.tolist(), t.tolist())
         assert one is not None
         whole, ok = g6.solve_general_6r_shifted(
             w, r, None, R[None], t[None], scale, g6.Trace(), shift

@@ -22,6 +22,7 @@ from scipy.linalg.lapack import dposv
 from ..model import TWO_PI, KinematicChain
 from .general_6r import (
     Arm,
+    MovedFirst,
     shifted_base,
     solve_general_6r,
     solve_general_6r_shifted,
@@ -167,6 +168,12 @@ class ChainSolver(JointLimits):
         self.general_base = (
             shifted_base(self.geometry.w, self.geometry.r, self.scale, int(structure.case))
             if self.geometry is not None and structure.kind == "general_6r" and structure.case
+            else None
+        )
+        # ... and read from joint 5 or 6: one target's right-hand side on that arm as it stands
+        self.general_moved = (
+            MovedFirst(self.general_base, int(structure.case))
+            if self.general_base is not None and int(structure.case) >= 4
             else None
         )
         # The three-parallel solver with its constants prepared, for one target of a 6R arm.
@@ -917,7 +924,9 @@ def general_solutions(
         R, p = _inverse_rp(R, p)
     if arm is not None:
         Q1 = solve_one_rows(arm, R, p, polish)
-    else:  # the loop read from another joint: its arm built per target on the prepared part
+    elif solver.general_moved is not None:  # the loop read from joint 5 or 6
+        Q1 = solver.general_moved.solve(R, p, polish)
+    else:  # the loop read from joint 2-4: its arm built per target on the prepared part
         assert base is not None and solver.geometry is not None
         g = solver.geometry
         Q1 = solve_one_shifted(base, g.w, g.r, int(solver.structure.case or 0), R, p, polish)

@@ -375,7 +375,7 @@ class Arm:
         lane of targets: the right-hand side's samples M12 (and B12 for θ₆) computed for them,
         K left unfitted, and every part of joints 3-6 (Σ's arm part, the deflating basis: the
         costly ones) shared by all lanes. For a loop whose first joints alone move with the
-        target (`solve_one_shifted`, `solve_general_6r_shifted`: shift ≥ 4)."""
+        target (`solve_general_6r_shifted`: shift ≥ 4; one target: `MovedFirst`)."""
         out = copy.copy(self)
         L = w.shape[0]
         A, B, C = screw_parts(w, (r - self.origin[:, None]) / self.scale)  # (L, 2, 4, 4) each
@@ -717,7 +717,7 @@ def solve_general_6r(
     L = R.shape[0]
     Q, q0, u = arm.target_side(R, t)
     if L == 1 and arm.lanes == 1:
-        one = _solve_one(arm, Q[0], q0[0], u)
+        one = _solve_one(arm, Q[0], q0[0], arm.B12[0] @ u[0])
         if one is not None:
             Qout = np.zeros((1, BRANCHES, 6))
             ok = np.zeros((1, BRANCHES), dtype=bool)
@@ -761,9 +761,10 @@ def solve_one_target(
     by forward kinematics only the one solution it takes (`ik`)."""
     if arm.K is None:
         Q, q0, u = arm.target_side(R[None], t[None])
-        q = _solve_one(arm, Q[0], q0[0], u, polish)
+        q = _solve_one(arm, Q[0], q0[0], arm.B12[0] @ u[0], polish)
     else:
-        q = _solve_one(arm, *arm.target_floats(R.tolist(), t.tolist()), polish)
+        q = solve_one_rows(arm, R.tolist(), t.tolist(), polish)
+        return q
     if q is None or np.isfinite(q).all():
         return q
     return q[np.isfinite(q).all(axis=1)]
@@ -774,16 +775,18 @@ def solve_one_rows(
 ) -> FloatArray | None:
     """`solve_one_target` of a fitted arm with the target's rotation rows R and translation t as
     floats (`ik`'s form: no arrays to build and take apart again)."""
-    q = _solve_one(arm, *arm.target_floats(R, t), polish)
+    Q, q0, u = arm.target_floats(R, t)
+    q = _solve_one(arm, Q, q0, arm.B12[0] @ u[0], polish)
     if q is None or np.isfinite(q).all():
         return q
     return q[np.isfinite(q).all(axis=1)]
 
 
 def _solve_one(
-    arm: Arm, Q: FloatArray, q0: FloatArray, u: FloatArray, polish: bool = True
+    arm: Arm, Q: FloatArray, q0: FloatArray, b12u: FloatArray, polish: bool = True
 ) -> FloatArray | None:
-    """`solve_general_6r` of one target of a 6R arm (Q (14, 8), q₀ (14,), u = R_G x₆ (1, 3)):
+    """`solve_general_6r` of one target of a 6R arm (Q (14, 8), q₀ (14,), and b12u (9, 3) the
+    coefficients of R₂ᵀR₁ᵀ R_G x₆ over m₁₂ (`Arm.B12` times u = R_G x₆), for θ₆):
     the same steps on 2-D arrays with LAPACK called directly, about half the time of the stacked
     form on one lane. The solutions (R, 6); None where the stacked form must decide (C₂ near
     singular). The null vectors of Σ(x₃) come from the deflated matrix's eigenvectors, computed
@@ -836,7 +839,7 @@ def _solve_one(
         Sig[:, 6:, 3:] += Fx
         Sig[:, _DIAG, _DIAG] += 1e-15 * size
         _clusters(Sig, np.array(near), np.zeros(R, dtype=bool), th[1], th[2])
-    return _angles_one(arm, th, u[0], q0, Q_pinv, (H[:, 27:], Nq) if polish else None)
+    return _angles_one(arm, th, b12u, q0, Q_pinv, (H[:, 27:], Nq) if polish else None)
 
 
 def _null_and_pinv(Q: FloatArray) -> tuple[FloatArray, FloatArray] | None:
@@ -899,7 +902,7 @@ def _polish_steps(J: FloatArray, res: FloatArray) -> FloatArray:
 def _angles_one(
     arm: Arm,
     th: FloatArray,
-    u: FloatArray,
+    b12u: FloatArray,
     q0: FloatArray,
     Q_pinv: FloatArray,
     eqs: tuple[FloatArray, FloatArray] | None = None,
@@ -909,8 +912,9 @@ def _angles_one(
     that each operation costs about a microsecond): angles as rows, so that each joint's is a
     contiguous slice; the rows (1, cos θ, sin θ) and their derivatives (0, −sin θ, cos θ) from
     one call of np.cos; m₃₄₅ and its three derivatives as one stack; Pf and Bay as one product.
-    u = R_G x₆ (3,), q₀ (14,), Q_pinv: the pseudo-inverse's rows c₂, s₂, c₁, s₁ (4, 14). With
-    `eqs` (N Pfᵀ (6, 27), N q₀ (6,)), polished first by `_angles`' Gauss–Newton step."""
+    b12u (9, 3): R₂ᵀR₁ᵀ R_G x₆ over m₁₂ (`_solve_one`), q₀ (14,), Q_pinv: the pseudo-inverse's
+    rows c₂, s₂, c₁, s₁ (4, 14). With `eqs` (N Pfᵀ (6, 27), N q₀ (6,)), polished first by
+    `_angles`' Gauss–Newton step."""
     R = th.shape[1]
     q = np.empty((6, R))
     if eqs is None:
@@ -936,7 +940,7 @@ def _angles_one(
     q[1::-1] = np.arctan2(m12[:, 1::2], m12[:, 0::2]).T  # θ₂, θ₁
     t12 = np.cos(q[:2, :, None] * _K3 - _PH3)  # (2, R, 3)
     m12f = (t12[0, :, :, None] * t12[1, :, None, :]).reshape(R, 9)
-    w12 = m12f @ (arm.B12[0] @ u)  # (R, 3): R₂ᵀR₁ᵀ u
+    w12 = m12f @ b12u  # (R, 3): R₂ᵀR₁ᵀ R_G x₆
     yw = lhs[:, 14:].reshape(R, 2, 3) @ w12[:, :, None]  # ((ω₆ × x₆)·y, x₆·y)
     q[5] = np.arctan2(yw[:, 0, 0], yw[:, 1, 0])
     return q.T
@@ -1035,8 +1039,8 @@ def solve_general_6r_shifted(
     given: the prepared `Arm` of w, r (shift 0), or for shift > 0 an arm of one lane built from
     w, r in the loop's order (`shifted_base`), whose first 6 − k joints (those G does not move)
     one target's arm takes from it (the arm is built per call: that part of it once). With such
-    an arm and k ≥ 4, the loop is written with the moved joints first, as `solve_one_shifted`
-    does: every lane then shares all of the arm but its first two joints. For k ≥ 4 `arm` may
+    an arm and k ≥ 4, the loop is written with the moved joints first, as `MovedFirst` does
+    for one target: every lane then shares all of the arm but its first two joints. For k ≥ 4 `arm` may
     also hold one such lane per lane of w, r and the targets (a 7R arm's held values)."""
     if shift == 0:
         return solve_general_6r(arm or Arm(w, r, scale, fit=False), R, t, trace)
@@ -1062,7 +1066,7 @@ def _moved_first(
     w: FloatArray, r: FloatArray, shift: int, R: FloatArray, t: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
     """The axes (L, 2, 3) of the first two joints of the loop read from joint `shift` + 1 ≥ 5
-    with the moved joints first (`solve_one_shifted`): its first 6 − shift joints moved by each
+    with the moved joints first (`solve_general_6r_shifted`): its first 6 − shift joints moved by each
     lane's G = (R (L, 3, 3), t (L, 3)), direction R w and point R r + t. Axes w, r (1 or L,
     6, 3)."""
     first = _loop_order(shift)[:2]
@@ -1090,26 +1094,82 @@ def solve_one_shifted(
     polish: bool = True,
 ) -> FloatArray | None:
     """`solve_one_rows` of one target G = (R, t) (rotation rows and translation as floats) with
-    the loop read from joint `shift` + 1 (`solve_general_6r_shifted`), its arm built on `base`
-    (`shifted_base`); None where the stacked form must decide. Axes w, r (1, 6, 3).
-
-    For shift ≥ 4 the loop is written in the frame moved by G: G e′ G⁻¹ = e, so
-    (G eₖ₊₁ G⁻¹) ⋯ (G e₆ G⁻¹) e₁ ⋯ eₖ = G, the same equations (every term moved by one rigid
-    motion) with the joints that the target moves first. They then enter only the right-hand
-    side, and the arm is `base` with its first two joints replaced (`Arm.with_first_two`), not
-    built again: for shift ≤ 3 they are the last, and a third to a half of the arm is."""
+    the loop read from joint `shift` + 1 ≤ 4 (`solve_general_6r_shifted`; from joint 5 or 6:
+    `MovedFirst`), its arm built on `base` (`shifted_base`): the loop's last `shift` joints move
+    with the target, and the arm's parts of its first 6 − shift joints come from `base`. None
+    where the stacked form must decide. Axes w, r (1, 6, 3)."""
+    assert 1 <= shift <= 3, shift
     Ra, ta = np.array(R), np.array(t)
     order = _loop_order(shift)
-    if shift >= 4:
-        first_two = _moved_first(w, r, shift, Ra[None], ta[None])
-        q = solve_one_target(base.with_first_two(*first_two), Ra, ta, polish)
-    else:
-        wl, rl = w.copy(), r.copy()
-        wl[:, :shift] = wl[:, :shift] @ Ra  # Rᵀ w, row by row
-        rl[:, :shift] = (rl[:, :shift] - ta) @ Ra
-        arm = Arm(wl[:, order], rl[:, order], base.scale, fit=False, base=(base, 6 - shift))
-        q = solve_one_rows(arm, R, t, polish)
+    wl, rl = w.copy(), r.copy()
+    wl[:, :shift] = wl[:, :shift] @ Ra  # Rᵀ w, row by row
+    rl[:, :shift] = (rl[:, :shift] - ta) @ Ra
+    arm = Arm(wl[:, order], rl[:, order], base.scale, fit=False, base=(base, 6 - shift))
+    q = solve_one_rows(arm, R, t, polish)
     return None if q is None else q[:, np.argsort(order)]
+
+
+class MovedFirst:
+    """One target of a 6R arm whose loop is read from joint k + 1 = 5 or 6 (shift k = 4, 5), the
+    joints that the target moves written first (`solve_general_6r_shifted`): for one target the
+    arm is `base` (`shifted_base`) and only the right-hand side changes, in closed form.
+
+    The loop's first 6 − k joints are moved by G, aᵢ = G eᵢ G⁻¹ (eᵢ about the joint's own axis),
+    so the right-hand side's map a₂⁻¹a₁⁻¹ G (applied to r₆, ω₆ and, for θ₆, x₆) is
+
+        G e₂⁻¹e₁⁻¹  (k = 4: both moved),        e₂⁻¹ G e₁⁻¹  (k = 5: the first moved),
+
+    the target one rigid motion between sample transforms of the base arm. Per target: that
+    motion applied to points and directions prepared once, the 14 equations at the 3 × 3 sample
+    angles and their interpolation. Building the moved joints' arm (`Arm.with_first_two`) and
+    its right-hand side cost about twice as much; the stacked form still does that (one arm for
+    many lanes)."""
+
+    def __init__(self, base: Arm, shift: int) -> None:
+        assert shift in (4, 5) and base.lanes == 1, shift
+        self.base, self.shift = base, shift
+        self.order = np.argsort(_loop_order(shift))
+        # r₆ (a point) and ω₆, x₆ (directions) as homogeneous columns (4, 3)
+        H = np.zeros((4, 3))
+        H[:3, 0], H[:3, 1], H[:3, 2], H[3, 0] = base.r[0, 5], base.w[0, 5], base.x6[0], 1.0
+        e1, e2 = base.samples[0, -1.0][0], base.samples[1, -1.0][0]  # e₁⁻¹, e₂⁻¹ (3, 4, 4)
+        # k = 4: G (e₂⁻¹e₁⁻¹ H) at the samples [j, k] (3, 3, 4, 3) (`Arm.M12`'s order); k = 5:
+        # e₂⁻¹[k] G (e₁⁻¹[j] H) (3, 1, 4, 3), and e₂⁻¹ (1, 3, 4, 4) after the target
+        self.inner = base.M12[0] @ H if shift == 4 else (e1 @ H)[:, None]
+        self.after = None if shift == 4 else e2[None]
+        self.origin, self.scale = base.origin[0].tolist(), base.scale
+
+    def right_hand_side(
+        self, R: Sequence[Sequence[float]], t: Sequence[float]
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Q (14, 8), q₀ (14,) and θ₆'s b12u (9, 3) (`_solve_one`) of one target G = (R, t)."""
+        (o0, o1, o2), k = self.origin, 1.0 / self.scale
+        # G in the arm's coordinates, G′ x′ = (R (s x′ + o) + t − o) / s, as a 4 × 4
+        Gs = np.array([
+            [*row, (row[0] * o0 + row[1] * o1 + row[2] * o2 + ti - oi) * k]
+            for row, ti, oi in zip(R, t, (o0, o1, o2), strict=True)
+        ] + [[0.0, 0.0, 0.0, 1.0]])  # fmt: skip
+        Y = Gs @ self.inner
+        if self.after is not None:
+            Y = self.after @ Y  # (3, 3, 4, 3)
+        Y = Y[..., :3, :].reshape(9, 3, 3)  # [sample, xyz, (r₆, ω₆, x₆)]
+        p, l = Y[:, :, 0], Y[:, :, 1]
+        coef = _V_INV2 @ np.concatenate((_equations(p, l), Y[:, :, 2]), axis=1)  # (9, 17)
+        rhs = coef[:, :14].T
+        return rhs[:, 1:], rhs[:, 0], coef[:, 14:]
+
+    def solve(
+        self, R: Sequence[Sequence[float]], t: Sequence[float], polish: bool = True
+    ) -> FloatArray | None:
+        """`solve_one_rows` of one target G = (R, t) (rotation rows and translation as floats):
+        the solutions (k, 6) in the chain's joint order; None where the stacked form must
+        decide."""
+        q = _solve_one(self.base, *self.right_hand_side(R, t), polish)
+        if q is None:
+            return None
+        if not np.isfinite(q).all():
+            q = q[np.isfinite(q).all(axis=1)]
+        return q[:, self.order]
 
 
 def shifted_base(w: FloatArray, r: FloatArray, scale: float, shift: int) -> Arm:
