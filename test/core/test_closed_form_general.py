@@ -470,8 +470,9 @@ def test_a_loop_with_the_moved_joints_first_equals_the_loop_read_as_given(name, 
     G, so that the joints the target moves come first (`MovedFirst`): the same equations
     moved by one rigid motion. Its solutions must be those of the stacked solve, which moves the
     other joints (each set checked by FK, not against each other alone), and contain the
-    configuration, one target at a time and all at once; and the arm built on the prepared one
-    (`Arm.with_first_two`) must have the coefficients of one built whole from the same axes."""
+    configuration, one target at a time and all at once; and the right-hand side that
+    `MovedFirst` moves with the target must be that of the arm built whole from the moved axes,
+    whose other coefficients are the prepared arm's."""
     from kinematics_node.core.closed_form import general_6r as g6
     from kinematics_node.core.closed_form import import_family
     from kinematics_node.core.closed_form.detection import solver_of
@@ -515,16 +516,20 @@ def test_a_loop_with_the_moved_joints_first_equals_the_loop_read_as_given(name, 
         for s in single:
             assert _contains(batch.solutions_of(i), s, 1e-7)
         assert _contains(single, q[i], 1e-6)
-    # the coefficients of the last target's arm
+    # the last target's right-hand side: that of the arm built whole from the moved axes
     order = [*range(shift, 6), *range(shift)]
     wl, rl = w[:, order].copy(), r[:, order].copy()
     moved = 6 - shift
     wl[:, :moved] = wl[:, :moved] @ R.T
     rl[:, :moved] = rl[:, :moved] @ R.T + t
-    a1 = g6.Arm(wl, rl, scale, fit=False)
-    a2 = base.with_first_two(wl[:, :2], rl[:, :2])
-    for name_ in ("P", "Pf", "M12", "B12", "Bay", "Q2", "S", "PfBay"):
-        np.testing.assert_allclose(getattr(a2, name_), getattr(a1, name_), atol=1e-12)
+    whole_arm = g6.Arm(wl, rl, scale, fit=False)
+    Q, q0, u = whole_arm.target_side(R[None], t[None])
+    for got, want in zip(
+        moved_first.right_hand_side(R[None], t[None]), (Q, q0, whole_arm.B12[0] @ u[0]), strict=True
+    ):
+        np.testing.assert_allclose(got.reshape(want.shape), want, atol=1e-12)
+    for name_ in ("P", "Pf", "Q2", "S", "PfBay"):  # joints 3-6: the prepared arm's
+        np.testing.assert_allclose(getattr(base, name_), getattr(whole_arm, name_), atol=1e-12)
 
 
 def _reproduces(

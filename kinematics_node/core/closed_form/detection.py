@@ -158,9 +158,9 @@ def detect(chain: KinematicChain) -> ChainSolver | None:
 #: The general 6R solver read from the base, then from the tip (a geometry that degenerates one
 #: elimination may not degenerate the other).
 #: Then with the loop read from another joint (`general_6r.solve_general_6r_shifted`): first
-#: from joint 6, then 5 (the target then moves only the loop's first joints, so that one
-#: target's arm shares the costly part of the arm prepared once: `general_6r.solve_one_shifted`),
-#: then from joints 2, 3 and 4 (the arm then built per target).
+#: from joint 6, then 5 (the target then moves only the loop's first joints, so that every
+#: target takes the arm prepared once and only its right-hand side moves: `general_6r.MovedFirst`),
+#: then from joints 2, 3 and 4 (the arm then built per target on the joints it does not move).
 _GENERAL = [
     Structure("general_6r", "" if k == 0 else str(k), rev)
     for k in (0, 5, 4, 1, 2, 3)

@@ -49,7 +49,6 @@ of NumPy's per-call cost on these sizes). Lengths are scaled by the arm's size f
 
 from __future__ import annotations
 
-import copy
 import math
 from collections.abc import Sequence
 
@@ -368,22 +367,6 @@ class Arm:
                 value = {}
             setattr(out, name, value)
         out.lanes = sum(a.lanes for a in arms)
-        return out
-
-    def with_first_two(self, w: FloatArray, r: FloatArray) -> Arm:
-        """This one-lane arm with joints 1 and 2 on the axes w, r (L, 2, 3) [m], one pair per
-        lane of targets: the right-hand side's samples M12 (and B12 for θ₆) computed for them,
-        K left unfitted, and every part of joints 3-6 (Σ's arm part, the deflating basis: the
-        costly ones) shared by all lanes. For a loop whose first joints alone move with the
-        target (`solve_general_6r_shifted`: shift ≥ 4; one target: `MovedFirst`)."""
-        out = copy.copy(self)
-        L = w.shape[0]
-        A, B, C = screw_parts(w, (r - self.origin[:, None]) / self.scale)  # (L, 2, 4, 4) each
-        c, s = np.cos(_SAMPLES)[:, None, None], np.sin(_SAMPLES)[:, None, None]
-        inv = A[:, :, None] + c * B[:, :, None] - s * C[:, :, None]  # e^{−[Sᵢ]θ} (L, 2, 3, 4, 4)
-        out.M12 = inv[:, 1, None, :] @ inv[:, 0, :, None]  # e₂⁻¹ e₁⁻¹ (L, 3, 3, 4, 4)
-        out.K = None
-        out.B12 = np.einsum("ab,lbij->laij", _V_INV2, out.M12[..., :3, :3].reshape(L, 9, 3, 3))
         return out
 
     def second_offset(self) -> FloatArray:
@@ -707,17 +690,27 @@ def _clusters(
 
 
 def solve_general_6r(
-    arm: Arm, R: FloatArray, t: FloatArray, trace: Trace
+    arm: Arm,
+    R: FloatArray,
+    t: FloatArray,
+    trace: Trace,
+    sides: tuple[FloatArray, FloatArray, FloatArray] | None = None,
 ) -> tuple[FloatArray, BoolArray]:
     """All (≤ 16) solutions of e₁ ⋯ e₆ = G = (R, t) for L lanes: Q (L, 16, 6), ok (L, 16).
 
-    `arm`: the lanes' axes (one arm for every lane, or one per lane). Unpolished: the caller
-    refines and checks by forward kinematics.
+    `arm`: the lanes' axes (one arm for every lane, or one per lane). `sides`: the right-hand
+    sides Q (L, 14, 8), q₀ (L, 14) and θ₆'s b12u (L, 9, 3) where the caller has them
+    (`MovedFirst`), else `Arm.target_side`'s. Unpolished: the caller refines and checks by
+    forward kinematics.
     """
     L = R.shape[0]
-    Q, q0, u = arm.target_side(R, t)
+    if sides is None:
+        Q, q0, u = arm.target_side(R, t)
+        b12u = (arm.B12 @ u[:, None, :, None])[..., 0]  # (L, 9, 3): R₂ᵀR₁ᵀ u over m₁₂
+    else:
+        Q, q0, b12u = sides
     if L == 1 and arm.lanes == 1:
-        one = _solve_one(arm, Q[0], q0[0], arm.B12[0] @ u[0])
+        one = _solve_one(arm, Q[0], q0[0], b12u[0])
         if one is not None:
             Qout = np.zeros((1, BRANCHES, 6))
             ok = np.zeros((1, BRANCHES), dtype=bool)
@@ -743,7 +736,7 @@ def solve_general_6r(
     Qout = np.zeros((L, BRANCHES, 6))
     ok = np.zeros((L, BRANCHES), dtype=bool)
     if lane.size:
-        q = _angles(arm, lane, th3, th4, th5, u, q0, Q_pinv, eqs)
+        q = _angles(arm, lane, th3, th4, th5, b12u, q0, Q_pinv, eqs)
         slot = np.arange(lane.size) - np.searchsorted(lane, lane)  # the root's place in its lane
         keep = slot < BRANCHES
         Qout[lane[keep], slot[keep]] = q[keep]
@@ -952,7 +945,7 @@ def _angles(
     theta3: FloatArray,
     theta4: FloatArray,
     theta5: FloatArray,
-    u: FloatArray,
+    b12u: FloatArray,
     q0: FloatArray,
     Q_pinv: FloatArray,
     eqs: tuple[FloatArray, FloatArray],
@@ -961,7 +954,8 @@ def _angles(
     """Full solutions (R, 6) of roots (θ₃, θ₄, θ₅) (R,) of lanes `lane`, first polished by one
     Gauss–Newton step on the six eliminated equations `eqs` (`_companion`): θ₁, θ₂ from the 14
     equations by least squares, Q m₁₂ = P(θ₃) m₄₅ − q₀; θ₆ from the orientation, y = R₆ x₆ =
-    (R₃R₄R₅)ᵀ (R₂ᵀR₁ᵀ) u with u = R_G x₆ (L, 3) (`Arm.B12`, `Arm.Bay`)."""
+    (R₃R₄R₅)ᵀ (R₂ᵀR₁ᵀ) u with u = R_G x₆: R₂ᵀR₁ᵀ u over m₁₂ per lane, b12u (L or 1, 9, 3)
+    (`solve_general_6r`), and (R₃R₄R₅)ᵀ by `Arm.Bay`."""
     R = lane.size
     one = arm.lanes == 1
     q = np.empty((R, 6))
@@ -1011,12 +1005,10 @@ def _angles(
     t12[:, :, 2] = np.sin(q[:, :2])
     # R₂ᵀR₁ᵀ u at each root, from its coefficients over m₁₂ (9, 3) per lane of targets
     m12f = (t12[:, 0, :, None] * t12[:, 1, None, :]).reshape(R, 1, 9)
-    if one and u.shape[0] == 1:
-        w12 = (m12f[:, 0] @ (arm.B12[0] @ u[0]))[:, :, None]  # (R, 3, 1)
+    if b12u.shape[0] == 1:
+        w12 = (m12f[:, 0] @ b12u[0])[:, :, None]  # (R, 3, 1)
     else:
-        # (one arm with a pair of first joints per lane of targets: B12 per lane, `with_first_two`)
-        B12 = arm.B12[lane] if arm.B12.shape[0] > 1 else arm.B12[0]
-        w12 = (m12f @ (B12 @ u[lane][:, None, :, None])[..., 0]).swapaxes(1, 2)
+        w12 = (m12f @ b12u[lane]).swapaxes(1, 2)
     yw = (Yv.reshape(R, 2, 3) @ w12)[:, :, 0]  # ((ω₆ × x₆)·y, x₆·y)
     q[:, 5] = np.arctan2(yw[:, 0], yw[:, 1])
     return q
@@ -1039,16 +1031,18 @@ def solve_general_6r_shifted(
     given: the prepared `Arm` of w, r (shift 0), or for shift > 0 an arm of one lane built from
     w, r in the loop's order (`shifted_base`), whose first 6 − k joints (those G does not move)
     one target's arm takes from it (the arm is built per call: that part of it once). With such
-    an arm and k ≥ 4, the loop is written with the moved joints first, as `MovedFirst` does
-    for one target: every lane then shares all of the arm but its first two joints. For k ≥ 4 `arm` may
-    also hold one such lane per lane of w, r and the targets (a 7R arm's held values)."""
+    an arm and k ≥ 4, the loop is written with the moved joints first (`MovedFirst`): every
+    lane then shares the arm as it stands, and only the right-hand sides move with the targets.
+    For k ≥ 4 `arm` may also hold one such lane per lane of w, r and the targets (a 7R arm's
+    held values)."""
     if shift == 0:
         return solve_general_6r(arm or Arm(w, r, scale, fit=False), R, t, trace)
     L = R.shape[0]
     order = _loop_order(shift)
     if shift >= 4 and arm is not None and arm.lanes == w.shape[0] and arm.lanes in (1, L):
         # (one arm for every lane, or one per lane: a 7R arm's held values, `held_shifted`)
-        Q, ok = solve_general_6r(arm.with_first_two(*_moved_first(w, r, shift, R, t)), R, t, trace)
+        sides = MovedFirst(arm, shift).right_hand_side(R, t)
+        Q, ok = solve_general_6r(arm, R, t, trace, sides)
         return Q[..., np.argsort(order)], ok
     Rt = R.swapaxes(1, 2)
     wl = np.broadcast_to(w, (L,) + w.shape[1:]).copy()
@@ -1060,23 +1054,6 @@ def solve_general_6r_shifted(
         Arm(wl[:, order], rl[:, order], scale, fit=False, base=base), R, t, trace
     )
     return Q[..., np.argsort(order)], ok
-
-
-def _moved_first(
-    w: FloatArray, r: FloatArray, shift: int, R: FloatArray, t: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """The axes (L, 2, 3) of the first two joints of the loop read from joint `shift` + 1 ≥ 5
-    with the moved joints first (`solve_general_6r_shifted`): its first 6 − shift joints moved by each
-    lane's G = (R (L, 3, 3), t (L, 3)), direction R w and point R r + t. Axes w, r (1 or L,
-    6, 3)."""
-    first = _loop_order(shift)[:2]
-    moved, L = 6 - shift, R.shape[0]
-    wl = np.broadcast_to(w[:, first], (L, 2, 3)).copy()
-    rl = np.broadcast_to(r[:, first], (L, 2, 3)).copy()
-    Rt = R.swapaxes(1, 2)
-    wl[:, :moved] = wl[:, :moved] @ Rt  # R w, row by row
-    rl[:, :moved] = rl[:, :moved] @ Rt + t[:, None]
-    return wl, rl
 
 
 def _loop_order(shift: int) -> list[int]:
@@ -1110,61 +1087,79 @@ def solve_one_shifted(
 
 
 class MovedFirst:
-    """One target of a 6R arm whose loop is read from joint k + 1 = 5 or 6 (shift k = 4, 5), the
-    joints that the target moves written first (`solve_general_6r_shifted`): for one target the
-    arm is `base` (`shifted_base`) and only the right-hand side changes, in closed form.
+    """The right-hand sides of a 6R arm whose loop is read from joint k + 1 = 5 or 6 (shift
+    k = 4, 5), the joints that the target moves written first (`solve_general_6r_shifted`):
+    the arm (`shifted_base`, one lane or one per lane of targets) serves every target as it
+    stands, and only the right-hand side moves with the target, in closed form.
 
     The loop's first 6 − k joints are moved by G, aᵢ = G eᵢ G⁻¹ (eᵢ about the joint's own axis),
     so the right-hand side's map a₂⁻¹a₁⁻¹ G (applied to r₆, ω₆ and, for θ₆, x₆) is
 
         G e₂⁻¹e₁⁻¹  (k = 4: both moved),        e₂⁻¹ G e₁⁻¹  (k = 5: the first moved),
 
-    the target one rigid motion between sample transforms of the base arm. Per target: that
-    motion applied to points and directions prepared once, the 14 equations at the 3 × 3 sample
-    angles and their interpolation. Building the moved joints' arm (`Arm.with_first_two`) and
-    its right-hand side cost about twice as much; the stacked form still does that (one arm for
-    many lanes)."""
+    the target one rigid motion between the arm's sample transforms (`Arm.M12`: e₂⁻¹e₁⁻¹ at the
+    3 × 3 sample angles; at the sample angle 0 one factor is I, so e₁⁻¹ = M12[:, 0] and
+    e₂⁻¹ = M12[0, :]). Per target: that motion applied to points and directions prepared once,
+    the 14 equations at the samples and their interpolation, where an arm with the moved joints
+    built per target cost about twice as much for one target."""
 
-    def __init__(self, base: Arm, shift: int) -> None:
-        assert shift in (4, 5) and base.lanes == 1, shift
-        self.base, self.shift = base, shift
+    def __init__(self, arm: Arm, shift: int) -> None:
+        assert shift in (4, 5), shift
+        self.arm, self.shift = arm, shift
         self.order = np.argsort(_loop_order(shift))
-        # r₆ (a point) and ω₆, x₆ (directions) as homogeneous columns (4, 3)
-        H = np.zeros((4, 3))
-        H[:3, 0], H[:3, 1], H[:3, 2], H[3, 0] = base.r[0, 5], base.w[0, 5], base.x6[0], 1.0
-        e1, e2 = base.samples[0, -1.0][0], base.samples[1, -1.0][0]  # e₁⁻¹, e₂⁻¹ (3, 4, 4)
-        # k = 4: G (e₂⁻¹e₁⁻¹ H) at the samples [j, k] (3, 3, 4, 3) (`Arm.M12`'s order); k = 5:
-        # e₂⁻¹[k] G (e₁⁻¹[j] H) (3, 1, 4, 3), and e₂⁻¹ (1, 3, 4, 4) after the target
-        self.inner = base.M12[0] @ H if shift == 4 else (e1 @ H)[:, None]
-        self.after = None if shift == 4 else e2[None]
-        self.origin, self.scale = base.origin[0].tolist(), base.scale
+        L = arm.lanes
+        # r₆ (a point) and ω₆, x₆ (directions) as homogeneous columns (L, 1, 1, 4, 3)
+        H = np.zeros((L, 1, 1, 4, 3))
+        H[..., :3, 0], H[..., :3, 1], H[..., :3, 2] = (
+            x[:, None, None] for x in (arm.r[:, 5], arm.w[:, 5], arm.x6)
+        )
+        H[..., 3, 0] = 1.0
+        M12 = arm.M12  # (L, 3 [j], 3 [k], 4, 4)
+        # k = 4: G (e₂⁻¹e₁⁻¹ H) at the samples [j, k] (L, 3, 3, 4, 3); k = 5: e₂⁻¹[k] G (e₁⁻¹[j] H)
+        # (L, 3, 1, 4, 3), e₂⁻¹ (L, 1, 3, 4, 4) after the target
+        self.inner = M12 @ H if shift == 4 else M12[:, :, :1] @ H
+        self.after = None if shift == 4 else M12[:, None, 0]
+        self.origin, self.scale = arm.origin, arm.scale
+        self.origin_floats = arm.origin[0].tolist()  # (`solve`: one lane)
 
     def right_hand_side(
-        self, R: Sequence[Sequence[float]], t: Sequence[float]
+        self, R: FloatArray, t: FloatArray
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """Q (14, 8), q₀ (14,) and θ₆'s b12u (9, 3) (`_solve_one`) of one target G = (R, t)."""
-        (o0, o1, o2), k = self.origin, 1.0 / self.scale
-        # G in the arm's coordinates, G′ x′ = (R (s x′ + o) + t − o) / s, as a 4 × 4
-        Gs = np.array([
-            [*row, (row[0] * o0 + row[1] * o1 + row[2] * o2 + ti - oi) * k]
-            for row, ti, oi in zip(R, t, (o0, o1, o2), strict=True)
-        ] + [[0.0, 0.0, 0.0, 1.0]])  # fmt: skip
+        """Q (L, 14, 8), q₀ (L, 14) and θ₆'s b12u (L, 9, 3) (`solve_general_6r`'s `sides`) of
+        L targets G = (R, t) ((L, 3, 3), (L, 3)) in the base frame [m]."""
+        # G in the arm's coordinates, G′ x′ = (R (s x′ + o) + t − o) / s, as 4 × 4 (L, 1, 1, 4, 4)
+        Gs = np.zeros((R.shape[0], 1, 1, 4, 4))
+        Gs[:, 0, 0, :3, :3] = R
+        Gs[:, 0, 0, :3, 3] = ((R @ self.origin[..., None])[..., 0] + t - self.origin) / self.scale
+        Gs[..., 3, 3] = 1.0
+        return self._sides(Gs)
+
+    def _sides(self, Gs: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """`right_hand_side` of targets given in the arm's coordinates, Gs (L, 1, 1, 4, 4)."""
+        L = Gs.shape[0]
         Y = Gs @ self.inner
         if self.after is not None:
-            Y = self.after @ Y  # (3, 3, 4, 3)
-        Y = Y[..., :3, :].reshape(9, 3, 3)  # [sample, xyz, (r₆, ω₆, x₆)]
-        p, l = Y[:, :, 0], Y[:, :, 1]
-        coef = _V_INV2 @ np.concatenate((_equations(p, l), Y[:, :, 2]), axis=1)  # (9, 17)
-        rhs = coef[:, :14].T
-        return rhs[:, 1:], rhs[:, 0], coef[:, 14:]
+            Y = self.after @ Y  # (L, 3, 3, 4, 3)
+        # [lane and sample, xyz, (r₆, ω₆, x₆)] (2-D slices: `_equations` costs half as much)
+        Y = Y[..., :3, :].reshape(L * 9, 3, 3)
+        eqs = _equations(Y[:, :, 0], Y[:, :, 1])  # (9L, 14)
+        coef = _V_INV2 @ np.concatenate((eqs, Y[:, :, 2]), axis=1).reshape(L, 9, 17)
+        rhs = coef[..., :14].swapaxes(1, 2)
+        return rhs[..., 1:], rhs[..., 0], coef[..., 14:]
 
     def solve(
         self, R: Sequence[Sequence[float]], t: Sequence[float], polish: bool = True
     ) -> FloatArray | None:
-        """`solve_one_rows` of one target G = (R, t) (rotation rows and translation as floats):
-        the solutions (k, 6) in the chain's joint order; None where the stacked form must
-        decide."""
-        q = _solve_one(self.base, *self.right_hand_side(R, t), polish)
+        """`solve_one_rows` of one target G = (R, t) (rotation rows and translation as floats) of
+        a one-lane arm: the solutions (k, 6) in the chain's joint order; None where the stacked
+        form must decide."""
+        (o0, o1, o2), k = self.origin_floats, 1.0 / self.scale
+        Gs = np.array([
+            [*row, (row[0] * o0 + row[1] * o1 + row[2] * o2 + ti - oi) * k]
+            for row, ti, oi in zip(R, t, (o0, o1, o2), strict=True)
+        ] + [[0.0, 0.0, 0.0, 1.0]])  # fmt: skip
+        Q, q0, b12u = self._sides(Gs.reshape(1, 1, 1, 4, 4))
+        q = _solve_one(self.arm, Q[0], q0[0], b12u[0], polish)
         if q is None:
             return None
         if not np.isfinite(q).all():
@@ -1179,7 +1174,8 @@ def shifted_base(w: FloatArray, r: FloatArray, scale: float, shift: int) -> Arm:
     order = _loop_order(shift)
     # fitted: K depends on joints 1, 2 alone, so every target's arm takes it (its right-hand
     # side then costs one product on floats, `target_floats`, not `_right_hand_side`'s ~20 µs);
-    # for shift ≥ 4 the target moves joint 1 (and 2) of the loop (`solve_one_shifted`)
+    # for shift ≥ 4 the target moves joint 1 (and 2) of the loop, which `MovedFirst` moves
+    # through the samples of M12 instead
     return Arm(w[:, order], r[:, order], scale, fit=shift <= 3)
 
 
