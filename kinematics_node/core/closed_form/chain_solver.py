@@ -88,6 +88,13 @@ REFINE_BELOW = 1e-2
 _REFINE_ABOVE = 1e-12
 
 
+#: A candidate that refinement moved by more than this [rad] in some joint may have been the
+#: middle of two solutions that nearly coincide (a near-double root, which rounding turns into
+#: a complex pair of roots and the elimination then gives once, half-way): its twin lies near
+#: the mirror image 2 c − s of the refined solution s in the candidate c, which is refined too
+#: (`solve_single`, `solve_arrays`). Roots found to round-off move ~1e-10 rad at most.
+REFLECT_ABOVE = 1e-6
+
 #: `nearest` (`ik`, which returns one solution) refines only above this: real URDFs whose axes
 #: meet to ~1e-13 leave every candidate of some arms a few 1e-13 off (Kinova j2s6s200: 2 in 3
 #: targets), and a refinement (~40 µs) to 1e-16 there buys nothing against the 1e-9 guaranteed.
@@ -749,11 +756,34 @@ def _solve_arrays_once(
     idx = np.flatnonzero(ok.reshape(-1))
     acc = np.zeros(L * B, dtype=bool)
     if idx.size:
-        Qc, ep, er = fk_check(
-            solver, flat_Q[idx], T[flat_owner[idx]], wrap_angles, solver.refine_floor(tol)
-        )
-        flat_Q[idx] = Qc
+        floor = solver.refine_floor(tol)
+        Qc, ep, er = fk_check(solver, flat_Q[idx], T[flat_owner[idx]], wrap_angles, floor)
         acc[idx] = (ep <= tol) & (er <= tol)
+        # the mirror images of candidates that refinement moved far (`REFLECT_ABOVE`), in free
+        # slots of their lanes, checked and refined too
+        moved = np.abs(wrap_angles(Qc - flat_Q[idx])).max(axis=1) > REFLECT_ABOVE
+        mirrors = wrap_angles(2.0 * flat_Q[idx] - Qc)
+        flat_Q[idx] = Qc
+        free_slots = ~ok
+        slots, images = [], []
+        for f, m in zip(idx[moved & acc[idx]].tolist(), mirrors[moved & acc[idx]], strict=True):
+            lane = f // B
+            unused = np.flatnonzero(free_slots[lane])
+            if unused.size:
+                free_slots[lane, unused[0]] = False
+                slots.append(lane * B + int(unused[0]))
+                images.append(m)
+                free_codes.reshape(-1)[slots[-1]] = free_codes.reshape(-1)[f]
+        if slots:
+            g = np.array(slots)
+            Qm, ep, er = fk_check(solver, np.array(images), T[flat_owner[g]], wrap_angles, floor)
+            flat_Q[g] = Qm
+            acc[g] = (ep <= tol) & (er <= tol)
+            for f in slots:  # a mirror image counts where it found another solution
+                lane = slice(f - f % B, f - f % B + B)
+                others = flat_Q[lane][acc[lane] & (np.arange(B) != f % B)]
+                d = np.abs(wrap_angles(others - flat_Q[f])).max(axis=1, initial=0.0)
+                acc[f] &= not bool((d <= REFLECT_ABOVE).any())
     acc2 = acc.reshape(L, B)
     # One solution once: drop a branch equal (mod 2π) to an earlier accepted one of the same lane.
     acc2 &= ~duplicate_branches(flat_Q.reshape(L, B, n), acc2)
@@ -1059,8 +1089,67 @@ def solve_single(
         if (ep > floor * scale or er > floor) and ep < REFINE_BELOW * scale and er < REFINE_BELOW:
             redo.append(len(checked))
         checked.append((q, ep, er, False))
-    # Gauss–Newton on the near misses, stacked (`refine_many`), the best of each kept where it
-    # helps; those still off (near a singularity: slow, not monotone) go on one step a round
+    before = {i: checked[i][0] for i in redo}
+    _refine_checked(solver, checked, redo, T, floor)
+    whys_of = [why for _, why in cands]
+    # the mirror images of candidates that refinement moved far (`REFLECT_ABOVE`), refined too
+    mirror = []
+    for i, c in before.items():
+        sol = checked[i][0]
+        if max(abs(wrap_angle(a - b)) for a, b in zip(sol, c, strict=True)) > REFLECT_ABOVE:
+            m = [wrap_angle(2.0 * b - a) for a, b in zip(sol, c, strict=True)]
+            ep, er = fk_errors(solver, m, T)
+            if ep < REFINE_BELOW * scale and er < REFINE_BELOW:
+                mirror.append(len(checked))
+                checked.append((m, ep, er, False))
+                whys_of.append(whys_of[i])
+    _refine_checked(solver, checked, mirror, T, floor)
+    for k in mirror:  # a mirror image counts where it found another solution than the others
+        m = checked[k][0]
+        if any(_within(m, c[0], REFLECT_ABOVE) for c in checked[:k]):
+            checked[k] = (m, math.inf, math.inf, False)
+    accepted: list[list[float]] = []
+    errors: list[tuple[float, float]] = []
+    squared: list[bool] = []
+    whys: set[str] = set()
+    for (q, ep, er, exact), why in zip(checked, whys_of, strict=True):
+        if not exact and (ep > tol or er > tol):
+            continue
+        if seen_before(q, accepted):
+            continue
+        accepted.append(q)
+        errors.append((ep, er))
+        squared.append(exact)
+        if why:
+            whys.update(why)
+    none = np.empty((0, chain.dof))
+    if not accepted:
+        return none, (math.inf, math.inf), "", empty_reason(stages.first_dead(), 0)
+    sols, first = expand_sorted(solver, accepted, seed)
+    if not sols.shape[0]:
+        return none, (math.inf, math.inf), "", empty_reason(None, len(accepted))
+    ep, er = errors[first]
+    if squared[first]:
+        ep, er = math.sqrt(ep), chord_angle(er)
+    return sols, (ep, er), "; ".join(sorted(whys)), ""
+
+
+def _within(a: list[float], b: list[float], tol: float) -> bool:
+    """Two solutions agree to `tol` [rad] in every joint, modulo 2π."""
+    return all(abs(wrap_angle(x - y)) <= tol for x, y in zip(a, b, strict=True))
+
+
+def _refine_checked(
+    solver: ChainSolver,
+    checked: list[tuple[list[float], float, float, bool]],
+    redo: list[int],
+    T: list[list[float]],
+    floor: float,
+) -> None:
+    """Gauss–Newton on the near misses `redo` of `checked` (q, position error, rotation error,
+    squared) in place (`solve_single`), stacked (`refine_many`), the best of each kept where it
+    helps; those still off (near a singularity: slow, not monotone) go on one step a round."""
+    scale = solver.scale
     steps = [steps_for(solver, checked[i][1], checked[i][2]) for i in redo]
     cur = [checked[i][0] for i in redo]
     for _ in range(MAX_REFINE_ROUNDS):
@@ -1081,30 +1170,6 @@ def solve_single(
                 again.append(i)
                 cur.append(qr)
         redo, steps = again, [1] * len(again)
-    accepted: list[list[float]] = []
-    errors: list[tuple[float, float]] = []
-    squared: list[bool] = []
-    whys: set[str] = set()
-    for (q, ep, er, exact), (_, why) in zip(checked, cands, strict=True):
-        if not exact and (ep > tol or er > tol):
-            continue
-        if seen_before(q, accepted):
-            continue
-        accepted.append(q)
-        errors.append((ep, er))
-        squared.append(exact)
-        if why:
-            whys.update(why)
-    none = np.empty((0, chain.dof))
-    if not accepted:
-        return none, (math.inf, math.inf), "", empty_reason(stages.first_dead(), 0)
-    sols, first = expand_sorted(solver, accepted, seed)
-    if not sols.shape[0]:
-        return none, (math.inf, math.inf), "", empty_reason(None, len(accepted))
-    ep, er = errors[first]
-    if squared[first]:
-        ep, er = math.sqrt(ep), chord_angle(er)
-    return sols, (ep, er), "; ".join(sorted(whys)), ""
 
 
 def fk_errors(solver: ChainSolver, q: list[float], T: list[list[float]]) -> tuple[float, float]:
