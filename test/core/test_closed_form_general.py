@@ -561,22 +561,27 @@ def test_the_polishing_step_is_the_gauss_newton_step_and_skips_large_or_singular
     assert (step[3] == 0.0).all() and np.isfinite(step).all()
 
 
+#: A random 6R arm (two parallel pairs) and a configuration of it at σ_min/σ_max ≈ 2e-5, where
+#: a second solution lies 5e-3 rad away (a near-double root).
+NEAR_SINGULAR_ROWS = [
+    (0.05, 0.0, -0.13496612447110573),
+    (0.44892523877808777, 2.8868216425322206, 0.05662918212536755),
+    (0.5201905578767068, -1.279139152565536, 0.0),
+    (0.5543640045093989, 3.136834517503117, -0.3776934901353346),
+    (0.05, 0.0, 0.14858209420381574),
+    (0.2763644370772249, 0.5571552580781272, 0.16911395661330042),
+]
+NEAR_SINGULAR_Q = np.array([-0.2128045760309969, 2.8440004127266434, 1.8402907507046038,
+                            2.5380307616416866, 3.1288345926129253, 1.6415885493197742])  # fmt: skip
+
+
 def test_a_target_near_a_singularity_is_not_called_unreachable():
     """A random 6R arm (two parallel pairs) at a configuration with σ_min/σ_max ≈ 2e-5: its
     candidates were 1e-7 off, where Gauss–Newton converges neither quadratically nor
     monotonically, and two steps left every one above 1e-9, so `ik_all` said "unreachable".
     The refinement now goes on while a candidate is still off; `ik` finds it in closed form."""
-    rows = [
-        (0.05, 0.0, -0.13496612447110573),
-        (0.44892523877808777, 2.8868216425322206, 0.05662918212536755),
-        (0.5201905578767068, -1.279139152565536, 0.0),
-        (0.5543640045093989, 3.136834517503117, -0.3776934901353346),
-        (0.05, 0.0, 0.14858209420381574),
-        (0.2763644370772249, 0.5571552580781272, 0.16911395661330042),
-    ]
-    q = np.array([-0.2128045760309969, 2.8440004127266434, 1.8402907507046038,
-                  2.5380307616416866, 3.1288345926129253, 1.6415885493197742])  # fmt: skip
-    chain = dh_chain(rows)
+    q = NEAR_SINGULAR_Q
+    chain = dh_chain(NEAR_SINGULAR_ROWS)
     assert chain.ik_family == "general_6r"
     sv = np.linalg.svd(chain.jacobian(q, "space"), compute_uv=False)
     assert sv[-1] / sv[0] < 1e-4  # (the case: near a singularity)
@@ -599,17 +604,8 @@ def test_both_members_of_a_near_double_root_come_back():
     the candidate (`REFLECT_ABOVE`) refines to the other, so `ik_all` and `ik_all_batch` give
     both, whichever way the rounding falls (targets moved by 1e-16 m; before the mirror images,
     one target at a time gave both for 20 of 40 such targets)."""
-    rows = [
-        (0.05, 0.0, -0.13496612447110573),
-        (0.44892523877808777, 2.8868216425322206, 0.05662918212536755),
-        (0.5201905578767068, -1.279139152565536, 0.0),
-        (0.5543640045093989, 3.136834517503117, -0.3776934901353346),
-        (0.05, 0.0, 0.14858209420381574),
-        (0.2763644370772249, 0.5571552580781272, 0.16911395661330042),
-    ]
-    q = np.array([-0.2128045760309969, 2.8440004127266434, 1.8402907507046038,
-                  2.5380307616416866, 3.1288345926129253, 1.6415885493197742])  # fmt: skip
-    chain = dh_chain(rows)
+    q = NEAR_SINGULAR_Q
+    chain = dh_chain(NEAR_SINGULAR_ROWS)
     T = np.repeat(chain.fk(q)[None], 12, axis=0)
     T[1:, :3, 3] += np.random.default_rng(3).normal(size=(11, 3)) * 1e-16
     batch = chain.ik_all_batch(T)
