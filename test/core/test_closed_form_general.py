@@ -395,12 +395,12 @@ def test_one_target_by_qr_and_eigenvectors_equals_the_svd_and_the_stacked_solve(
 
     monkeypatch.setattr(g6.lapack, "dtrcon", counted)
     for i in range(len(q)):
-        R, t = T[i, :3, :3], T[i, :3, 3]
-        polished = g6.solve_one_target(arm, R, t)
-        unpolished = g6.solve_one_target(arm, R, t, polish=False)
+        R, t = T[i, :3, :3].tolist(), T[i, :3, 3].tolist()
+        polished = g6.solve_one_rows(arm, R, t)
+        unpolished = g6.solve_one_rows(arm, R, t, polish=False)
         with monkeypatch.context() as m:
             m.setattr(g6, "_Q_RCOND", np.inf)
-            by_svd = g6.solve_one_target(arm, R, t)
+            by_svd = g6.solve_one_rows(arm, R, t)
         assert polished is not None and unpolished is not None and by_svd is not None
         expected = stacked[i][ok[i]]
         assert polished.shape == by_svd.shape == unpolished.shape == expected.shape, i

@@ -1092,11 +1092,16 @@ def solve_single(
     before = {i: checked[i][0] for i in redo}
     _refine_checked(solver, checked, redo, T, floor)
     whys_of = [why for _, why in cands]
-    # the mirror images of candidates that refinement moved far (`REFLECT_ABOVE`), refined too
+
+    def passes(entry: tuple[list[float], float, float, bool]) -> bool:
+        return entry[3] or (entry[1] <= tol and entry[2] <= tol)
+
+    # the mirror images of accepted candidates that refinement moved far (`REFLECT_ABOVE`),
+    # refined too, and kept where they found another solution than the others
     mirror = []
     for i, c in before.items():
         sol = checked[i][0]
-        if max(abs(wrap_angle(a - b)) for a, b in zip(sol, c, strict=True)) > REFLECT_ABOVE:
+        if passes(checked[i]) and not _within(sol, c, REFLECT_ABOVE):
             m = [wrap_angle(2.0 * b - a) for a, b in zip(sol, c, strict=True)]
             ep, er = fk_errors(solver, m, T)
             if ep < REFINE_BELOW * scale and er < REFINE_BELOW:
@@ -1104,9 +1109,9 @@ def solve_single(
                 checked.append((m, ep, er, False))
                 whys_of.append(whys_of[i])
     _refine_checked(solver, checked, mirror, T, floor)
-    for k in mirror:  # a mirror image counts where it found another solution than the others
+    for k in mirror:
         m = checked[k][0]
-        if any(_within(m, c[0], REFLECT_ABOVE) for c in checked[:k]):
+        if any(passes(c) and _within(m, c[0], REFLECT_ABOVE) for c in checked[:k]):
             checked[k] = (m, math.inf, math.inf, False)
     accepted: list[list[float]] = []
     errors: list[tuple[float, float]] = []

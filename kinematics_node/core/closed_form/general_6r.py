@@ -745,29 +745,13 @@ def solve_general_6r(
     return Qout, ok
 
 
-def solve_one_target(
-    arm: Arm, R: FloatArray, t: FloatArray, polish: bool = True
-) -> FloatArray | None:
-    """The solutions (k, 6) of one target G = (R, t) ((3, 3), (3,)) of a 6R arm (one lane),
-    angles in (−π, π]; None where `solve_general_6r` must decide (`_solve_one`). Without
-    `polish` the roots skip `_angles`' Gauss–Newton step: for a caller that checks (and refines)
-    by forward kinematics only the one solution it takes (`ik`)."""
-    if arm.K is None:
-        Q, q0, u = arm.target_side(R[None], t[None])
-        q = _solve_one(arm, Q[0], q0[0], arm.B12[0] @ u[0], polish)
-    else:
-        q = solve_one_rows(arm, R.tolist(), t.tolist(), polish)
-        return q
-    if q is None or np.isfinite(q).all():
-        return q
-    return q[np.isfinite(q).all(axis=1)]
-
-
 def solve_one_rows(
     arm: Arm, R: Sequence[Sequence[float]], t: Sequence[float], polish: bool = True
 ) -> FloatArray | None:
-    """`solve_one_target` of a fitted arm with the target's rotation rows R and translation t as
-    floats (`ik`'s form: no arrays to build and take apart again)."""
+    """The solutions (k, 6) of one target G of a fitted 6R arm (one lane), its rotation's rows R
+    and translation t as floats, angles in (−π, π]; None where `solve_general_6r` must decide
+    (`_solve_one`). Without `polish` the roots skip `_angles`' Gauss–Newton step: for a caller
+    that checks (and refines) by forward kinematics only the one solution it takes (`ik`)."""
     Q, q0, u = arm.target_floats(R, t)
     q = _solve_one(arm, Q, q0, arm.B12[0] @ u[0], polish)
     if q is None or np.isfinite(q).all():
@@ -1105,7 +1089,7 @@ class MovedFirst:
 
     def __init__(self, arm: Arm, shift: int) -> None:
         assert shift in (4, 5), shift
-        self.arm, self.shift = arm, shift
+        self.arm = arm
         self.order = np.argsort(_loop_order(shift))
         L = arm.lanes
         # r₆ (a point) and ω₆, x₆ (directions) as homogeneous columns (L, 1, 1, 4, 3)
