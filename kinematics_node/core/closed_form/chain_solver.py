@@ -68,6 +68,7 @@ from .solution_set import (
     equivalents_within_limits_two,
     expand_sorted,
     order_within_targets,
+    same_solution,
     seen_before,
 )
 from .spherical_wrist import Spherical, solve_spherical
@@ -1101,7 +1102,7 @@ def solve_single(
     mirror = []
     for i, c in before.items():
         sol = checked[i][0]
-        if passes(checked[i]) and not _within(sol, c, REFLECT_ABOVE):
+        if passes(checked[i]) and not same_solution(sol, c, REFLECT_ABOVE):
             m = [wrap_angle(2.0 * b - a) for a, b in zip(sol, c, strict=True)]
             ep, er = fk_errors(solver, m, T)
             if ep < REFINE_BELOW * scale and er < REFINE_BELOW:
@@ -1111,7 +1112,7 @@ def solve_single(
     _refine_checked(solver, checked, mirror, T, floor)
     for k in mirror:
         m = checked[k][0]
-        if any(passes(c) and _within(m, c[0], REFLECT_ABOVE) for c in checked[:k]):
+        if any(passes(c) and same_solution(m, c[0], REFLECT_ABOVE) for c in checked[:k]):
             checked[k] = (m, math.inf, math.inf, False)
     accepted: list[list[float]] = []
     errors: list[tuple[float, float]] = []
@@ -1137,11 +1138,6 @@ def solve_single(
     if squared[first]:
         ep, er = math.sqrt(ep), chord_angle(er)
     return sols, (ep, er), "; ".join(sorted(whys)), ""
-
-
-def _within(a: list[float], b: list[float], tol: float) -> bool:
-    """Two solutions agree to `tol` [rad] in every joint, modulo 2π."""
-    return all(abs(wrap_angle(x - y)) <= tol for x, y in zip(a, b, strict=True))
 
 
 def _refine_checked(

@@ -137,21 +137,21 @@ def order_within_targets(
 
 
 def seen_before(q: list[float], accepted: list[list[float]]) -> bool:
-    """q equals (`_same`) one of `accepted`; a cheap first test on one joint (branches often
+    """q equals (`same_solution`) one of `accepted`; a cheap first test on one joint (branches often
     share the first joint)."""
     q2 = q[2]
     for o in accepted:
         d = abs(q2 - o[2])
-        if (d <= _SAME_SOLUTION or abs(d - TWO_PI) <= _SAME_SOLUTION) and _same(q, o):
+        if (d <= _SAME_SOLUTION or abs(d - TWO_PI) <= _SAME_SOLUTION) and same_solution(q, o):
             return True
     return False
 
 
-def _same(a: list[float], b: list[float]) -> bool:
-    """Two solutions with angles in (−π, π] are equal modulo 2π to `_SAME_SOLUTION`."""
+def same_solution(a: list[float], b: list[float], tol: float = _SAME_SOLUTION) -> bool:
+    """Two solutions with angles in (−π, π] are equal modulo 2π to `tol` [rad] in every joint."""
     for x, y in zip(a, b, strict=True):
         d = abs(x - y)
-        if d > _SAME_SOLUTION and abs(d - TWO_PI) > _SAME_SOLUTION:
+        if d > tol and abs(d - TWO_PI) > tol:
             return False
     return True
 
