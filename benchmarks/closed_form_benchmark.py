@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ik_benchmark import ERD, TOL, peer_rtb, run_solver  # noqa: E402
 
 from kinematics_node.core import IKOptions, SerialChain  # noqa: E402
-from kinematics_node.core.closed_form import family_of  # noqa: E402
+from kinematics_node.core.ik.closed_form import family_of  # noqa: E402
 from kinematics_node.sim.robots import load_robot  # noqa: E402
 
 ARMS = {

@@ -35,8 +35,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "test" / "core")]
 from kinematics_node.core import IKOptions, SerialChain, so3  # noqa: E402
-from kinematics_node.core.closed_form import family_of  # noqa: E402
-from kinematics_node.core.closed_form.geometry import pose_errors  # noqa: E402
+from kinematics_node.core.ik.closed_form import family_of  # noqa: E402
+from kinematics_node.core.ik.closed_form.geometry import pose_errors  # noqa: E402
 from kinematics_node.core.model import middle_of_limits  # noqa: E402
 
 TOL = 1e-5

@@ -1,7 +1,7 @@
 """Reference forms of the closed-form families for the tests: the single-target solvers written
 as plain chains of subproblem calls, without prepared constants.
 
-`ThreeParallel` and `Spherical` (kinematics_node.core.closed_form) must give the same candidates,
+`ThreeParallel` and `Spherical` (kinematics_node.core.ik.closed_form) must give the same candidates,
 in the same order, with the same stages and reasons (test_closed_form_single.py,
 test_closed_form_spherical.py). Angles [rad], lengths [m].
 """
@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from math import atan2
 
-from kinematics_node.core.closed_form.geometry import (
+from kinematics_node.core.ik.closed_form.geometry import (
     Candidate,
     Geometry,
     Mat,

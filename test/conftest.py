@@ -30,7 +30,7 @@ def real_arm(request):
 @pytest.fixture(params=["vectorised", "per-target"])
 def batch_path(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
     """Run a batch test through both implementations of `ik_batch`, whatever the batch size."""
-    from kinematics_node.core import ik as ik_module
+    from kinematics_node.core.ik import solver as ik_module
 
     monkeypatch.setattr(
         ik_module, "SCALAR_BATCH_BELOW", 0 if request.param == "vectorised" else 10**9

@@ -176,7 +176,7 @@ def assert_same_batched_solve(ref, fast, n_singular):
     trace): the same branches succeed, every stage flags the same lanes with the same reason, and
     the angles of the successful branches agree to 1e-9 (to 1e-6 on the first `n_singular` rows,
     exactly singular ones, where a tangent leaves √ε)."""
-    from kinematics_node.core.closed_form import geometry as cf
+    from kinematics_node.core.ik.closed_form import geometry as cf
 
     (Q_ref, ok_ref, ref_trace), (Q_fast, ok_fast, fast_trace) = ref, fast
     np.testing.assert_array_equal(ok_fast, ok_ref)

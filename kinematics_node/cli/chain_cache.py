@@ -91,7 +91,7 @@ def detect_family(chain: SerialChain) -> None:
     """Settle `chain`'s closed-form family before `ik` needs it: the one an earlier run of this
     code kept in the chain's cache entry, else detected now and kept there (a chain not from the
     cache: detected). Only `ik` calls this: the closed form imports SciPy, which `fk` need not."""
-    from ..core.closed_form import export_family, import_family
+    from ..core.ik.closed_form import export_family, import_family
 
     place = _ENTRIES.get(chain)
     if place is None:

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..core import KinematicsError, SerialChain
 from ..core.exceptions import RobotDescriptionError, UnknownNameError
-from ..core.ik_options import IKOptions
+from ..core.ik.options import IKOptions
 from ..core.model import mimic_rule
 from . import ros_commands
 
@@ -506,7 +506,7 @@ def cmd_ik(args: argparse.Namespace, chain: SerialChain) -> Output:
     # The solvers' imports (~0.2 s, SciPy's) and the detection of the arm's closed form (a UR5e
     # 4 ms, a Panda ~50 ms) happen now, before the clock starts: the time reported is the
     # solve's, as in a program that calls ik more than once.
-    from ..core.ik import duration_text
+    from ..core.ik.solver import duration_text
     from .chain_cache import detect_family
 
     detect_family(chain)  # (kept in the chain's cache entry: the next run skips it)
@@ -563,7 +563,7 @@ def _ik_all(
         "message": res.message,
     }
     if not res.success:
-        from ..core.ik import beyond_reach
+        from ..core.ik.solver import beyond_reach
 
         far = beyond_reach(chain, T, IKOptions())  # how far, where the position alone says so
         data["message"] = _failure_text(res.message + (f" ({far})" if far else ""))

@@ -33,8 +33,8 @@ from .exceptions import (
 from .model import ChainSpec, JointModel, MimicJoint
 
 if TYPE_CHECKING:
-    from .closed_form import ClosedFormBatchResult, ClosedFormFamily, ClosedFormResult
     from .ik import IKBatchResult, IKOptions, IKResult
+    from .ik.closed_form import ClosedFormBatchResult, ClosedFormFamily, ClosedFormResult
 
 _LAZY_IK = ("IKBatchResult", "IKOptions", "IKResult")
 _LAZY_CLOSED_FORM = ("ClosedFormBatchResult", "ClosedFormFamily", "ClosedFormResult")
@@ -46,7 +46,7 @@ def __getattr__(name: str) -> Any:
 
         return getattr(ik, name)
     if name in _LAZY_CLOSED_FORM:
-        from . import closed_form
+        from .ik import closed_form
 
         return getattr(closed_form, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -28,16 +28,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import se3
 from ._checks import as_float_array, check_finite, check_transform
-from ._joint_space import periodic_mask
 from ._kernel import Kernel
 from .exceptions import InvalidInputError, RobotDescriptionError, UnknownNameError
+from .ik.joint_space import periodic_mask
 from .model import ChainSpec, Frame, MimicJoint, SolverModel, mimic_rule, readonly
 
 if TYPE_CHECKING:
-    from .closed_form import ClosedFormBatchResult, ClosedFormResult
     from .dh import DHTable
-    from .ik_options import IKOptions
-    from .ik_result import IKBatchResult, IKResult
+    from .ik.closed_form import ClosedFormBatchResult, ClosedFormResult
+    from .ik.options import IKOptions
+    from .ik.result import IKBatchResult, IKResult
 
 FloatArray = NDArray[np.float64]
 _FRAMES = ("space", "body", "world")
@@ -596,14 +596,14 @@ class SerialChain:
 
         Levenberg–Marquardt on the body error twist log(T(q)⁻¹ T_target) with the body Jacobian,
         joint limits enforced every step, random restarts until success or `options.timeout`
-        (default 50 ms); see `kinematics_node.core.ik` for the algorithm and `IKOptions`.
+        (default 50 ms); see `kinematics_node.core.ik.solver` for the algorithm and `IKOptions`.
         `q_seed` defaults to the middle of the limits; a seed outside the limits is clamped.
         On failure `IKResult.success` is False and `q` is the best configuration found.
 
         Raises:
             InvalidInputError: T_target not a finite rigid transform, bad seed or options.
         """
-        from .ik import solve
+        from .ik.solver import solve
 
         return solve(self, T_target, q_seed, options)
 
@@ -618,9 +618,9 @@ class SerialChain:
         Same algorithm as `ik`, run in lock-step over the targets with batched NumPy kernels
         (fewer than 48 targets: `ik` per target, which is faster there).
         Time budget for the whole call: `options.batch_timeout` if set, else `options.timeout` × N.
-        Only mode "speed" with num_solutions = 1; see `kinematics_node.core.ik.solve_batch`.
+        Only mode "speed" with num_solutions = 1; see `kinematics_node.core.ik.solver.solve_batch`.
         """
-        from .ik import solve_batch
+        from .ik.solver import solve_batch
 
         return solve_batch(self, T_targets, q_seeds, options)
 
@@ -630,9 +630,9 @@ class SerialChain:
 
         "three_parallel" (UR), "spherical_wrist" (Puma, OPW arms), or "7r_three_parallel" /
         "7r_spherical_wrist" (7R arms that become one when a joint is held: Panda, iiwa).
-        `kinematics_node.core.closed_form.family_of(chain)` gives the details.
+        `kinematics_node.core.ik.closed_form.family_of(chain)` gives the details.
         """
-        from .closed_form import family_of
+        from .ik.closed_form import family_of
 
         family = family_of(self)
         return None if family is None else family.name
@@ -651,13 +651,13 @@ class SerialChain:
         `tolerance` [m, rad]. 7R arms sweep the held joint over `held` [rad] (default: 36 values
         across its limits). Singular targets give a valid set with `singular` True; unreachable
         ones an empty set and the reason in `message`.
-        See `kinematics_node.core.closed_form.solve_all`.
+        See `kinematics_node.core.ik.closed_form.solve_all`.
 
         Raises:
             NoClosedFormError: `ik_family` is None.
             InvalidInputError: bad target, seed, held values or tolerance.
         """
-        from .closed_form import solve_all
+        from .ik.closed_form import solve_all
 
         return solve_all(self, T_target, q_seed, held, tolerance)
 
@@ -669,7 +669,7 @@ class SerialChain:
         tolerance: float = 1e-9,
     ) -> ClosedFormBatchResult:
         """`ik_all` for (N, 4, 4) targets at once, vectorised; see `closed_form.solve_all_batch`."""
-        from .closed_form import solve_all_batch
+        from .ik.closed_form import solve_all_batch
 
         return solve_all_batch(self, T_targets, q_seeds, held, tolerance)
 

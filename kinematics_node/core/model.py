@@ -144,7 +144,7 @@ class SolverModel:
         to_internal: θ from q as lists of floats, or None when θ = q.
         G: (internal, n) read-only matrix of θ = G q + offset, or None when θ = q (Jacobian
             columns of the actuated variables are J_internal G).
-        periodic: (n,) read-only; actuated joints whose pose repeats every 2π (see `_joint_space`).
+        periodic: (n,) read-only; actuated joints whose pose repeats every 2π (see `ik.joint_space`).
     """
 
     kernel: Kernel

@@ -72,9 +72,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core import IKOptions, IKResult, SerialChain
-from ..core.closed_form import export_family, import_family, pose_errors
-from ..core.ik import beyond_reach, nearest_first, solve_closed_form
-from ..core.ik_result import check_seed
+from ..core.ik.closed_form import export_family, import_family, pose_errors
+from ..core.ik.result import check_seed
+from ..core.ik.solver import beyond_reach, nearest_first, solve_closed_form
 
 FloatArray = NDArray[np.float64]
 

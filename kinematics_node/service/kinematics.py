@@ -51,7 +51,7 @@ from ..core import IKOptions, SerialChain, se3
 from ..core._checks import check_transform
 from ..core.analysis import conditioning
 from ..core.exceptions import InvalidInputError, KinematicsError, RobotDescriptionError
-from ..core.ik import beyond_reach, duration_text
+from ..core.ik.solver import beyond_reach, duration_text
 from ..core.model import Frame
 from .description_file import read_description_file
 from .ee_state import (

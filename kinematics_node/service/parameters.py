@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ..core.ik_options import IKOptions
+from ..core.ik.options import IKOptions
 
 
 @dataclass(frozen=True)

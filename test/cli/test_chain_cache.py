@@ -63,7 +63,7 @@ def test_the_family_detected_by_ik_is_kept_and_taken_back_only_by_the_same_detec
     load it installs that without detecting (a UR5e here; Baxter's run of `kinematics ik` went
     from 0.78 to ~0.55 s), and not when the detection's source differs."""
     from kinematics_node.cli import chain_cache
-    from kinematics_node.core.closed_form import detection, family_of
+    from kinematics_node.core.ik.closed_form import detection, family_of
 
     monkeypatch.setenv("KINEMATICS_CACHE_DIR", str(tmp_path / "cache"))
     path = robot_path("ur5e")
@@ -91,7 +91,7 @@ def test_the_family_detected_by_ik_is_kept_and_taken_back_only_by_the_same_detec
 
 def test_a_chain_without_a_closed_form_keeps_that_too(tmp_path, monkeypatch):
     from kinematics_node.cli import chain_cache
-    from kinematics_node.core.closed_form import detection, family_of
+    from kinematics_node.core.ik.closed_form import detection, family_of
 
     monkeypatch.setenv("KINEMATICS_CACHE_DIR", str(tmp_path / "cache"))
     path = robot_path("planar3r")

@@ -18,7 +18,7 @@ from kinematics_node.core import (
     SerialChain,
     se3,
 )
-from kinematics_node.core.closed_form import family_of
+from kinematics_node.core.ik.closed_form import family_of
 from kinematics_node.sim.robots import load_robot
 
 PI = np.pi
@@ -369,7 +369,7 @@ def test_a_batch_solved_in_several_passes_equals_one_pass(monkeypatch, arm):
     """ik_all_batch works in passes of SOLVE_CHUNK lanes; with passes of 5 lanes (partial last
     pass, a 7R sweep split across targets) every field equals the one-pass result, including
     unreachable and singular targets."""
-    from kinematics_node.core.closed_form import chain_solver as cf
+    from kinematics_node.core.ik.closed_form import chain_solver as cf
 
     rng = np.random.default_rng(5)
     chain = ur5_erd(limited=False) if arm.startswith("ur5") else load_robot("panda")

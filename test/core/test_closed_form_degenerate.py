@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from kinematics_node.core import SerialChain
-from kinematics_node.core.closed_form import family_of, no_closed_form_reason
-from kinematics_node.core.closed_form.geometry import meet_point
 from kinematics_node.core.exceptions import NoClosedFormError
+from kinematics_node.core.ik.closed_form import family_of, no_closed_form_reason
+from kinematics_node.core.ik.closed_form.geometry import meet_point
 from kinematics_node.sim.robots import robot_path
 
 
@@ -119,7 +119,7 @@ def test_an_arm_of_absurd_size_is_solved_without_raising(robot, origin, fuzzed):
 
 
 def test_damping_keeps_a_singular_normal_matrix_solvable_at_any_scale():
-    from kinematics_node.core.closed_form.chain_solver import _damped
+    from kinematics_node.core.ik.closed_form.chain_solver import _damped
 
     for scale in (1e-6, 1.0, 1e12):
         J = np.zeros((6, 6))

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from kinematics_node.core import IKOptions, SerialChain
-from kinematics_node.core.closed_form import family_of, no_closed_form_reason
-from kinematics_node.core.closed_form.geometry import pose_errors
+from kinematics_node.core.ik.closed_form import family_of, no_closed_form_reason
+from kinematics_node.core.ik.closed_form.geometry import pose_errors
 
 PI = np.pi
 
@@ -164,9 +164,9 @@ def test_a_held_general_arm_sweeps_its_held_joint_in_chunks_within_the_deadline(
     value is tried."""
     import time
 
-    from kinematics_node.core.closed_form import api
-    from kinematics_node.core.closed_form.detection import solver_of
-    from kinematics_node.core.closed_form.held import held_order_one
+    from kinematics_node.core.ik.closed_form import api
+    from kinematics_node.core.ik.closed_form.detection import solver_of
+    from kinematics_node.core.ik.closed_form.held import held_order_one
 
     chain = dh_chain(random_rows(np.random.default_rng(7), 7))
     solver = solver_of(chain)
@@ -219,8 +219,8 @@ def test_the_fitted_right_hand_side_and_the_deflated_eigenproblem_are_exact(name
     """Two shortcuts of the general solver, against their definitions: the right-hand side from
     the fitted map K equals the one evaluated from the 14 equations, and the 16 eigenvalues of
     the deflated companion matrix are those of the full 24 × 24 one less the spurious ±i."""
-    from kinematics_node.core.closed_form import general_6r as g6
-    from kinematics_node.core.closed_form.detection import solver_of
+    from kinematics_node.core.ik.closed_form import general_6r as g6
+    from kinematics_node.core.ik.closed_form.detection import solver_of
 
     chain = dh_chain(ARMS[name])
     geometry = solver_of(chain).geometry
@@ -337,7 +337,7 @@ def test_one_target_with_coinciding_roots_equals_the_stacked_solve(monkeypatch):
     on the Puma with a 1 mm wrist offset, its loop read from joint 3, most targets have such a
     pair (read from joint 6, as detected, none). Its sets must equal the stacked (many-target)
     solve's, and the cluster path must have run."""
-    from kinematics_node.core.closed_form import general_6r, import_family
+    from kinematics_node.core.ik.closed_form import general_6r, import_family
 
     chain = dh_chain(ARMS["offset Puma"])
     import_family(chain, ("general_6r", "2", False, None))
@@ -375,8 +375,8 @@ def test_one_target_by_qr_and_eigenvectors_equals_the_svd_and_the_stacked_solve(
     to (forced here), and its null vectors from the deflated problem's eigenvectors
     (`_null_vectors`) give the stacked solve's roots (inverse iteration): unpolished to 1e-7 of
     the polished ones, which reproduce the target to 1e-9."""
-    from kinematics_node.core.closed_form import general_6r as g6
-    from kinematics_node.core.closed_form.detection import solver_of
+    from kinematics_node.core.ik.closed_form import general_6r as g6
+    from kinematics_node.core.ik.closed_form.detection import solver_of
 
     chain = dh_chain(ARMS[name])
     solver = solver_of(chain)
@@ -416,9 +416,9 @@ def test_an_arm_built_per_target_on_a_shared_base_equals_one_built_whole():
     joints) has its arm built per target; the joints the target does not move come from the arm
     prepared once (`shifted_base`). Built on it or whole, the arm has the same coefficients, and
     the solver the same solutions, which contain the configuration the target came from."""
-    from kinematics_node.core.closed_form import general_6r as g6
-    from kinematics_node.core.closed_form import import_family
-    from kinematics_node.core.closed_form.detection import solver_of
+    from kinematics_node.core.ik.closed_form import general_6r as g6
+    from kinematics_node.core.ik.closed_form import import_family
+    from kinematics_node.core.ik.closed_form.detection import solver_of
 
     chain = dh_chain(ARMS["offset Puma"])
     import_family(chain, ("general_6r", "2", False, None))
@@ -473,10 +473,10 @@ def test_a_loop_with_the_moved_joints_first_equals_the_loop_read_as_given(name, 
     configuration, one target at a time and all at once; and the right-hand side that
     `MovedFirst` moves with the target must be that of the arm built whole from the moved axes,
     whose other coefficients are the prepared arm's."""
-    from kinematics_node.core.closed_form import general_6r as g6
-    from kinematics_node.core.closed_form import import_family
-    from kinematics_node.core.closed_form.detection import solver_of
-    from kinematics_node.core.closed_form.geometry import axis_lines
+    from kinematics_node.core.ik.closed_form import general_6r as g6
+    from kinematics_node.core.ik.closed_form import import_family
+    from kinematics_node.core.ik.closed_form.detection import solver_of
+    from kinematics_node.core.ik.closed_form.geometry import axis_lines
 
     chain = dh_chain(ARMS[name])
     M_inv = solver_of(chain).M_inv
@@ -543,7 +543,7 @@ def _reproduces(
 def test_the_polishing_step_is_the_gauss_newton_step_and_skips_large_or_singular_ones():
     """`_polish_steps` solves J Jᵀ Δ = −J r by the adjugate: the step of a least-squares solve
     where it is small, none where it is large (a root far off) or J Jᵀ is singular."""
-    from kinematics_node.core.closed_form.general_6r import _POLISH_LIMIT, _polish_steps
+    from kinematics_node.core.ik.closed_form.general_6r import _POLISH_LIMIT, _polish_steps
 
     rng = np.random.default_rng(5)
     J = rng.standard_normal((16, 3, 6))
@@ -640,9 +640,9 @@ def test_the_held_sweep_sizes_its_chunks_to_end_by_the_deadline(monkeypatch):
     measured cost the next is sized to end before the deadline, and the sweep stops when not one
     more value fits (it overran a 5 ms budget by up to 1.7 ms when a chunk's cost was taken as
     proportional to its size). The pace measured is kept for the next call."""
-    from kinematics_node.core.closed_form import api
-    from kinematics_node.core.closed_form.detection import solver_of
-    from kinematics_node.core.closed_form.held import held_order_one
+    from kinematics_node.core.ik.closed_form import api
+    from kinematics_node.core.ik.closed_form.detection import solver_of
+    from kinematics_node.core.ik.closed_form.held import held_order_one
 
     chain = dh_chain(random_rows(np.random.default_rng(7), 7))
     solver = solver_of(chain)
@@ -682,9 +682,9 @@ def test_held_arms_kept_per_value_and_stacked_solve_as_arms_built_whole():
     """A 7r_general_6r arm keeps its held general arms per value (`held_general`) and stacks
     them for a chunk (`Arm.stack`), a lane taken alone by `Arm.lane`: every mix of values
     kept and built gives the solutions of an arm built whole for those values."""
-    from kinematics_node.core.closed_form.chain_solver import solve_branches
-    from kinematics_node.core.closed_form.detection import solver_of
-    from kinematics_node.core.closed_form.general_6r import Arm
+    from kinematics_node.core.ik.closed_form.chain_solver import solve_branches
+    from kinematics_node.core.ik.closed_form.detection import solver_of
+    from kinematics_node.core.ik.closed_form.general_6r import Arm
 
     chain = dh_chain(random_rows(np.random.default_rng(7), 7))
     solver = solver_of(chain)
@@ -724,7 +724,7 @@ def test_a_held_arm_whose_loop_is_read_shifted_keeps_its_arm_per_held_value():
     values' prepared arms are kept per value and stacked (`held_shifted`), every lane solved on
     its own value's arm. One target with its own held value among others gives that
     configuration back; a batch over shared values reproduces every target."""
-    from kinematics_node.core.closed_form.detection import solver_of
+    from kinematics_node.core.ik.closed_form.detection import solver_of
 
     rows = [
         (0.20381491162431287, -PI / 2, 0.16452968642577726),
@@ -761,9 +761,9 @@ def test_held_arms_kept_per_value_survive_their_cache_filling_up(monkeypatch):
     emptied and every value of the call built again: a call mixing kept values and new ones
     then found the kept ones gone (KeyError), as `ik` with a new seed each call would after
     ~250 calls."""
-    from kinematics_node.core.closed_form import chain_solver
-    from kinematics_node.core.closed_form.detection import solver_of
-    from kinematics_node.core.closed_form.general_6r import Arm
+    from kinematics_node.core.ik.closed_form import chain_solver
+    from kinematics_node.core.ik.closed_form.detection import solver_of
+    from kinematics_node.core.ik.closed_form.general_6r import Arm
 
     chain = dh_chain(random_rows(np.random.default_rng(7), 7))
     solver = solver_of(chain)

@@ -22,8 +22,8 @@ from kin_testing import (
 )
 
 from kinematics_node.core import SerialChain, se3
-from kinematics_node.core.closed_form import api, chain_solver, detection, solution_set
-from kinematics_node.core.closed_form import geometry as scalar
+from kinematics_node.core.ik.closed_form import api, chain_solver, detection, solution_set
+from kinematics_node.core.ik.closed_form import geometry as scalar
 from kinematics_node.sim.robots import load_robot
 
 FK_TOL = 1e-9
@@ -132,8 +132,8 @@ def test_single_call_equals_batch_with_whole_turn_equivalents(arm):
 def test_prepared_vectorised_three_parallel_solver_equals_the_reference(arm):
     """`solve_three_parallel_prepared` (ik_all_batch) against `solve_three_parallel`: same
     branches, same flags and reasons, angles equal to round-off (√ε at exact tangents)."""
-    from kinematics_node.core.closed_form import geometry as vector
-    from kinematics_node.core.closed_form import three_parallel as vector_tp
+    from kinematics_node.core.ik.closed_form import geometry as vector
+    from kinematics_node.core.ik.closed_form import three_parallel as vector_tp
 
     chain = ARMS[arm]()
     solver = detection.solver_of(chain)
@@ -286,7 +286,7 @@ def test_check_seed_on_floats_equals_the_array_rules():
     """The float fast path of `check_seed` returns what clamping returns, and anything it does not
     accept (outside the limits, NaN, inf, other dtypes or shapes) takes the array rules."""
     from kinematics_node.core import InvalidInputError
-    from kinematics_node.core.ik_result import check_seed
+    from kinematics_node.core.ik.result import check_seed
 
     chain = ARMS["ur5 narrow limits"]()
     rng = np.random.default_rng(16)

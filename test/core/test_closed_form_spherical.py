@@ -22,8 +22,8 @@ from kin_testing import (
 )
 
 from kinematics_node.core import SerialChain, se3
-from kinematics_node.core.closed_form import chain_solver, detection, held
-from kinematics_node.core.closed_form import geometry as scalar
+from kinematics_node.core.ik.closed_form import chain_solver, detection, held
+from kinematics_node.core.ik.closed_form import geometry as scalar
 from kinematics_node.sim.robots import load_robot
 
 PI = np.pi
@@ -234,8 +234,8 @@ def test_ik_answers_reproduce_the_target_and_are_in_the_set(arm):
 def test_prepared_vectorised_spherical_wrist_equals_the_general_one(arm):
     """`solve_spherical` with the prepared wrist (`_wrist_prepared`, ik_batch / ik_all_batch)
     against the general one: same branches, flags and reasons, angles equal to round-off."""
-    from kinematics_node.core.closed_form import spherical_wrist as vector
-    from kinematics_node.core.closed_form.geometry import Trace
+    from kinematics_node.core.ik.closed_form import spherical_wrist as vector
+    from kinematics_node.core.ik.closed_form.geometry import Trace
 
     chain = (ARMS_6R | ARMS_7R)[arm]()
     solver = detection.solver_of(chain)

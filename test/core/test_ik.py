@@ -16,7 +16,7 @@ from kin_testing import PinocchioOracle, erd_path, ur_hole_target
 from scipy.spatial.transform import Rotation
 
 from kinematics_node.core import IKOptions, InvalidInputError, SerialChain, se3, so3
-from kinematics_node.core._pose_error import relative_pose, se3_log, so3_log
+from kinematics_node.core.ik.pose_error import relative_pose, se3_log, so3_log
 
 ARMS = {
     "ur5": ("ur_description/urdf/ur5_robot.urdf", "tool0"),
@@ -545,7 +545,7 @@ def test_batch_position_only_and_continuous(batch_path: str) -> None:
 
 
 def test_small_batches_return_exactly_what_single_calls_return() -> None:
-    from kinematics_node.core.ik import SCALAR_BATCH_BELOW
+    from kinematics_node.core.ik.solver import SCALAR_BATCH_BELOW
 
     chain = arm("panda")
     N = SCALAR_BATCH_BELOW - 1
@@ -647,7 +647,7 @@ def test_lm_step_is_the_damped_least_squares_step_in_either_form(n: int) -> None
     (JᵀJ + λI)Δq = Jᵀr; that form returns Jᵀr too, and a zeroed (frozen) joint does not move.
     Reference: the minimiser of ‖JΔq − r‖² + λ‖Δq‖², by least squares on the stacked system
     (well conditioned even where JJᵀ + λI is not, i.e. n < 6 with a tiny λ)."""
-    from kinematics_node.core._ik_single import _lm_step
+    from kinematics_node.core.ik.single import _lm_step
 
     rng = np.random.default_rng(n)
     # 1e-12 only for the n × n form: the 6 × 6 one is then as ill-conditioned as JJᵀ (rank 5
@@ -672,7 +672,7 @@ def test_lm_step_is_the_damped_least_squares_step_in_either_form(n: int) -> None
 def test_batched_lm_steps_are_the_damped_least_squares_steps(n: int) -> None:
     """`_ik_batch._lm_steps` in either form: each step minimises ‖JΔq − r‖² + λ‖Δq‖², and the
     predicted decrease is Δqᵀ(λΔq + Jᵀr)."""
-    from kinematics_node.core._ik_batch import _lm_steps
+    from kinematics_node.core.ik.batch import _lm_steps
 
     rng = np.random.default_rng(10 + n)
     k = 5

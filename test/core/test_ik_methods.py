@@ -17,7 +17,7 @@ import pytest
 from kin_testing import erd_path, random_q, ur_hole_target
 
 from kinematics_node.core import IKOptions, InvalidInputError, SerialChain
-from kinematics_node.core.closed_form import family_of
+from kinematics_node.core.ik.closed_form import family_of
 from kinematics_node.sim.robots import load_robot
 
 TOL = 1e-9
@@ -256,7 +256,7 @@ def test_an_exported_family_is_installed_on_a_copy_without_detecting_it(name, mo
     chain, and the worker's copy uses it (detection would take 20–100 ms inside a job)."""
     import pickle
 
-    from kinematics_node.core import closed_form
+    from kinematics_node.core.ik import closed_form
 
     chain = chain_of(name)
     exported = closed_form.export_family(chain)
@@ -275,7 +275,7 @@ def test_an_exported_family_is_installed_on_a_copy_without_detecting_it(name, mo
 
 
 def test_importing_a_family_that_does_not_fit_is_refused():
-    from kinematics_node.core import closed_form
+    from kinematics_node.core.ik import closed_form
 
     chain = chain_of("ur5")
     for bad in [("three_parallel", "", False, 3), ("nonsense", "", False, None), (1, 2)]:
@@ -288,7 +288,7 @@ def test_importing_a_family_that_does_not_fit_is_refused():
 def test_solve_closed_form_is_ik_s_answer_where_the_first_try_finds_one(name):
     """Where it answers, the same configuration `ik` gives with the closed form alone (for 7R:
     the held joint at the seed's value); where it does not, the first try has no solution."""
-    from kinematics_node.core.ik import solve_closed_form
+    from kinematics_node.core.ik.solver import solve_closed_form
 
     chain = chain_of(name)
     rng = np.random.default_rng(11)
@@ -310,7 +310,7 @@ def test_solve_closed_form_is_ik_s_answer_where_the_first_try_finds_one(name):
 
 
 def test_solve_closed_form_gives_none_where_ik_would_search_or_has_nothing():
-    from kinematics_node.core.ik import solve_closed_form
+    from kinematics_node.core.ik.solver import solve_closed_form
 
     chain = chain_of("ur5")
     T = chain.fk(random_q(chain, np.random.default_rng(2)))
@@ -344,8 +344,8 @@ def test_a_numeric_set_stays_distinct_when_a_solution_falls_between_two_members(
     `solution_separation` of each, between them) replaced one of them where it was nearer the
     seed, and the set then held two solutions 9 mrad apart (a free axis's samples, CI on Kilted).
     It is left out now; a solution the same as one member still replaces it when nearer."""
-    from kinematics_node.core._ik_problem import IKProblem
-    from kinematics_node.core._ik_single import SingleSolver
+    from kinematics_node.core.ik.problem import IKProblem
+    from kinematics_node.core.ik.single import SingleSolver
 
     chain = chain_of("ur5")
     opts = IKOptions(method="numeric", num_solutions=3)
@@ -372,8 +372,8 @@ def test_a_numeric_search_run_again_goes_on_with_its_next_restarts():
     then the search again) starts from the next restart of its random stream: before, a new
     solver replayed the seed and, with `rng_seed` set, exactly the same restarts. Each run's
     starts are those of one uninterrupted stream, and `max_restarts` counts over all runs."""
-    from kinematics_node.core._ik_problem import IKProblem
-    from kinematics_node.core._ik_single import SingleSolver
+    from kinematics_node.core.ik.problem import IKProblem
+    from kinematics_node.core.ik.single import SingleSolver
 
     chain = chain_of("panda")
     opts = IKOptions(method="numeric", rng_seed=3, max_restarts=3)

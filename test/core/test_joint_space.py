@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from kinematics_node.core import IKOptions, SerialChain
-from kinematics_node.core._joint_space import (
+from kinematics_node.core.ik.joint_space import (
     into_limits,
     into_limits_batch,
     nearest_equivalent,

@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from kinematics_node.core import subproblems as sp
-from kinematics_node.core.closed_form import geometry as scalar
+from kinematics_node.core.ik import subproblems as sp
+from kinematics_node.core.ik.closed_form import geometry as scalar
 
 N = 2000
 

@@ -140,7 +140,7 @@ def test_a_reachable_target_is_answered_while_every_worker_searches(client, star
     (`ik_pool.solve_at_once`). Queued for a worker, it would expire unsolved."""
     from kin_testing import ur_hole_target
 
-    from kinematics_node.core.ik import solve_closed_form
+    from kinematics_node.core.ik.solver import solve_closed_form
 
     start_node(robot_description=ur5e_description(), ik__workers=2)
     client.call(ComputeIK, "compute_ik", ik_request(CHAIN.fk(np.zeros(6))), 10.0)  # discovery

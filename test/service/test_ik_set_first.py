@@ -24,7 +24,7 @@ from kin_testing import erd_path, random_q
 from service_testing import Clock, check_message, ik_target, js
 
 from kinematics_node.core import IKOptions, SerialChain
-from kinematics_node.core.closed_form import nearest
+from kinematics_node.core.ik.closed_form import nearest
 from kinematics_node.service.kinematics import KinematicsService
 
 ARMS = {

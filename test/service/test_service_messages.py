@@ -19,7 +19,7 @@ import pytest
 from service_testing import check_message, ik_target, js
 
 from kinematics_node.core import se3
-from kinematics_node.core.ik import beyond_reach
+from kinematics_node.core.ik.solver import beyond_reach
 from kinematics_node.service.ik_pool import solve_job
 from kinematics_node.service.kinematics import KinematicsService
 

@@ -12,9 +12,9 @@ import weakref
 
 import numpy as np
 
+from ...exceptions import InvalidInputError, NoClosedFormError
+from ...model import KinematicChain
 from .. import subproblems as sp
-from ..exceptions import InvalidInputError, NoClosedFormError
-from ..model import KinematicChain
 from .chain_solver import ChainSolver, solve_arrays, solve_branches
 from .geometry import axis_lines, exp_rotation, meet_point, wrap_angles
 from .structure import (

@@ -2,7 +2,7 @@
 
 On plain floats (3-tuples, for one target: NumPy's per-call overhead of about 1 µs per operation
 on tiny arrays dominates there) and in lanes (arrays with a leading lane axis: targets, or target ×
-held-joint value). The scalar subproblems here mirror `kinematics_node.core.subproblems` line by
+held-joint value). The scalar subproblems here mirror `kinematics_node.core.ik.subproblems` line by
 line (same equations, same branch order, same tolerances). Also: the per-lane `LaneGeometry` of a
 6R problem, the scalar `Geometry` (its lane 0), pose errors and angle wrapping.
 
@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ...model import TWO_PI
 from .. import subproblems as sp
-from ..model import TWO_PI
 from ..subproblems import TANGENT_TOLERANCE
 
 FloatArray = NDArray[np.float64]

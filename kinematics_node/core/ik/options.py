@@ -13,7 +13,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from .exceptions import InvalidInputError
+from ..exceptions import InvalidInputError
 
 FloatArray = NDArray[np.float64]
 Mode = Literal["speed", "distance"]

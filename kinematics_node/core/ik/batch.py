@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ._ik_problem import (
+from .joint_space import into_limits_batch, nearest_equivalent_batch, sample_bounds
+from .problem import (
     LAMBDA_INIT,
     LAMBDA_MAX,
     LAMBDA_MIN,
@@ -31,7 +32,6 @@ from ._ik_problem import (
     STALL_STEPS,
     IKProblem,
 )
-from ._joint_space import into_limits_batch, nearest_equivalent_batch, sample_bounds
 
 FloatArray = NDArray[np.float64]
 

@@ -23,11 +23,11 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from . import se3, so3
-from ._joint_space import pinnable_mask
-from .exceptions import InvalidInputError
-from .ik_options import IKOptions
-from .model import KinematicChain, SolverModel
+from .. import se3, so3
+from ..exceptions import InvalidInputError
+from ..model import KinematicChain, SolverModel
+from .joint_space import pinnable_mask
+from .options import IKOptions
 
 FloatArray = NDArray[np.float64]
 

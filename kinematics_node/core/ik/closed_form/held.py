@@ -8,9 +8,9 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._checks import as_float_array, check_finite
-from ..exceptions import InvalidInputError
-from ..model import TWO_PI, KinematicChain
+from ..._checks import as_float_array, check_finite
+from ...exceptions import InvalidInputError
+from ...model import TWO_PI, KinematicChain
 from .chain_solver import ChainSolver
 from .detection import require_solver
 from .geometry import FloatArray

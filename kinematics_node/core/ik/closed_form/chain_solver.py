@@ -19,7 +19,7 @@ from typing import TypeVar
 import numpy as np
 from scipy.linalg.lapack import dposv
 
-from ..model import TWO_PI, KinematicChain
+from ...model import TWO_PI, KinematicChain
 from .general_6r import (
     Arm,
     MovedFirst,

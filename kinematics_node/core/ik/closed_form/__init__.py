@@ -5,7 +5,7 @@ the base frame) put G = T_t M⁻¹ = e^{[S₁]q₁} ⋯ e^{[Sₙ]qₙ}, a produc
 axes (ωᵢ, a point rᵢ on each). A point x on an axis is fixed by that joint's exponential; the
 component hᵀx along h is kept by rotations about axes parallel to h; the distance from a point on
 an axis is kept by that joint. These three invariants split the 6R problem into subproblems
-(`kinematics_node.core.subproblems`), each with at most two solutions, so at most 8 in all.
+(`kinematics_node.core.ik.subproblems`), each with at most two solutions, so at most 8 in all.
 
 Families, detected from the screw axes S alone (never from names or DH tables), with tolerances
 `ANGLE_TOLERANCE` [rad] and `DISTANCE_TOLERANCE` [m] that absorb the rounding of real URDFs:
@@ -35,7 +35,7 @@ Units: lengths [m], angles [rad]. Frames: targets are tip poses in the base fram
 Layout (one concept per module):
 
 * `geometry`: lines of the screw axes, points and vectors on floats and in lanes, the scalar
-  twins of `kinematics_node.core.subproblems`, pose errors.
+  twins of `kinematics_node.core.ik.subproblems`, pose errors.
 * `three_parallel`, `spherical_wrist`: one family each, its single-target form on Python floats
   and its vectorised form over lanes side by side (same equations, same branch order).
 * `structure`: which family the axis relations of six lines allow (not yet confirmed).

@@ -20,7 +20,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from .model import TWO_PI
+from ..model import TWO_PI
 
 FloatArray = NDArray[np.float64]
 

@@ -71,9 +71,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._ik_batch import BatchOutcome, BatchSolver
-from ._ik_problem import IKProblem
-from ._ik_single import SingleOutcome, SingleSolver
+from ..exceptions import InvalidInputError
+from ..model import KinematicChain, readonly
+from .batch import BatchOutcome, BatchSolver
 from .closed_form import (
     DEFAULT_HELD_SAMPLES,
     Nearest,
@@ -83,10 +83,10 @@ from .closed_form import (
     nearest_batch,
     no_closed_form_reason,
 )
-from .exceptions import InvalidInputError
-from .ik_options import IKOptions
-from .ik_result import IKBatchResult, IKResult, check_seed, default_seed
-from .model import KinematicChain, readonly
+from .options import IKOptions
+from .problem import IKProblem
+from .result import IKBatchResult, IKResult, check_seed, default_seed
+from .single import SingleOutcome, SingleSolver
 
 FloatArray = NDArray[np.float64]
 # Below this many targets `ik_batch` solves them one by one with the scalar solver: the lock-step

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .exceptions import InvalidInputError
-from .model import KinematicChain, middle_of_limits
+from ..exceptions import InvalidInputError
+from ..model import KinematicChain, middle_of_limits
 
 FloatArray = NDArray[np.float64]
 

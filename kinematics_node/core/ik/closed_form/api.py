@@ -11,10 +11,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._checks import rigid_on_floats
-from ..exceptions import InvalidInputError
-from ..ik_result import check_seed
-from ..model import TWO_PI, KinematicChain, readonly
+from ..._checks import rigid_on_floats
+from ...exceptions import InvalidInputError
+from ...model import TWO_PI, KinematicChain, readonly
+from ..result import check_seed
 from .chain_solver import (
     NEAREST_REFINE_ABOVE,
     REFINE_BELOW,

@@ -28,7 +28,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.linalg.lapack import dposv
 
-from ._ik_problem import (
+from ..model import TWO_PI
+from .joint_space import into_limits, nearest_equivalent, sample_bounds
+from .pose_error import relative_pose, se3_log, so3_log
+from .problem import (
     LAMBDA_INIT,
     LAMBDA_MAX,
     LAMBDA_MIN,
@@ -38,9 +41,6 @@ from ._ik_problem import (
     STALL_STEPS,
     IKProblem,
 )
-from ._joint_space import into_limits, nearest_equivalent, sample_bounds
-from ._pose_error import relative_pose, se3_log, so3_log
-from .model import TWO_PI
 
 FloatArray = NDArray[np.float64]
 

@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..ik_result import IKResult, default_seed
-from ..model import TWO_PI, KinematicChain
+from ...model import TWO_PI, KinematicChain
+from ..result import IKResult, default_seed
 from .geometry import INV_TWO_PI, BoolArray, Candidate, FloatArray, IntArray
 
 #: A solution counts once: two that agree to this [rad] in every joint (modulo 2π) are one.

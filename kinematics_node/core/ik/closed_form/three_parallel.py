@@ -16,8 +16,8 @@ from math import atan2, cos, pi, sin, sqrt
 
 import numpy as np
 
+from ...model import TWO_PI
 from .. import subproblems as sp
-from ..model import TWO_PI
 from ..subproblems import TANGENT_TOLERANCE
 from .geometry import (
     BoolArray,
