@@ -167,7 +167,7 @@ def decode_joint_states(messages: Sequence[bytes]) -> list[JointStateGroup]:
     left = np.ones(len(messages), dtype=bool)
     for size in np.unique(sizes):
         rows = np.flatnonzero((sizes == size) & left)
-        block = np.frombuffer(b"".join(messages[i] for i in rows), dtype=np.uint8)
+        block = np.frombuffer(b"".join([messages[int(i)] for i in rows]), dtype=np.uint8)
         block = block.reshape(len(rows), int(size))
         pending = np.arange(len(rows))
         while pending.size:
