@@ -542,6 +542,27 @@ class SerialChain:
             raise UnknownNameError("link", link, self.link_names)
         return self.link_poses(q)[..., self.link_names.index(link), :, :]
 
+    @property
+    def moving_links(self) -> tuple[bool, ...]:
+        """For each link after the first of `link_names`: whether a moving joint lies between it
+        and the link before it (its pose there depends on q: /tf), or not (fixed: /tf_static)."""
+        joint = self._link_joint
+        return tuple(joint[i + 1] != joint[i] for i in range(len(joint) - 1))
+
+    def parent_link_poses(self, q: ArrayLike) -> FloatArray:
+        """Pose of each link of `link_names` after the first in the link before it, as /tf gives
+        it (the transform parent → child of the joint between them): (n,) → (L − 1, 4, 4),
+        (..., n) → (..., L − 1, 4, 4). T_parent_child = T_base_parent⁻¹ T_base_child."""
+        T = self.link_poses(q)
+        R_bp, p_bp = T[..., :-1, :3, :3], T[..., :-1, :3, 3]
+        R_bc, p_bc = T[..., 1:, :3, :3], T[..., 1:, :3, 3]
+        R_pb = np.swapaxes(R_bp, -1, -2)
+        out = np.zeros(T[..., 1:, :, :].shape)
+        out[..., :3, :3] = R_pb @ R_bc
+        out[..., :3, 3] = (R_pb @ (p_bc - p_bp)[..., None])[..., 0]
+        out[..., 3, 3] = 1.0
+        return out
+
     # ------------------------------------------------------------------ velocity and statics
     def twist(self, q: ArrayLike, qdot: ArrayLike, frame: Frame = "world") -> FloatArray:
         """End-effector twist V = J(q) q̇, rows (ω, v), in `frame` (..., 6)."""

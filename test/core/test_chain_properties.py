@@ -164,3 +164,24 @@ def test_planar_3r_closed_form_and_singularity():
     assert manipulability(straight[[3, 4]], "full") == pytest.approx(0.0, abs=1e-15)
     assert is_near_singular(straight[[2, 3, 4]], "full")
     assert not is_near_singular(J, "full")
+
+
+def test_parent_link_poses_compose_to_the_link_poses_and_only_moving_links_move():
+    """Each link's pose in its parent, chained from the base, gives `link_poses`; a link that
+    `moving_links` calls fixed sits in its parent the same way whatever q."""
+    from kinematics_node.core import SerialChain
+    from kinematics_node.sim.robots import robot_path
+
+    chain = SerialChain.from_urdf(robot_path("panda"), None, "panda_hand_tcp")
+    rng = np.random.default_rng(8)
+    Q = rng.uniform(chain.lower, chain.upper, size=(5, chain.dof))
+    rel, absolute = chain.parent_link_poses(Q), chain.link_poses(Q)
+    assert rel.shape == (5, len(chain.link_names) - 1, 4, 4)
+    T = np.broadcast_to(absolute[:, 0], (5, 4, 4))
+    for i in range(rel.shape[1]):
+        T = T @ rel[:, i]
+        np.testing.assert_allclose(T, absolute[:, i + 1], atol=1e-12)
+    moves = np.array(chain.moving_links)
+    assert moves.sum() == chain.dof and not moves.all()  # panda_link8, hand and tcp are fixed
+    spread = np.ptp(rel, axis=0).max(axis=(-1, -2))
+    assert (spread[~moves] < 1e-12).all() and (spread[moves] > 1e-3).all()
