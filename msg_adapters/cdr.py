@@ -148,6 +148,11 @@ def _joint_state_layout(data: bytes) -> _JointStateLayout:
     return _JointStateLayout(len(data), cur.big_endian, names, position, velocity, effort)
 
 
+def decode_string(data: bytes) -> str:
+    """The text of a serialized std_msgs/String (a recording's /robot_description)."""
+    return _Cursor(data).string("data")
+
+
 def _floats(block: NDArray[np.uint8], offset: int, count: int, big_endian: bool) -> FloatArray:
     columns = block[:, offset : offset + 8 * count]
     return np.ascontiguousarray(columns).view(">f8" if big_endian else "<f8").astype(np.float64)

@@ -106,6 +106,11 @@ class JointMotion:
         nan = np.full(n, math.nan)
         self._carry = _Carry(nan.copy(), nan.copy(), np.full(n, -1), np.full(n, -1), nan.copy())
 
+    @property
+    def last_q(self) -> FloatArray:
+        """Each joint's last position (NaN: never named yet)."""
+        return self._carry.q.copy()
+
     def advance(self, groups: Sequence[JointStateGroup], log_time_ns: IntArray) -> Motion:
         """The rows of a batch (its decoded groups and the log time of every message, in the
         order read) that have a pose, with their positions and velocities."""

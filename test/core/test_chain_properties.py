@@ -185,3 +185,26 @@ def test_parent_link_poses_compose_to_the_link_poses_and_only_moving_links_move(
     assert moves.sum() == chain.dof and not moves.all()  # panda_link8, hand and tcp are fixed
     spread = np.ptp(rel, axis=0).max(axis=(-1, -2))
     assert (spread[~moves] < 1e-12).all() and (spread[moves] > 1e-3).all()
+
+
+@pytest.mark.parametrize(
+    ("robot", "tip"), [("panda", "panda_hand_tcp"), ("scara", None), ("ur5e", "tool0")]
+)
+def test_parent_link_transforms_are_the_parent_link_poses(robot, tip):
+    """Translations and quaternions (w ≥ 0) equal those of the matrices, revolute and prismatic
+    joints alike (the SCARA slides)."""
+    from kinematics_node.core import so3
+    from kinematics_node.sim.robots import robot_path
+
+    chain = SerialChain.from_urdf(robot_path(robot), None, tip)
+    rng = np.random.default_rng(9)
+    lo = np.where(np.isfinite(chain.lower), chain.lower, -2 * np.pi)
+    hi = np.where(np.isfinite(chain.upper), chain.upper, 2 * np.pi)
+    Q = rng.uniform(lo, hi, size=(50, chain.dof))
+    T = chain.parent_link_poses(Q)
+    t, quat = chain.parent_link_transforms(Q)
+    np.testing.assert_allclose(t, T[..., :3, 3], atol=1e-12)
+    np.testing.assert_allclose(quat, so3.quaternion_from_matrix(T[..., :3, :3]), atol=1e-12)
+    t1, q1 = chain.parent_link_transforms(Q[3])
+    np.testing.assert_array_equal(t1, t[3])
+    np.testing.assert_array_equal(q1, quat[3])

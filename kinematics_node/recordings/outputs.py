@@ -1,0 +1,125 @@
+"""What a batch of joint motion adds to a recording: the end effector's pose and twist, and the
+chain's transforms, as serialized messages ready to write (one row of bytes each).
+
+The same quantities the kinematics node publishes for the same joint_states (`ee_pose`,
+`ee_twist`; `compute_ee_state`), computed for the whole batch at once: one batched FK/Jacobian
+pass, the quaternion by the same Shepperd's method (w ≥ 0), the twist J(q) q̇ in the node's
+`twist_frame`. /tf holds, for every joint of the chain that moves, the pose of its child link in
+its parent link, as robot_state_publisher gives it; /tf_static the fixed joints' (written once).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from msg_adapters.cdr import pose_stamped_cdr, tf_message_cdr, twist_stamped_cdr
+
+from ..core import SerialChain, so3
+from ..core.analysis import singular_values
+from .joint_motion import Motion
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+Rows = NDArray[np.uint8]
+
+POSE_TYPE = "geometry_msgs/msg/PoseStamped"
+TWIST_TYPE = "geometry_msgs/msg/TwistStamped"
+TF_TYPE = "tf2_msgs/msg/TFMessage"
+
+
+@dataclass(frozen=True)
+class Written:
+    """Messages for one topic: log times (k,) [ns] and their bytes (k, L)."""
+
+    log_time_ns: IntArray
+    rows: Rows
+
+
+@dataclass(frozen=True)
+class Conditioning:
+    """Per row of a `Motion` (or of a decimated part of it): translational manipulability
+    (product of the linear rows' singular values), the full Jacobian's condition number and its
+    smallest singular value."""
+
+    log_time_ns: IntArray
+    manipulability: FloatArray
+    condition_number: FloatArray
+    min_singular_value: FloatArray
+
+
+class EndEffector:
+    """Turns `Motion` into the messages the recording gains.
+
+    Args:
+        chain: the chain (base → tip) whose pose the node publishes.
+        twist_frame: "world" (default, as the node's): ω and the tip origin's velocity in base
+            axes, frame_id the base link; "body": both in tip axes, frame_id the tip link.
+    """
+
+    def __init__(self, chain: SerialChain, twist_frame: Literal["world", "body"] = "world"):
+        self.chain = chain
+        self.twist_frame = twist_frame
+        moving = np.array(chain.moving_links, dtype=bool)
+        links = chain.link_names
+        self._moving = moving
+        self.tf_parents = tuple(links[i] for i in np.flatnonzero(moving))
+        self.tf_children = tuple(links[i + 1] for i in np.flatnonzero(moving))
+        self.static_parents = tuple(links[i] for i in np.flatnonzero(~moving))
+        self.static_children = tuple(links[i + 1] for i in np.flatnonzero(~moving))
+
+    def messages(self, motion: Motion) -> tuple[Written, Written, Written, FloatArray]:
+        """(ee_pose, ee_twist, /tf, J) for the rows of `motion`; twists only where q̇ is known.
+        J: (m, 6, n) world Jacobians, rows (ω, v), for the conditioning."""
+        chain, stamp, log = self.chain, motion.stamp_ns, motion.log_time_ns
+        T, J = chain.fk_jacobian(motion.q, "world")
+        quat = so3.quaternion_from_matrix(T[:, :3, :3])
+        pose = Written(log, pose_stamped_cdr(stamp, chain.base_link, T[:, :3, 3], quat))
+        known = np.isfinite(motion.qdot).all(axis=1)
+        V = (J[known] @ motion.qdot[known][:, :, None])[:, :, 0]
+        omega, v = V[:, :3], V[:, 3:]
+        frame = chain.base_link
+        if self.twist_frame == "body":
+            Rt = np.swapaxes(T[known, :3, :3], 1, 2)
+            omega, v = (Rt @ omega[:, :, None])[:, :, 0], (Rt @ v[:, :, None])[:, :, 0]
+            frame = chain.tip_link
+        twist = Written(log[known], twist_stamped_cdr(stamp[known], frame, v, omega))
+        return pose, twist, self._tf(motion), J
+
+    def _tf(self, motion: Motion) -> Written:
+        t, quat = self.chain.parent_link_transforms(motion.q)
+        rows = tf_message_cdr(
+            motion.stamp_ns,
+            self.tf_parents,
+            self.tf_children,
+            t[:, self._moving],
+            quat[:, self._moving],
+        )
+        return Written(motion.log_time_ns, rows)
+
+    def static_tf(self, log_time_ns: int, stamp_ns: int) -> Written | None:
+        """The fixed joints' /tf_static message (None when the chain has none)."""
+        if not self.static_children:
+            return None
+        t, quat = self.chain.parent_link_transforms(np.zeros((1, self.chain.dof)))
+        rows = tf_message_cdr(
+            np.array([stamp_ns]),
+            self.static_parents,
+            self.static_children,
+            t[:, ~self._moving],
+            quat[:, ~self._moving],
+        )
+        return Written(np.array([log_time_ns]), rows)
+
+
+def conditioning(log_time_ns: IntArray, J: FloatArray) -> Conditioning:
+    """`Conditioning` of Jacobians (m, 6, n), rows (ω, v), as the node's /diagnostics reports it
+    (`core.analysis.conditioning`, batched)."""
+    s = singular_values(J, "full")
+    linear = singular_values(J, "linear")
+    with np.errstate(divide="ignore"):
+        cond = np.where(s[:, -1] > 0, s[:, 0] / s[:, -1], np.inf)
+    return Conditioning(log_time_ns, np.prod(linear, axis=-1), cond, s[:, -1])
