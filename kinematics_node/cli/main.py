@@ -863,7 +863,7 @@ def _servo_demo(args: argparse.Namespace) -> int:
     if not ruckig_available():
         print(
             "Ruckig is not installed: the servo runs within its position, velocity and "
-            "acceleration limits but not its jerk limits (the jerk printed passes them); for "
+            "acceleration limits but not its jerk limits (the jerk printed may pass them); for "
             f"jerk limits: {RUCKIG_INSTALL}",
             file=sys.stderr,
         )
