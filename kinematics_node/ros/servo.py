@@ -16,9 +16,9 @@ moveit_servo's, so joystick and teleop configurations written for it carry over)
   pub  command_out_topic         std_msgs/Float64MultiArray (positions or velocities) or
                                  trajectory_msgs/JointTrajectory, by `command_out_type`
   pub  ~/status                  diagnostic_msgs/DiagnosticStatus: level, message and the details
-                                 (code, code_name, condition_number, joints_at_limit, ...; the
-                                 loop's own figures: cycles, late_cycles, lost_periods,
-                                 step_us_max)
+                                 (code, code_name, condition_number, joints_at_limit, ...,
+                                 smoother: Ruckig's or the acceleration-limited one; the loop's
+                                 own figures: cycles, late_cycles, lost_periods, step_us_max)
 Services: ~/pause_servo (std_srvs/SetBool: true pauses, false resumes, as moveit_servo's since
 Iron), ~/unpause_servo (std_srvs/Trigger, as moveit_servo's on Humble).
 
