@@ -7,7 +7,7 @@ node's parameters at run time (as `ros2 param` does: the tip of a description wi
     kinematics ros ik --target X,Y,Z,QX,QY,QZ,QW [--frame F] [--tip LINK] [--position-only]
                       [--timeout S] [--service compute_ik] [--wait 10] [--json]
     kinematics ros jog [--topic /servo/delta_twist_cmds] [--frame F] [--speed 0.05] [--turn 0.3]
-                       [--rate 50] [--status /servo/status] [--wait 10]
+                       [--rate 50] [--status /servo/status] [--keys-from-stdin] [--wait 10]
     kinematics ros param list|get|set NODE [NAME [VALUE]] [--wait 10]
 
 This module holds the arguments and the words and imports no ROS: main.py adds the `ros` command
@@ -131,8 +131,8 @@ def add_parser(commands: Any) -> None:
         description="Publish TwistStamped to the servo from the keyboard: " + HELP + ".\n"
         "A key's twist is sent at --rate for 0.6 s after its last press or repeat, so a held key\n"
         "moves the arm without a pause and a released one lets the servo stop it smoothly.\n"
-        "Without a terminal, keys are read from standard input as they come (end of input\n"
-        "quits once the last key's twist has lapsed). The servo's status is shown as it changes.",
+        "It needs a terminal: without one (standard input a pipe, a file or /dev/null) it exits\n"
+        "with status 1, unless --keys-from-stdin. The servo's status is shown as it changes.",
         epilog=_EXAMPLES,
     )
     jog.add_argument(
@@ -154,6 +154,12 @@ def add_parser(commands: Any) -> None:
     )
     jog.add_argument(
         "--status", default="/servo/status", help="the servo's status topic (default: %(default)s)"
+    )
+    jog.add_argument(
+        "--keys-from-stdin",
+        action="store_true",
+        help="read keys from standard input even when it is not a terminal (a script's pipe): "
+        "each character a key; at the end of input the last key's twist lapses, then it exits",
     )
     param = which.add_parser(
         "param",
@@ -201,11 +207,26 @@ def run(args: argparse.Namespace, emit: Callable[[str], None] = print) -> int:
         "jog": (_jog, ("geometry_msgs.msg", "diagnostic_msgs.msg")),
         "param": (_param, ("rcl_interfaces.srv",)),
     }[args.ros_command]
+    if args.ros_command == "jog" and not (args.keys_from_stdin or _stdin_is_a_terminal()):
+        # before ROS starts and before the banner: without a terminal there are no keys to jog
+        # with (`< /dev/null` ended at once, status 0, as if the user had quit)
+        raise RosClientError(
+            "kinematics ros jog reads keys from a terminal, and standard input is not one (a "
+            "pipe, a file or /dev/null): run it in a terminal, or give --keys-from-stdin to take "
+            "keys from standard input as they come"
+        )
     reason = missing_ros(needs)
     if reason is not None:
         raise RosClientError(f"kinematics ros {args.ros_command} {reason}")
     with RosClient() as client:
         return command(client, args, emit)
+
+
+def _stdin_is_a_terminal() -> bool:
+    try:
+        return sys.stdin is not None and os.isatty(sys.stdin.fileno())
+    except (OSError, ValueError):  # closed, or not a file (replaced by a test harness)
+        return False
 
 
 def _stamp(header: Any) -> str:

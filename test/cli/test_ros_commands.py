@@ -6,6 +6,7 @@ from __future__ import annotations
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -29,7 +30,7 @@ def _kinematics_without_rclpy(*args: str) -> subprocess.CompletedProcess[str]:
     [
         ["ros", "pose"],
         ["ros", "ik", "--target", "0.4,0.1,0.4,1,0,0,0"],
-        ["ros", "jog"],
+        ["ros", "jog", "--keys-from-stdin"],
         ["ros", "param", "list", "kinematics_node"],
     ],
 )
@@ -127,3 +128,24 @@ def test_param_set_reads_yaml_in_the_parameters_own_type(current, text, expected
 def test_jog_speeds_and_rate_are_positive_numbers(capsys, option, value):
     assert main(["ros", "jog", option, value]) == 2
     assert f"argument {option}: expected a finite number > 0" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("stdin", ["devnull", "pipe"])
+def test_jog_without_a_terminal_says_it_needs_one_before_starting_ros(stdin):
+    """`kinematics ros jog < /dev/null` (or from a pipe) used to print its banner and exit 0, as
+    if the user had quit. It says that it needs a terminal, exits 1, prints no banner, and does
+    not start ROS (rclpy is made unimportable: reaching it would say "needs ROS 2" instead)."""
+    code = (
+        "import sys; sys.modules['rclpy'] = None; from kinematics_node.cli.main import main; "
+        "sys.exit(main(['ros', 'jog', '--wait', '1']))"
+    )
+    where: dict[str, Any] = {"stdin": subprocess.DEVNULL} if stdin == "devnull" else {"input": "w"}
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=ROOT, **where
+    )
+    assert out.returncode == 1
+    assert out.stdout == ""  # no banner
+    assert out.stderr.count("\n") == 1 and "Traceback" not in out.stderr
+    assert out.stderr.startswith("kinematics: error: kinematics ros jog reads keys from a terminal")
+    assert "standard input is not one" in out.stderr and "--keys-from-stdin" in out.stderr
+    assert "needs ROS 2" not in out.stderr
