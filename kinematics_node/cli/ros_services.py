@@ -224,7 +224,7 @@ def _matrix_rows(
     lines += [f"{c + 1:<{width}} {name}" for c, name in enumerate(names)]
     lines.append(" " * width + "".join(f"{c + 1:>11}" for c in range(len(names))))
     lines += [
-        f"{label:<{width}}" + "".join(f"{v:>11.6f}" for v in row)
+        f"{label:<{width}}" + "".join(f"{round(v, 6) + 0.0:>11.6f}" for v in row)  # no -0.0
         for label, row in zip(labels, matrix, strict=True)
     ]
     return lines
