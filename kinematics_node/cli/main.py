@@ -822,7 +822,7 @@ def build_parser() -> argparse.ArgumentParser:
     servo_demo.add_argument(
         "--no-ros", action="store_true", help="run in this process even where ROS 2 is available"
     )
-    ros_commands.add_parser(sub)  # `kinematics ros pose|ik|jog`: ROS is imported only when it runs
+    ros_commands.add_parser(sub)  # `kinematics ros ...`: ROS is imported only when it runs
     return parser
 
 
