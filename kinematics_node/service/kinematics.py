@@ -84,6 +84,14 @@ DESCRIPTION_PARAMETERS = ("robot_description", "robot_description_file", "xacro_
 _log = logging.getLogger(__name__)
 
 
+def diagnostics_name(node_name: str) -> str:
+    """The name of the node's status on /diagnostics: "<node's full name>: end effector"
+    (``/arm1/kinematics_node: end effector``), as diagnostic_updater prefixes the node's name,
+    so that nodes in different namespaces publish distinct statuses. Filter on it with this
+    function, or on the suffix ": end effector"."""
+    return f"{node_name}: end effector"
+
+
 class Severity(IntEnum):
     """How a joint_states problem is reported (the values are DiagnosticStatus levels).
 
@@ -212,7 +220,8 @@ class KinematicsService:
         clock: current time [s] in the time base of the joint_states stamps (the node passes its
             ROS clock, so simulated time works); used for diagnostics only.
         node_name: the node's full name, for the commands that messages suggest
-            (``ros2 param set <node_name> tip_link <link>``).
+            (``ros2 param set <node_name> tip_link <link>``) and the name of its /diagnostics
+            status (`diagnostics_name`).
 
     Raises:
         InvalidInputError: a parameter value is invalid (wrong type, out of range).
@@ -1059,7 +1068,7 @@ class KinematicsService:
         values += [(f"ik_pool_{k}", str(v)) for k, v in (pool or {}).items()]
         status = S(
             level=(S.OK, S.WARN, S.ERROR)[severity],
-            name="kinematics_node: end effector",
+            name=diagnostics_name(self._node_name),
             message="; ".join(notes) if notes else "ok",
             hardware_id=self._status.robot_name,
             values=[types.KeyValue(key=k, value=v) for k, v in values],
