@@ -70,7 +70,12 @@ from ..core.exceptions import InvalidInputError
 from ..service.servo import ServoService
 from ..service.servo_parameters import SERVO_PARAMETERS, SERVO_SPECS
 from .node_log import ThrottledWarnings, log_lines
-from .node_setup import answer_parameter_change, declare_parameters, freeze_heap
+from .node_setup import (
+    answer_parameter_change,
+    check_parameter_names,
+    declare_parameters,
+    freeze_heap,
+)
 from .qos import DESCRIPTION_QOS, JOINT_STATES_QOS, NO_PUBLISHER_EVENTS, NO_SUBSCRIPTION_EVENTS
 from .realtime import apply_thread_priority
 from .spin import spin_until_shutdown
@@ -97,6 +102,7 @@ class ServoNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("servo", **kwargs)
         values = declare_parameters(self, SERVO_PARAMETERS)
+        check_parameter_names(self)  # a typo (-p period_ss:=...) is named, not silently ignored
         self._logic = ServoService(
             MessageTypes.from_rclpy(),
             ServoMessageTypes.from_rclpy(),
