@@ -33,7 +33,8 @@ setup(
     extras_require={
         "xacro": ["xacro>=2.0"],
         "demo": ["matplotlib>=3.5"],
-        # Jerk-limited smoothing of kinematics_node.core.servo (the rest of the package runs without)
+        # Jerk limits of kinematics_node.core.servo (optional: without it the servo smooths within
+        # the position, velocity and acceleration limits, with no jerk limit)
         "servo": ["ruckig>=0.9"],
         "test": [
             "pytest>=7",
@@ -44,7 +45,7 @@ setup(
             "xacro>=2.0",
             "matplotlib>=3.5",
             "pyyaml>=5",  # reads config/kinematics.yaml in the package-file tests
-            "ruckig>=0.9",  # the servo's smoothing (extra "servo")
+            "ruckig>=0.9",  # the servo's jerk-limited smoothing (extra "servo")
         ],
         # Peers for the side-by-side benchmarks; KDL comes from Debian (apt install python3-pykdl).
         "bench": [

@@ -23,7 +23,11 @@ integrator of the commanded positions (period 10 ms):
 
 Schemes:
 
-* ours: `kinematics_node.core.servo.Servo` with its defaults;
+* ours: `kinematics_node.core.servo.Servo` with its defaults (Ruckig's jerk-limited smoothing,
+  where Ruckig is installed);
+* ours (accel): the same with `smoothing="acceleration"`, the smoothing it uses where Ruckig is
+  not installed: the same position, velocity and acceleration limits, no jerk limit (its peak
+  jerk against the same jerk limit says what the jerk limit buys);
 * moveit_servo: its documented scheme, re-implemented here (no code copied): from the current
   state, Δq = J⁺ (V dt) with the undamped pseudo-inverse, scaled by 1 − (κ − 17)/(κ_u − 17) for a
   condition number κ between 17 and κ_u (κ_u = 30 when moving toward the singularity, 43 away from
@@ -182,13 +186,18 @@ class OurScheme:
     current one; see `load_baseline`)."""
 
     def __init__(
-        self, chain: SerialChain, q0: np.ndarray, package: ModuleType | None = None
+        self,
+        chain: SerialChain,
+        q0: np.ndarray,
+        package: ModuleType | None = None,
+        smoothing: str = "auto",
     ) -> None:
         self._twist_command = TwistCommand if package is None else package.TwistCommand
         self._jog_command = JointJogCommand if package is None else package.JointJogCommand
         servo_class = Servo if package is None else package.Servo
         config = ServoConfig if package is None else package.ServoConfig
-        self.servo = servo_class(chain, q0, config(period_s=DT))
+        settings = {} if smoothing == "auto" else {"smoothing": smoothing}
+        self.servo = servo_class(chain, q0, config(period_s=DT, **settings))
         self.chain = chain
         self.t = 100.0
 
@@ -443,6 +452,7 @@ def main(argv: list[str] | None = None) -> int:
         chain = load_robot(name)
         limits = ServoLimits.from_chain(chain, ServoConfig())
         schemes: dict[str, Callable] = {"ours": lambda q0, c=chain: OurScheme(c, q0)}
+        schemes["ours (accel)"] = lambda q0, c=chain: OurScheme(c, q0, None, "acceleration")
         if baseline is not None:
             schemes[f"ours@{args.baseline}"] = lambda q0, c=chain: OurScheme(c, q0, baseline)
         schemes["moveit_servo"] = lambda q0, c=chain, lim=limits: MoveItServoScheme(c, q0, lim)

@@ -1,5 +1,6 @@
-"""Shared fixtures (helpers live in kin_testing.py, ros_testing.py and service_testing.py,
-importable because pythonpath includes test/: unique names, so no test imports the wrong file)."""
+"""Shared fixtures (helpers live in kin_testing.py, ros_testing.py, ros_test_paths.py and
+service_testing.py, importable because pythonpath includes test/: unique names, so no test imports
+the wrong file)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from pathlib import Path
 
 import pytest
 from kin_testing import REAL_ARMS, erd_path
+from ros_test_paths import touches_ros
 from ros_testing import RosTypes
 
 # The fixtures of the KinematicsService tests (ur5, clock, q_ur5), next to their helpers.
@@ -15,22 +17,6 @@ pytest_plugins = ["service_testing"]
 
 if os.environ.get("KINEMATICS_LAUNCH_TEST_SEPARATE"):  # CMake runs it through add_launch_test
     collect_ignore = ["launch/test_launch_integration.py"]
-
-#: The tests that start or import ROS 2 (rclpy, the built node, launch), relative to test/: a
-#: folder (ending in /) or a module. They carry the marker `ros`, and they are all that a run with
-#: KINEMATICS_TESTS=ros keeps: CI runs the whole suite on its first ROS distribution and only these
-#: on the others, since the rest never touches ROS and gives the same answers on every one.
-#: test_suite_split.py checks that every module that imports rclpy or starts the node is here.
-ROS_TESTS = ("live/", "launch/", "ros/", "cli/test_ros_commands.py")
-_HERE = Path(__file__).resolve().parent
-
-
-def touches_ros(path: Path) -> bool:
-    """Whether the test module at `path` is one of `ROS_TESTS`."""
-    rel = path.resolve().relative_to(_HERE).as_posix()
-    return any(
-        rel.startswith(entry) if entry.endswith("/") else rel == entry for entry in ROS_TESTS
-    )
 
 
 def pytest_configure(config: pytest.Config) -> None:

@@ -1,5 +1,5 @@
 """CI runs the tests that touch ROS on every ROS 2 distribution and the rest once
-(conftest.ROS_TESTS, KINEMATICS_TESTS=ros): every test module that imports rclpy, starts the built
+(ros_test_paths.ROS_TESTS, KINEMATICS_TESTS=ros): every test module that imports rclpy, starts the built
 node or sources the build's environment must be among the former, or a second distribution would
 never run it."""
 
@@ -9,7 +9,7 @@ import re
 from pathlib import Path
 
 import pytest
-from conftest import ROS_TESTS, touches_ros
+from ros_test_paths import ROS_TESTS, touches_ros
 
 HERE = Path(__file__).resolve().parent
 

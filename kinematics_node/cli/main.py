@@ -341,11 +341,12 @@ def cmd_info(args: argparse.Namespace, chain: SerialChain) -> Output:
     rows.append("home pose of the tip, M:")
     rows.append(_fmt_matrix(chain.M))
     # the chain's notes, then the description's about joints off the chain (the chain's notes
-    # already speak of its own joints)
+    # already speak of its own joints, and repeat those on the whole robot, e.g. a missing name)
     elsewhere = [
         note
         for note in description_notes
-        if (found := _NOTE_JOINT.match(note)) is None or found.group(1) not in moving
+        if note not in chain.notes
+        and ((found := _NOTE_JOINT.match(note)) is None or found.group(1) not in moving)
     ]
     if chain.notes:
         rows.append("notes on this chain:")
@@ -808,8 +809,8 @@ def build_parser() -> argparse.ArgumentParser:
         "peak joint velocity, acceleration and jerk against their limits, and draws a picture.\n"
         "With ROS 2 (make demo builds it from PyPI): the simulated arm, the kinematics node and\n"
         "the servo node as processes, the twists sent over DDS. Without ROS 2 (or with\n"
-        "--no-ros): the core servo and the simulated arm in this process. Needs matplotlib and\n"
-        "ruckig.",
+        "--no-ros): the core servo and the simulated arm in this process. Needs matplotlib;\n"
+        "without ruckig the servo runs without its jerk limits.",
         epilog=EXAMPLES["servo-demo"],
     )
     servo_demo.add_argument(
@@ -821,7 +822,7 @@ def build_parser() -> argparse.ArgumentParser:
     servo_demo.add_argument(
         "--no-ros", action="store_true", help="run in this process even where ROS 2 is available"
     )
-    ros_commands.add_parser(sub)  # `kinematics ros pose|ik|jog`: ROS is imported only when it runs
+    ros_commands.add_parser(sub)  # `kinematics ros ...`: ROS is imported only when it runs
     return parser
 
 
@@ -856,16 +857,18 @@ def _demo(args: argparse.Namespace) -> int:
 def _servo_demo(args: argparse.Namespace) -> int:
     if not 10.0 <= args.rate <= 2000.0:
         raise CliError(f"--rate {args.rate:g}: the servo runs at 10 to 2000 Hz")
-    from ..core.servo import ruckig_available
+    from ..core.servo import RUCKIG_INSTALL, ruckig_available
     from ..ros import servo_live_demo
     from ..sim import demo, servo_demo
 
-    # Everything the user can get wrong, before anything starts (and before saying which demo)
     if not ruckig_available():
-        raise CliError(
-            "the servo needs ruckig: pip install 'kinematics_service[servo]' (or run `make "
-            "demo`, which installs it)"
+        print(
+            "Ruckig is not installed: the servo runs within its position, velocity and "
+            "acceleration limits but not its jerk limits (the jerk printed may pass them); for "
+            f"jerk limits: {RUCKIG_INSTALL}",
+            file=sys.stderr,
         )
+    # Everything the user can get wrong, before anything starts (and before saying which demo)
     try:
         demo.check_matplotlib()
         path = demo.check_picture_path(args.out)

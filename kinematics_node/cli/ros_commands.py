@@ -1,25 +1,31 @@
 """`kinematics ros`: the running nodes from a shell, where ros2cli is not at hand (it is not on
-PyPI): print one `ee_pose` message, call `compute_ik` and print the answer, jog the arm through
-the servo from the keyboard (teleop_twist_keyboard is not on PyPI either), or list, get and set a
-node's parameters at run time (as `ros2 param` does: the tip of a description with a gripper).
+PyPI): print one `ee_pose`, `ee_twist` or `/diagnostics` message, call `compute_fk`,
+`compute_jacobian` or `compute_ik` and print the answer, jog the arm through the servo from the
+keyboard (teleop_twist_keyboard is not on PyPI either), or list, get and set a node's parameters
+at run time (as `ros2 param` does: the tip of a description with a gripper).
 
     kinematics ros pose [--topic ee_pose] [--wait 10] [--json]
+    kinematics ros twist [--topic ee_twist] [--wait 10] [--json]
+    kinematics ros diagnostics [--node kinematics_node] [--topic /diagnostics] [--wait 10] [--json]
+    kinematics ros fk [--q Q] [--tip LINK] [--links L1,L2] [--service compute_fk] [--wait 10]
+                      [--json]
+    kinematics ros jacobian [--q Q] [--tip LINK] [--frame world|space|body]
+                            [--service compute_jacobian] [--wait 10] [--json]
     kinematics ros ik --target X,Y,Z,QX,QY,QZ,QW [--frame F] [--tip LINK] [--position-only]
                       [--timeout S] [--service compute_ik] [--wait 10] [--json]
     kinematics ros jog [--topic /servo/delta_twist_cmds] [--frame F] [--speed 0.05] [--turn 0.3]
-                       [--rate 50] [--status /servo/status] [--wait 10]
+                       [--rate 50] [--status /servo/status] [--keys-from-stdin] [--wait 10]
     kinematics ros param list|get|set NODE [NAME [VALUE]] [--wait 10]
 
-This module holds the arguments and the words and imports no ROS: main.py adds the `ros` command
-with `add_parser` and runs it with `run`; ROS is imported by `run`, through `ros.client`, only
-when the command runs. DDS settings come from the caller's environment (`ros.client` says why).
+This module holds the arguments and imports no ROS: main.py adds the `ros` command with
+`add_parser` and runs it with `run`; ROS is imported by `run`, through `ros.client`, only when the
+command runs. The topic readers are in `ros_topics`, the service calls in `ros_services`. DDS settings come from the caller's environment (`ros.client` says why).
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import math
 import os
 import select
@@ -29,11 +35,17 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 from ..ros.client import RosClient, RosClientError, missing_ros
+from . import ros_services, ros_topics
 from .jog import HELP, Jog
 
 _EXAMPLES = """examples:
   kinematics ros pose                               # one ee_pose message of the running node
   kinematics ros pose --topic /arm/ee_pose --json
+  kinematics ros twist                              # one ee_twist message
+  kinematics ros diagnostics                        # the node's /diagnostics status
+  kinematics ros fk --q 0,-1.2,1.4,0,0.5,0          # values in the order of the node's chain
+  kinematics ros fk --q elbow_joint=0.5 --links wrist_1_link,tool0   # the rest: joint_states
+  kinematics ros jacobian --q 0,-1.2,1.4,0,0.5,0 --frame body --json
   kinematics ros ik --target 0.4,0.1,0.4,1,0,0,0    # x,y,z [m], quaternion qx,qy,qz,qw
   kinematics ros ik --target 0.4,0.1,0.4,0,0,0,1 --position-only --tip tool0
   kinematics ros jog                                # keys w/s a/d r/f move, Shift turns, q quits
@@ -88,7 +100,8 @@ def add_parser(commands: Any) -> None:
     """Add the `ros` command (with `pose`, `ik`, `jog` and `param`) to main.py's subcommands."""
     ros = commands.add_parser(
         "ros",
-        help="the running nodes over ROS 2: the pose, an IK call, jogging, parameters",
+        help="the running nodes over ROS 2: pose, twist, FK, Jacobian, IK, diagnostics, "
+        "jogging, parameters",
         description="Talk to a running kinematics node or servo over ROS 2 (needs rclpy: a\n"
         "sourced ROS 2 workspace, or `. build/ros/env.sh` after `make ros`).",
         epilog=_EXAMPLES,
@@ -102,6 +115,58 @@ def add_parser(commands: Any) -> None:
         epilog=_EXAMPLES,
     )
     pose.add_argument("--topic", default="ee_pose", help="topic to read (default: %(default)s)")
+    twist = which.add_parser(
+        "twist",
+        help="print one ee_twist message and exit",
+        description="Print the next message on the node's ee_twist topic (geometry_msgs/"
+        "TwistStamped: the tip\norigin's velocity) and exit; exit status 1 with what was seen "
+        "when none comes in time.",
+        epilog=_EXAMPLES,
+    )
+    twist.add_argument("--topic", default="ee_twist", help="topic to read (default: %(default)s)")
+    fk = which.add_parser(
+        "fk",
+        help="call compute_fk and print the pose(s)",
+        description="Call the node's compute_fk service and print the tip's pose (and those of "
+        "--links) in the\nnode's base_link; exit status 1 with the node's reason when it "
+        "refuses.",
+        epilog=_EXAMPLES,
+    )
+    jacobian = which.add_parser(
+        "jacobian",
+        help="call compute_jacobian and print the matrix",
+        description="Call the node's compute_jacobian service and print the 6 x n Jacobian, rows "
+        "in ROS order:\nlinear x, y, z, then angular x, y, z (as geometry_msgs/Twist); exit "
+        "status 1 with the\nnode's reason when it refuses.",
+        epilog=_EXAMPLES,
+    )
+    for command in (fk, jacobian):
+        command.add_argument(
+            "--q",
+            metavar="Q",
+            type=ros_services.joint_values,
+            help="joint values [rad or m]: NAME=VALUE,... (the chain's other joints take the "
+            "node's current joint_states) or VALUE,... in the order of the node's chain (named "
+            "as compute_jacobian names them); default: the node's current joint_states",
+        )
+        command.add_argument("--tip", help="link (default: the node's tip_link)")
+    fk.add_argument(
+        "--links",
+        type=lambda text: [link.strip() for link in text.split(",") if link.strip()],
+        metavar="L1,L2",
+        help="more links whose poses to print (compute_fk's link_names)",
+    )
+    jacobian.add_argument(
+        "--frame",
+        choices=("world", "space", "body"),
+        default="world",
+        help="world: base axes, tip origin; body: tip axes, tip origin; space: base axes, the "
+        "body-fixed point at the base origin (default: %(default)s)",
+    )
+    fk.add_argument("--service", default="compute_fk", help="service (default: %(default)s)")
+    jacobian.add_argument(
+        "--service", default="compute_jacobian", help="service (default: %(default)s)"
+    )
     ik = which.add_parser(
         "ik",
         help="call compute_ik and print the answer",
@@ -125,14 +190,31 @@ def add_parser(commands: Any) -> None:
         help="IK time budget [s] (default: the node's ik.timeout parameter)",
     )
     ik.add_argument("--service", default="compute_ik", help="service (default: %(default)s)")
+    diagnostics = which.add_parser(
+        "diagnostics",
+        help="print the node's /diagnostics status and exit",
+        description="Print the statuses of a node (its name, level, message and values) in the "
+        "next /diagnostics\nmessage that has any, and exit; exit status 1 with what was seen "
+        "when none comes in time.",
+        epilog=_EXAMPLES,
+    )
+    diagnostics.add_argument(
+        "--node",
+        default="kinematics_node",
+        help="the node: its name, in any namespace, or its full name /ns/name (default: "
+        "%(default)s)",
+    )
+    diagnostics.add_argument(
+        "--topic", default="/diagnostics", help="topic to read (default: %(default)s)"
+    )
     jog = which.add_parser(
         "jog",
         help="jog the arm through the servo from the keyboard",
         description="Publish TwistStamped to the servo from the keyboard: " + HELP + ".\n"
         "A key's twist is sent at --rate for 0.6 s after its last press or repeat, so a held key\n"
         "moves the arm without a pause and a released one lets the servo stop it smoothly.\n"
-        "Without a terminal, keys are read from standard input as they come (end of input\n"
-        "quits once the last key's twist has lapsed). The servo's status is shown as it changes.",
+        "It needs a terminal: without one (standard input a pipe, a file or /dev/null) it exits\n"
+        "with status 1, unless --keys-from-stdin. The servo's status is shown as it changes.",
         epilog=_EXAMPLES,
     )
     jog.add_argument(
@@ -154,6 +236,12 @@ def add_parser(commands: Any) -> None:
     )
     jog.add_argument(
         "--status", default="/servo/status", help="the servo's status topic (default: %(default)s)"
+    )
+    jog.add_argument(
+        "--keys-from-stdin",
+        action="store_true",
+        help="read keys from standard input even when it is not a terminal (a script's pipe): "
+        "each character a key; at the end of input the last key's twist lapses, then it exits",
     )
     param = which.add_parser(
         "param",
@@ -177,14 +265,14 @@ def add_parser(commands: Any) -> None:
     for action in (getting, setting):
         action.add_argument("name", metavar="NAME", help="the parameter")
     setting.add_argument("value", metavar="VALUE", help="its new value (YAML)")
-    for command in (pose, ik, jog, listing, getting, setting):
+    for command in (pose, twist, fk, jacobian, ik, diagnostics, jog, listing, getting, setting):
         command.add_argument(
             "--wait",
             type=_seconds,
             default=10.0,
             help="how long to wait for the node [s] (default: %(default)s)",
         )
-    for command in (pose, ik):
+    for command in (pose, twist, fk, jacobian, ik, diagnostics):
         command.add_argument("--json", action="store_true", help="JSON output")
 
 
@@ -196,11 +284,23 @@ def run(args: argparse.Namespace, emit: Callable[[str], None] = print) -> int:
             seen and what to do); main.py prints it as one line, status 1.
     """
     command, needs = {
-        "pose": (_pose, ("geometry_msgs.msg",)),
-        "ik": (_ik, ("kinematics_service.srv",)),
+        "pose": (ros_topics.pose, ("geometry_msgs.msg",)),
+        "twist": (ros_topics.twist, ("geometry_msgs.msg",)),
+        "diagnostics": (ros_topics.diagnostics, ("diagnostic_msgs.msg",)),
+        "fk": (ros_services.fk, ("kinematics_service.srv",)),
+        "jacobian": (ros_services.jacobian, ("kinematics_service.srv",)),
+        "ik": (ros_services.ik, ("kinematics_service.srv",)),
         "jog": (_jog, ("geometry_msgs.msg", "diagnostic_msgs.msg")),
         "param": (_param, ("rcl_interfaces.srv",)),
     }[args.ros_command]
+    if args.ros_command == "jog" and not (args.keys_from_stdin or _stdin_is_a_terminal()):
+        # before ROS starts and before the banner: without a terminal there are no keys to jog
+        # with (`< /dev/null` ended at once, status 0, as if the user had quit)
+        raise RosClientError(
+            "kinematics ros jog reads keys from a terminal, and standard input is not one (a "
+            "pipe, a file or /dev/null): run it in a terminal, or give --keys-from-stdin to take "
+            "keys from standard input as they come"
+        )
     reason = missing_ros(needs)
     if reason is not None:
         raise RosClientError(f"kinematics ros {args.ros_command} {reason}")
@@ -208,106 +308,11 @@ def run(args: argparse.Namespace, emit: Callable[[str], None] = print) -> int:
         return command(client, args, emit)
 
 
-def _stamp(header: Any) -> str:
-    return f"{header.stamp.sec}.{header.stamp.nanosec:09d}"
-
-
-def _pose(client: RosClient, args: argparse.Namespace, emit: Callable[[str], None]) -> int:
-    from geometry_msgs.msg import PoseStamped
-
-    msg = client.first_message(PoseStamped, args.topic, args.wait)
-    topic = client.resolve(args.topic)
-    if msg is None:
-        publishers = client.publishers(args.topic)
-        if publishers == 0:
-            why = (
-                f"nothing publishes it. Is kinematics_node running, started with the same "
-                f"ROS_DOMAIN_ID and discovery range as this shell? {client.graph_seen()}"
-            )
-        else:
-            joint_states = client.publishers("joint_states")
-            why = (
-                f"{publishers} node(s) offer it but sent nothing: the node publishes a pose for "
-                "each joint_states message that names every joint of its chain, once it has a "
-                f"robot description and a tip link ({joint_states} publisher(s) of "
-                f"{client.resolve('joint_states')}); its log says what it waits for"
-            )
-        raise RosClientError(f"no message on {topic} within {args.wait:g} s: {why}")
-    p, q = msg.pose.position, msg.pose.orientation
-    if args.json:
-        emit(
-            json.dumps(
-                {
-                    "topic": topic,
-                    "frame_id": msg.header.frame_id,
-                    "stamp": {"sec": msg.header.stamp.sec, "nanosec": msg.header.stamp.nanosec},
-                    "position": [p.x, p.y, p.z],
-                    "quaternion_xyzw": [q.x, q.y, q.z, q.w],
-                }
-            )
-        )
-        return 0
-    emit(
-        f"{topic}: pose in {msg.header.frame_id!r} at stamp {_stamp(msg.header)}\n"
-        f"position [m]         {p.x: .6f} {p.y: .6f} {p.z: .6f}\n"
-        f"quaternion (x,y,z,w) {q.x: .6f} {q.y: .6f} {q.z: .6f} {q.w: .6f}"
-    )
-    return 0
-
-
-def _ik(client: RosClient, args: argparse.Namespace, emit: Callable[[str], None]) -> int:
-    from kinematics_service.srv import ComputeIK
-
-    request = ComputeIK.Request()
-    request.target.header.frame_id = args.frame or ""
-    x, y, z, qx, qy, qz, qw = args.target
-    position, orientation = request.target.pose.position, request.target.pose.orientation
-    position.x, position.y, position.z = x, y, z
-    orientation.x, orientation.y, orientation.z, orientation.w = qx, qy, qz, qw
-    request.tip_link = args.tip or ""
-    request.position_only = bool(args.position_only)
-    request.timeout = 0.0 if args.timeout is None else args.timeout
-    # the node answers by the request's deadline; a few seconds more for the trip and start-up
-    answer = args.wait + (0.0 if args.timeout is None else args.timeout)
-    response = client.call(ComputeIK, args.service, request, args.wait, answer)
-    names = list(response.solution.name)
-    values = [float(v) for v in response.solution.position]
-    if args.json:
-        emit(
-            json.dumps(
-                {
-                    "success": bool(response.success),
-                    "message": response.message,
-                    "joint_names": names,
-                    "q": values,
-                    "position_error": response.position_error,
-                    "orientation_error": None if args.position_only else response.orientation_error,
-                    "iterations": response.iterations,
-                }
-            )
-        )
-    elif response.success or (names and response.position_error >= 0):
-        # a failure's reason goes to stderr once (below); stdout shows a best effort, if any
-        head = (
-            f"solved by {client.resolve(args.service)}"
-            if response.success
-            else "best effort (not a solution):"
-        )
-        rows = [head] + [f"  {n:<28}{v: .6f}" for n, v in zip(names, values, strict=True)]
-        if response.position_error >= 0:
-            orientation = (
-                "orientation free"
-                if args.position_only
-                else f"orientation error {response.orientation_error:.2e} rad"
-            )
-            rows.append(
-                f"position error {response.position_error:.2e} m, {orientation}, "
-                f"{response.iterations} iterations"
-            )
-        emit("\n".join(rows))
-    if not response.success:
-        raise RosClientError(f"{client.resolve(args.service)}: {response.message}")
-    return 0
+def _stdin_is_a_terminal() -> bool:
+    try:
+        return sys.stdin is not None and os.isatty(sys.stdin.fileno())
+    except (OSError, ValueError):  # closed, or not a file (replaced by a test harness)
+        return False
 
 
 def _param(client: RosClient, args: argparse.Namespace, emit: Callable[[str], None]) -> int:

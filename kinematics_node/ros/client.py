@@ -17,6 +17,7 @@ from __future__ import annotations
 import importlib
 import os
 import time
+from collections.abc import Callable
 from typing import Any
 
 from ..core.exceptions import KinematicsError
@@ -41,6 +42,11 @@ def missing_ros(modules: tuple[str, ...] = ("rclpy",)) -> str | None:
 
             return f"needs ROS 2 ({module} is not importable: {exc}): {ros_setup_hint()}"
     return None
+
+
+def type_name(msg_type: Any) -> str:
+    """A message class's ROS type name, as the graph gives it: 'geometry_msgs/msg/PoseStamped'."""
+    return f"{msg_type.__module__.split('.')[0]}/msg/{msg_type.__name__}"
 
 
 def dds_settings() -> str:
@@ -93,20 +99,41 @@ class RosClient:
             self._executor.spin_once(timeout_sec=min(_POLL, left))
         return True
 
-    def first_message(self, msg_type: Any, topic: str, wait: float) -> Any | None:
-        """The first message on `topic` within `wait` seconds, or None. Subscribed best effort,
-        which matches reliable publishers too."""
+    def first_message(
+        self,
+        msg_type: Any,
+        topic: str,
+        wait: float,
+        accept: Callable[[Any], bool] | None = None,
+    ) -> Any | None:
+        """The first message on `topic` within `wait` seconds (the first that `accept` takes, if
+        given), or None. Subscribed best effort, which matches reliable publishers too.
+
+        Returns None early when the topic's publishers all carry another type than `msg_type`
+        (DDS never matches them with this subscription: `other_types` then says which)."""
         from rclpy.qos import qos_profile_sensor_data
 
         received: list[Any] = []
-        sub = self.node.create_subscription(
-            msg_type, topic, received.append, qos_profile_sensor_data
-        )
+
+        def take(msg: Any) -> None:
+            if accept is None or accept(msg):
+                received.append(msg)
+
+        sub = self.node.create_subscription(msg_type, topic, take, qos_profile_sensor_data)
         try:
-            self._spin_until(lambda: bool(received), time.monotonic() + wait)
+            self._spin_until(
+                lambda: bool(received) or bool(self.other_types(topic, msg_type)),
+                time.monotonic() + wait,
+            )
         finally:
             self.node.destroy_subscription(sub)
         return received[0] if received else None
+
+    def other_types(self, topic: str, msg_type: Any) -> list[str]:
+        """The types ('geometry_msgs/msg/TwistStamped') that `topic`'s publishers carry when none
+        of them carries `msg_type`; empty when one does, or when nothing publishes it."""
+        types = sorted({info.topic_type for info in self.node.get_publishers_info_by_topic(topic)})
+        return [] if type_name(msg_type) in types else types
 
     def call(self, srv_type: Any, service: str, request: Any, wait: float, answer: float) -> Any:
         """Call `service`: wait up to `wait` seconds for it to appear, then up to `answer`

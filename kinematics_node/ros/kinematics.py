@@ -67,7 +67,12 @@ from ..service.parameters import PARAMETERS, SPECS, STARTUP_ONLY
 from .deferred import DeferredResponses, waited_since_sent
 from .mailbox import Mailbox
 from .node_log import ThrottledWarnings, log_lines
-from .node_setup import answer_parameter_change, declare_parameters, freeze_heap
+from .node_setup import (
+    answer_parameter_change,
+    check_parameter_names,
+    declare_parameters,
+    freeze_heap,
+)
 from .qos import (
     DESCRIPTION_QOS,
     JOINT_STATES_QOS,
@@ -109,6 +114,7 @@ class KinematicsNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("kinematics_node", **kwargs)
         values = declare_parameters(self, PARAMETERS)
+        check_parameter_names(self)  # a typo (-p tip_lnk:=...) is named, not silently ignored
 
         self._tf_buffer = None
         lookup = self._lookup_transform

@@ -1,7 +1,8 @@
-"""How our rclpy nodes (the kinematics node, the servo) set up around their service logic:
-declare their table of parameters (`service.parameters.ParameterSpec`) with descriptors that say
-what each takes, answer a parameter change by what the service's `configure` says of it
-(`answer_parameter_change`), and freeze the heap once they are built.
+"""How our rclpy nodes (the kinematics node, the servo, the simulated arm) set up around their
+service logic: declare their table of parameters (`service.parameters.ParameterSpec`) with
+descriptors that say what each takes, answer a parameter change by what the service's
+`configure` says of it (`answer_parameter_change`), say which given parameters they do not know
+(`check_parameter_names`), and freeze the heap once they are built.
 
 Descriptors: the description, the choices where there are some, and the range of a number that
 has both bounds (what `ros2 param describe` shows and where rclpy refuses a value itself; the
@@ -22,9 +23,13 @@ from rcl_interfaces.msg import (
     ParameterDescriptor,
     SetParametersResult,
 )
+from rcl_interfaces.srv import ListParameters
+from rclpy.exceptions import ParameterNotDeclaredException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
 from ..core.exceptions import KinematicsError
+from ..service.parameter_names import override_warnings, refusal_text
 from ..service.parameters import ParameterSpec
 
 
@@ -58,6 +63,51 @@ def declare_parameters(node: Node, specs: Iterable[ParameterSpec]) -> dict[str, 
     for spec in specs:
         node.declare_parameter(spec.name, spec.default, descriptor(spec))
     return {spec.name: node.get_parameter(spec.name).value for spec in specs}
+
+
+class UnknownParameterError(ParameterNotDeclaredException):
+    """A run-time set of parameters the node does not declare, naming each and the closest
+    declared name. It is rclpy's own exception type, so rclpy's parameter service answers it as
+    it answers its own (`SetParametersResult.reason` = this text), where rclpy's own text lists
+    no name at all ("Invalid access to undeclared parameter(s): []": rclpy 7's
+    `_check_undeclared_parameters` consumes its generator of names in `any()` before listing
+    it)."""
+
+    def __init__(self, text: str) -> None:
+        Exception.__init__(self, text)
+
+
+def declared_names(node: Node) -> list[str]:
+    """Every parameter `node` has declared (ours and ROS's own, such as use_sim_time)."""
+    return list(node.list_parameters([], ListParameters.Request.DEPTH_RECURSIVE).names)
+
+
+def check_parameter_names(node: Node) -> None:
+    """Call once a node has declared its parameters: warn about each parameter the command line
+    (``-p``) or a parameter file (the node's own section, or ``/**``) gave it that it does not
+    know, naming the closest known name (``unknown parameter 'tip_lnk' (did you mean
+    'tip_link'?): ignored``); and from then on refuse a run-time set of an undeclared name
+    saying the same (`UnknownParameterError`). Parameters ROS declares or reads itself
+    (use_sim_time, qos_overrides.*) are not reported (`service.parameter_names`).
+
+    The overrides are rclpy's `Node._parameter_overrides` (what rcl parsed for this node's name
+    and namespace), which rclpy offers no public accessor for. The refusal is a pre-set-parameters
+    callback (rclpy of Iron and later); on Humble's rclpy its own refusal stays."""
+    declared = declared_names(node)
+    overrides = getattr(node, "_parameter_overrides", None) or {}
+    for line in override_warnings(overrides, declared):
+        node.get_logger().warning(line)
+    add_pre_set = getattr(node, "add_pre_set_parameters_callback", None)
+    if add_pre_set is None:  # pragma: no cover - Humble
+        return
+
+    def refuse_unknown(params: list[Parameter]) -> list[Parameter]:
+        unknown = [p.name for p in params if not node.has_parameter(p.name)]
+        if unknown:
+            raise UnknownParameterError(refusal_text(unknown, declared_names(node)))
+        return params
+
+    add_pre_set(refuse_unknown)
 
 
 def answer_parameter_change(

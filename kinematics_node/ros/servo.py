@@ -16,9 +16,9 @@ moveit_servo's, so joystick and teleop configurations written for it carry over)
   pub  command_out_topic         std_msgs/Float64MultiArray (positions or velocities) or
                                  trajectory_msgs/JointTrajectory, by `command_out_type`
   pub  ~/status                  diagnostic_msgs/DiagnosticStatus: level, message and the details
-                                 (code, code_name, condition_number, joints_at_limit, ...; the
-                                 loop's own figures: cycles, late_cycles, lost_periods,
-                                 step_us_max)
+                                 (code, code_name, condition_number, joints_at_limit, ...,
+                                 smoother: Ruckig's or the acceleration-limited one; the loop's
+                                 own figures: cycles, late_cycles, lost_periods, step_us_max)
 Services: ~/pause_servo (std_srvs/SetBool: true pauses, false resumes, as moveit_servo's since
 Iron), ~/unpause_servo (std_srvs/Trigger, as moveit_servo's on Humble).
 
@@ -70,7 +70,12 @@ from ..core.exceptions import InvalidInputError
 from ..service.servo import ServoService
 from ..service.servo_parameters import SERVO_PARAMETERS, SERVO_SPECS
 from .node_log import ThrottledWarnings, log_lines
-from .node_setup import answer_parameter_change, declare_parameters, freeze_heap
+from .node_setup import (
+    answer_parameter_change,
+    check_parameter_names,
+    declare_parameters,
+    freeze_heap,
+)
 from .qos import DESCRIPTION_QOS, JOINT_STATES_QOS, NO_PUBLISHER_EVENTS, NO_SUBSCRIPTION_EVENTS
 from .realtime import apply_thread_priority
 from .spin import spin_until_shutdown
@@ -97,6 +102,7 @@ class ServoNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("servo", **kwargs)
         values = declare_parameters(self, SERVO_PARAMETERS)
+        check_parameter_names(self)  # a typo (-p period_ss:=...) is named, not silently ignored
         self._logic = ServoService(
             MessageTypes.from_rclpy(),
             ServoMessageTypes.from_rclpy(),

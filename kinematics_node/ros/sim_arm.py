@@ -52,6 +52,7 @@ from kinematics_node.core import SerialChain
 from kinematics_node.core.exceptions import KinematicsError
 from kinematics_node.ros.executables import SIM_ARM_PARAMETERS
 from kinematics_node.ros.node_log import log_lines
+from kinematics_node.ros.node_setup import check_parameter_names
 from kinematics_node.ros.realtime import apply_thread_priority
 from kinematics_node.ros.spin import spin_until_shutdown
 from kinematics_node.service.description_file import read_description_file
@@ -74,6 +75,7 @@ class SimArmNode(Node):
     def __init__(self) -> None:
         super().__init__("sim_arm")
         p = self._declare_parameters()
+        check_parameter_names(self)  # a typo (-p rat:=...) is named, not silently ignored
         description = p["robot_description"]
         if not description and p["robot_description_file"]:
             description = read_description_file(p["robot_description_file"], p["xacro_args"]).xml

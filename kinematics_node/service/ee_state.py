@@ -98,6 +98,7 @@ class JointStateTracker:
         self._q = [math.nan] * n
         self._qdot = [math.nan] * n
         self._stamp = [-math.inf] * n  # per joint: stamp of its last accepted sample [s]
+        self._taken = [-math.inf] * n  # per joint: `taken_at` of its last accepted sample [s]
         self._q_at_stamp = [math.nan] * n  # position at the first sample with that stamp
         # Two anchors per joint for estimates over arrival times: a = the newest sample received
         # at least ARRIVAL_SPAN after b. Unknown anchors are (-inf, nan).
@@ -137,6 +138,13 @@ class JointStateTracker:
         q = self._q
         return [q[i] for i in index]
 
+    def taken_at(self) -> dict[str, float]:
+        """{joint: when its last accepted sample was taken (`update`'s `taken_at`)} of the
+        joints received so far."""
+        return {
+            name: t for name, t in zip(self.joint_names, self._taken, strict=True) if t > -math.inf
+        }
+
     def velocities(self, index: Sequence[int]) -> list[float] | None:
         """Velocities of the joints at `index`, or None while any of them is unknown."""
         qdot = self._qdot
@@ -150,6 +158,7 @@ class JointStateTracker:
         velocities: Sequence[float] | None,
         stamp: float,
         received: float | None = None,
+        taken_at: float | None = None,
     ) -> bool:
         """Merge one sample; return True if it was taken for at least one tracked joint.
 
@@ -161,6 +170,8 @@ class JointStateTracker:
                 when its publisher sent it, the DDS source timestamp, which no transport or
                 executor delay blurs; default: `time.monotonic()`); used only to estimate
                 velocities the stamps cannot give.
+            taken_at: when the sample is taken, on the clock the age of a joint's value is
+                measured with (the node's clock; `taken_at()`); default: `received`.
 
         Untracked joints are ignored. A sample whose stamp is older than the last accepted sample
         of a joint it names is ignored for that joint (counted in `stale_samples`), unless it is
@@ -186,6 +197,7 @@ class JointStateTracker:
         if not math.isfinite(stamp):
             raise InvalidInputError(f"joint state stamp must be finite, got {stamp}")
         r = time.monotonic() if received is None else received
+        t_taken = r if taken_at is None else taken_at
         index = self._index
         q = self._q
         updates = []
@@ -218,6 +230,7 @@ class JointStateTracker:
         by_message = by_stamps = False
         arrival: str | None = None
         qdot, stamps, q_at, required = self._qdot, self._stamp, self._q_at_stamp, self._required
+        taken = self._taken
         t_a, q_a, t_b, q_b = self._t_a, self._q_a, self._t_b, self._q_b
         continuous, span = self._continuous, ARRIVAL_SPAN
         for i, p, v in updates:
@@ -228,10 +241,12 @@ class JointStateTracker:
                     continue
                 # a new timeline: no estimate across the jump, from stamps or arrival times
                 changed = jumped = True
+                taken[i] = t_taken
                 q[i], qdot[i], stamps[i], q_at[i] = p, v, stamp, p
                 t_a[i], q_a[i], t_b[i], q_b[i] = r, p, -math.inf, math.nan
                 continue
             changed = True
+            taken[i] = t_taken
             if v == v:  # from the message
                 by_message = by_message or required[i]
                 if stamp != last:

@@ -25,7 +25,7 @@ import math
 import re
 import time
 from collections import deque
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any
@@ -82,6 +82,14 @@ NO_DESCRIPTION = (
 DESCRIPTION_PARAMETERS = ("robot_description", "robot_description_file", "xacro_args")
 
 _log = logging.getLogger(__name__)
+
+
+def diagnostics_name(node_name: str) -> str:
+    """The name of the node's status on /diagnostics: "<node's full name>: end effector"
+    (``/arm1/kinematics_node: end effector``), as diagnostic_updater prefixes the node's name,
+    so that nodes in different namespaces publish distinct statuses. Filter on it with this
+    function, or on the suffix ": end effector"."""
+    return f"{node_name}: end effector"
 
 
 class Severity(IntEnum):
@@ -196,6 +204,7 @@ class PendingIK:
     stamp: Any
     options: IKOptions
     note: str = ""  # why the target cannot be reached, when that is known beforehand
+    seed_note: str = ""  # the joints of the seed taken from joint_states, and their age
 
 
 class KinematicsService:
@@ -212,7 +221,8 @@ class KinematicsService:
         clock: current time [s] in the time base of the joint_states stamps (the node passes its
             ROS clock, so simulated time works); used for diagnostics only.
         node_name: the node's full name, for the commands that messages suggest
-            (``ros2 param set <node_name> tip_link <link>``).
+            (``ros2 param set <node_name> tip_link <link>``) and the name of its /diagnostics
+            status (`diagnostics_name`).
 
     Raises:
         InvalidInputError: a parameter value is invalid (wrong type, out of range).
@@ -620,12 +630,14 @@ class KinematicsService:
             names, positions, velocities, stamp = sample_from_joint_state(msg)
             stale_before, jumps_before = tracker.stale_samples, tracker.jumps_back
             episodes_before = tracker.arrival_episodes
+            now = self._clock()  # when the joints' values were received (their ages' origin)
             changed = tracker.update(
                 names,
                 positions,
                 velocities,
                 stamp,
                 time.monotonic() if received is None else received,
+                now,
             )
         except (KinematicsError, TypeError, ValueError, AttributeError, OverflowError) as exc:
             return self._problem(f"joint_states sample rejected: {_short(exc)}", Severity.ERROR)
@@ -635,7 +647,7 @@ class KinematicsService:
                     "stale joint_states sample (older stamp) ignored", Severity.WARN
                 )
             return EEMessages(problem=None)
-        self._rates.record(self._clock(), stamp)
+        self._rates.record(now, stamp)
         jumped = tracker.jumps_back > jumps_before
         index = self._chain_index
         q = tracker.positions(index)
@@ -762,10 +774,16 @@ class KinematicsService:
     def _answer(
         self, service: str, fn: Callable[[Any, Any], str | None], request: Any, response: Any
     ) -> Any:
+        """Run `fn(request, response)`, which fills the response and returns None (success:
+        "ok"), a `_Note` (success: "ok; <note>") or why it failed; a `KinematicsError` it raises
+        is a refusal with its text."""
         try:
             failure = fn(request, response)
-            response.success = failure is None
-            response.message = "ok" if failure is None else failure
+            response.success = failure is None or isinstance(failure, _Note)
+            if failure is None:
+                response.message = "ok"
+            else:
+                response.message = f"ok; {failure}" if isinstance(failure, _Note) else failure
             return response
         except KinematicsError as exc:
             response.message = str(exc)
@@ -777,27 +795,59 @@ class KinematicsService:
             response.position_error = response.orientation_error = -1.0
         return response
 
-    def _snapshot(self) -> tuple[RobotModel, dict[str, float], dict[str, Any]]:
-        """(model, {joint: current position} of the joints received so far, params)."""
+    def _snapshot(self) -> tuple[RobotModel, _Current, dict[str, Any]]:
+        """(model, the current positions of the joints received so far, params)."""
         model, tracker = self._model, self._tracker
         if model is None or tracker is None:
             raise RobotDescriptionError(self._no_model)
-        current = {
-            n: v
-            for n, v in zip(tracker.joint_names, tracker.q.tolist(), strict=True)
-            if math.isfinite(v)
-        }
+        current = _Current(
+            {
+                n: v
+                for n, v in zip(tracker.joint_names, tracker.q.tolist(), strict=True)
+                if math.isfinite(v)
+            },
+            tracker.taken_at(),
+        )
         return model, current, self._params
 
     def _q(
-        self, model: RobotModel, chain: SerialChain, js: Any, current: dict[str, float], name: str
+        self, model: RobotModel, chain: SerialChain, js: Any, current: _Current, name: str
     ) -> FloatArray:
+        """The chain's joint vector from the request's JointState `js`, the joints it leaves out
+        from joint_states (noted in `current.used`)."""
         q_default = [current.get(j, math.nan) for j in chain.joint_names]
-        return q_from_joint_state(
+        q = q_from_joint_state(
             js, chain.joint_names, q_default=q_default, known_names=model.joint_names, name=name
         )
+        given = {str(n) for n in js.name}
+        current.use(j for j in chain.joint_names if j not in given)
+        return q
 
-    def _fk(self, request: Any, response: Any) -> None:
+    def _from_joint_states(self, current: _Current, refuse: str | None) -> str:
+        """What a request took from joint_states (`current.used`, then forgotten): "" when
+        nothing, else "<joints> (received <age> s ago); ...". With `refuse` (what left them out,
+        e.g. "joint_state"), a joint older than joint_states_max_age (unless 0) is refused.
+
+        Raises:
+            InvalidInputError: `refuse` is given and a value is too old, naming the joints.
+        """
+        used = current.take_used()
+        if not used:
+            return ""
+        now = self._clock()
+        text = _ages_text(used, now)
+        limit = float(self._params["joint_states_max_age"])
+        if refuse is not None and limit > 0:
+            old = [j for j, t in used.items() if now - t > limit]
+            if old:
+                raise InvalidInputError(
+                    f"{refuse} leaves out {old}, and their values from joint_states are older "
+                    f"than joint_states_max_age ({limit:g} s): {text}. Give them in {refuse}, "
+                    "or check that joint_states still arrive (joint_states_max_age 0: no limit)"
+                )
+        return text
+
+    def _fk(self, request: Any, response: Any) -> _Note | None:
         model, current, _ = self._snapshot()
         js, stamp = request.joint_state, request.joint_state.header.stamp
         chain = _chain_to(model, str(request.tip_link))
@@ -827,11 +877,12 @@ class KinematicsService:
                 T_link = source
             _require_finite(T_link, f"pose of link_names[{k}] {link!r}")
             poses.append(pose_stamped_from_matrix(self._types, T_link, model.base_link, stamp))
+        states = self._from_joint_states(current, "joint_state")
         response.pose = pose_stamped_from_matrix(self._types, T, chain.base_link, stamp)
         response.poses = poses
-        return None
+        return _Note(f"from joint_states: {states}") if states else None
 
-    def _jacobian(self, request: Any, response: Any) -> None:
+    def _jacobian(self, request: Any, response: Any) -> _Note | None:
         model, current, _ = self._snapshot()
         frame = JACOBIAN_FRAMES_BY_NAME.get(str(request.frame) or "world")
         if frame is None:
@@ -841,6 +892,7 @@ class KinematicsService:
             )
         chain = _chain_to(model, str(request.tip_link))
         q = self._q(model, chain, request.joint_state, current, "joint_state")
+        states = self._from_joint_states(current, "joint_state")
         _, J_world = chain.fk_jacobian(q, "world")
         J = J_world if frame == "world" else chain.jacobian(q, frame)
         _require_finite(J, "Jacobian")
@@ -857,7 +909,7 @@ class KinematicsService:
         response.min_singular_value = c.min_singular_value
         # the srv's documented -1.0 for an infinite condition number (exact singularity)
         response.condition_number = _finite_or(c.condition_number, -1.0)
-        return None
+        return _Note(f"from joint_states: {states}") if states else None
 
     def _prepare_ik(self, request: Any, arrival: float, waited: float) -> PendingIK:
         model, current, params = self._snapshot()
@@ -865,6 +917,8 @@ class KinematicsService:
         T_frame_target = matrix_from_pose(request.target.pose, "target.pose")
         frame = str(request.target.header.frame_id)
         T_base_frame = self._frame_pose(model, frame, current)
+        # a target in a moving link's frame is placed by joint_states: refused when too old
+        self._from_joint_states(current, f"target frame {frame!r} (a robot link)")
         with np.errstate(over="ignore", invalid="ignore"):  # checked below
             T_base_target = T_base_frame @ T_frame_target
         if not np.all(np.isfinite(T_base_target)):  # finite values whose product overflows
@@ -880,11 +934,16 @@ class KinematicsService:
             math.isfinite(current.get(j, math.nan)) for j in chain.joint_names
         ):
             q_seed = self._q(model, chain, seed, current, "seed")
+        # a seed is only where the search starts: its age is said, never refused
+        from_states = self._from_joint_states(current, None)
+        seed_note = f"seed from joint_states: {from_states}" if from_states else ""
         key, blob = self._blob(chain)
         if not 0.0 <= waited < options.timeout:
             waited = 0.0
         job = IKJob(key, blob, T_base_target, q_seed, options, arrival - waited + options.timeout)
-        return PendingIK(job, chain, chain.joint_names, request.target.header.stamp, options, note)
+        return PendingIK(
+            job, chain, chain.joint_names, request.target.header.stamp, options, note, seed_note
+        )
 
     def _blob(self, chain: SerialChain) -> tuple[bytes, bytes]:
         """(key, blob) of `chain` for IK jobs, made once per chain of the model. The blob carries
@@ -898,6 +957,16 @@ class KinematicsService:
         return cached
 
     def _finish_ik(
+        self, pending: PendingIK, outcome: IKOutcome, response: Any, elapsed: float
+    ) -> str | None:
+        """Fill the response; None or a `_Note` (the seed's age) on success, else why not (with
+        the seed's age)."""
+        failure = self._fill_ik(pending, outcome, response, elapsed)
+        if not pending.seed_note:
+            return failure
+        return _Note(pending.seed_note) if failure is None else f"{failure}; {pending.seed_note}"
+
+    def _fill_ik(
         self, pending: PendingIK, outcome: IKOutcome, response: Any, elapsed: float
     ) -> str | None:
         options = pending.options
@@ -929,7 +998,7 @@ class KinematicsService:
             return None
         return _ik_failure(pending, outcome, response, elapsed)
 
-    def _frame_pose(self, model: RobotModel, frame: str, current: dict[str, float]) -> FloatArray:
+    def _frame_pose(self, model: RobotModel, frame: str, current: _Current) -> FloatArray:
         """T_base_frame for an IK target frame: the base, a robot link (FK of the current state),
         or a TF frame.
 
@@ -955,6 +1024,7 @@ class KinematicsService:
                         "of "
                         f"{missing}, which have not been received"
                     )
+                current.use(chain.joint_names)
                 T = chain.fk([current[j] for j in chain.joint_names])
                 return se3.inverse(T) if invert else T
         if self._lookup is None:
@@ -1059,7 +1129,7 @@ class KinematicsService:
         values += [(f"ik_pool_{k}", str(v)) for k, v in (pool or {}).items()]
         status = S(
             level=(S.OK, S.WARN, S.ERROR)[severity],
-            name="kinematics_node: end effector",
+            name=diagnostics_name(self._node_name),
             message="; ".join(notes) if notes else "ok",
             hardware_id=self._status.robot_name,
             values=[types.KeyValue(key=k, value=v) for k, v in values],
@@ -1067,6 +1137,43 @@ class KinematicsService:
         return types.DiagnosticArray(
             header=types.Header(stamp=time_from_seconds(types, now), frame_id=""), status=[status]
         )
+
+
+class _Note(str):
+    """A successful answer's words after "ok" (`KinematicsService._answer`)."""
+
+
+class _Current(dict[str, float]):
+    """{joint: position} of the joints received on joint_states so far, with when the node
+    received each (`taken`: its clock [s]) and the joints a request took from them (`used`)."""
+
+    def __init__(self, positions: Mapping[str, float], taken: Mapping[str, float]) -> None:
+        super().__init__(positions)
+        self.taken = dict(taken)
+        self.used: dict[str, float] = {}
+
+    def use(self, joints: Iterable[str]) -> None:
+        """Note that the request took `joints`' values from here."""
+        for j in joints:
+            self.used[j] = self.taken.get(j, -math.inf)
+
+    def take_used(self) -> dict[str, float]:
+        """The joints used so far ({joint: when received}); then forgotten."""
+        used, self.used = self.used, {}
+        return used
+
+
+def _ages_text(used: Mapping[str, float], now: float) -> str:
+    """'a, b (received 0.0121 s ago); c (received 65.2 s ago)': the joints grouped by the
+    joint_states message that gave them, the oldest first (a clock that went back, as simulated
+    time restarting: 0 s)."""
+    groups: dict[float, list[str]] = {}
+    for joint, t in used.items():
+        groups.setdefault(t, []).append(joint)
+    return "; ".join(
+        f"{', '.join(joints)} (received {max(now - t, 0.0):.3g} s ago)"
+        for t, joints in sorted(groups.items())
+    )
 
 
 def _chain_to(model: RobotModel, tip_link: str) -> SerialChain:

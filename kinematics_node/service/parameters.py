@@ -157,6 +157,18 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         maximum=3600.0,
         positive=True,
     ),
+    ParameterSpec(
+        "joint_states_max_age",
+        1.0,
+        "compute_fk and compute_jacobian refuse a request that leaves out a joint whose value "
+        "from joint_states is older than this [s], or that no joint_states have named (the "
+        "answer names them); 0 = no limit. Age = now on the node's clock minus when the node "
+        "received the joint_states that last gave the joint (not their stamp). Every answer "
+        "says which joints came from joint_states and how old they were; an IK seed taken from "
+        "them is only reported.",
+        minimum=0.0,
+        maximum=3600.0,
+    ),
 )
 
 SPECS: dict[str, ParameterSpec] = {spec.name: spec for spec in PARAMETERS}

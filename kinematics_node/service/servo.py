@@ -33,6 +33,11 @@ node does is tested on machines without ROS, on real message definitions (rosbag
   ending at zero velocity (a velocity controller would otherwise keep the last velocity), and
   only then is the servo of the new chain built. Meanwhile commands are refused (NOT_READY).
 
+Smoothing: Ruckig's, jerk-limited, where Ruckig is installed; else the core's acceleration-limited
+one (`core.servo.smoothers`). Without Ruckig the service says once, in its log (a warning at
+start-up) and on its next status (key `smoother_note`), that jerk limits need Ruckig and how to
+install it; every status names the smoother (key `smoother`).
+
 Status policy: published when its code changes (near a singularity: when the code changes, not at
 every new condition number), when its message changes otherwise, when a command is refused, and
 at least every `status_period` seconds.
@@ -73,8 +78,10 @@ from ..core.servo import (
     ServoConfig,
     ServoOutput,
     ServoStatus,
+    Smoothing,
     StatusCode,
     TwistCommand,
+    choose_smoothing,
 )
 from .kinematics import KinematicsService
 from .robot_model import RobotModel
@@ -198,6 +205,10 @@ class ServoService:
         self._lost_periods = 0
         self._last_key: tuple[Any, ...] | None = None
         self._last_status_time = -math.inf
+        self._smoothing: Smoothing = choose_smoothing(self._config.smoothing)
+        self._smoothing_note: str | None = None  # for the next status (said once)
+        self._smoothing_said = False
+        self._say_smoothing()
         self._sync_model()
 
     # ------------------------------------------------------------------ state
@@ -245,6 +256,19 @@ class ServoService:
         lines = self._robot.take_log() + self._log
         self._log = []
         return lines
+
+    def _say_smoothing(self) -> None:
+        """Say once, in the log and on the next status, what the smoothing lacks (Ruckig)."""
+        note = self._smoothing.note
+        if note is not None and not self._smoothing_said:
+            self._smoothing_said = True
+            self._smoothing_note = note
+            self._say("warn", note)
+
+    @property
+    def smoothing(self) -> Smoothing:
+        """The smoothing the servo uses (`core.servo.smoothers`)."""
+        return self._smoothing
 
     def _say(self, level: str, text: str) -> None:
         self._log.append((level, text))
@@ -330,6 +354,9 @@ class ServoService:
             self._last_slot = None  # the node starts a new timer: a new grid
         self._params = merged
         self._config = config
+        if config_changed:
+            self._smoothing = choose_smoothing(config.smoothing)  # (validated above)
+            self._say_smoothing()
         if new_servo is not None and self._servo is not None:
             self._servo = new_servo
             if self._paused:
@@ -662,7 +689,8 @@ class ServoService:
     def status_message(self, code: int, message: str, status: ServoStatus | None) -> Any:
         """diagnostic_msgs/DiagnosticStatus: level from the code, the message, and the details
         as key/values (code, code_name, condition_number, joints_at_limit, dropped_axes,
-        position_error_m, orientation_error_rad, target_reached, velocity_scaled, paused)."""
+        position_error_m, orientation_error_rad, target_reached, velocity_scaled, paused,
+        smoother; smoother_note once, where Ruckig is missing)."""
         values = [("code", str(code)), ("code_name", code_name(code))]
         if status is not None:
             kappa = status.condition_number
@@ -680,7 +708,11 @@ class ServoService:
             ("cycles", str(self._cycles)),
             ("late_cycles", str(self._late_cycles)),
             ("lost_periods", str(self._lost_periods)),
+            ("smoother", self._smoothing.label),
         ]
+        if self._smoothing_note is not None:
+            values.append(("smoother_note", self._smoothing_note))
+            self._smoothing_note = None
         robot = self._model.robot_name if self._model is not None else ""
         return diagnostic_status(
             self._types, LEVELS.get(code, 2), f"{self._node_name}: servo", message, robot, values

@@ -23,8 +23,8 @@ from collections.abc import Mapping
 from dataclasses import fields
 from typing import Any
 
-from ..core.exceptions import InvalidInputError
-from ..core.servo import TWIST_AXES, ServoConfig
+from ..core.exceptions import InvalidInputError, KinematicsError
+from ..core.servo import SMOOTHING_CHOICES, TWIST_AXES, ServoConfig, choose_smoothing
 from .parameters import SPECS as KINEMATICS_SPECS
 from .parameters import ParameterSpec, validate
 
@@ -98,8 +98,19 @@ _CONFIG_TEXT: dict[str, str] = {
     "all six for 6 joints or more, else the ones the arm can move (the status names the "
     "dropped ones).",
     "task_axes_frame": "Axes in which task_axes are meant: 'base' or 'tip'.",
+    "smoothing": "Smoothing of the joint motion: 'auto' = Ruckig's (jerk-limited) where Ruckig is "
+    "installed, else an acceleration-limited one (same position, velocity and acceleration "
+    "limits, no jerk limit; the servo says so once); 'ruckig' = refused where Ruckig is missing; "
+    "'acceleration' = the acceleration-limited one.",
     "max_following_error": "When the measured joint positions are farther than this [rad or m] "
     "from the commanded ones, the arm is not following: the servo stops smoothly.",
+}
+
+
+#: ServoConfig fields that take one of a few strings.
+_CHOICES: dict[str, tuple[str, ...]] = {
+    "task_axes_frame": ("base", "tip"),
+    "smoothing": SMOOTHING_CHOICES,
 }
 
 
@@ -112,7 +123,7 @@ def _config_specs() -> tuple[ParameterSpec, ...]:
             value = ""
         elif f.name == "task_axes":
             value = " ".join(value) if value else ""
-        choices = ("base", "tip") if f.name == "task_axes_frame" else ()
+        choices = _CHOICES.get(f.name, ())
         specs.append(ParameterSpec(f.name, value, _CONFIG_TEXT[f.name], choices=choices))
     return tuple(specs)
 
@@ -265,7 +276,10 @@ def validate_servo_parameters(
     if CONFIG_NAMES & set(values):
         merged = {**(current if current is not None else servo_defaults()), **values}
         try:
-            servo_config(merged)
+            config = servo_config(merged)
+            choose_smoothing(config.smoothing)  # "ruckig" where it is missing: refused
         except InvalidInputError as exc:
             return str(exc)
+        except KinematicsError as exc:  # MissingDependencyError
+            return f"parameter 'smoothing': {exc}"
     return None

@@ -389,7 +389,6 @@ def run_offline(rate: float = 100.0) -> ServoDemoRun:
 
     Raises:
         InvalidInputError: a rate whose period the servo does not accept (10 Hz to 2 kHz).
-        MissingDependencyError: Ruckig is not installed.
     """
     from ..core.servo import Servo, TwistCommand
     from .arm import ArmSimulator

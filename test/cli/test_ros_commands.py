@@ -6,6 +6,7 @@ from __future__ import annotations
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -29,7 +30,11 @@ def _kinematics_without_rclpy(*args: str) -> subprocess.CompletedProcess[str]:
     [
         ["ros", "pose"],
         ["ros", "ik", "--target", "0.4,0.1,0.4,1,0,0,0"],
-        ["ros", "jog"],
+        ["ros", "twist"],
+        ["ros", "diagnostics"],
+        ["ros", "fk", "--q", "0,1"],
+        ["ros", "jacobian"],
+        ["ros", "jog", "--keys-from-stdin"],
         ["ros", "param", "list", "kinematics_node"],
     ],
 )
@@ -71,7 +76,9 @@ def test_the_command_is_listed_in_the_help(capsys):
     assert "    ros " in capsys.readouterr().out
     assert main(["ros", "--help"]) == 0
     out = capsys.readouterr().out
-    assert "pose" in out and "ik" in out and "param" in out and "ROS_DOMAIN_ID" in out
+    for verb in ("pose", "twist", "fk", "jacobian", "ik", "diagnostics", "jog", "param"):
+        assert f"\n    {verb} " in out or f"\n    {verb}\n" in out, verb
+    assert "ROS_DOMAIN_ID" in out
 
 
 @pytest.mark.parametrize(
@@ -127,3 +134,78 @@ def test_param_set_reads_yaml_in_the_parameters_own_type(current, text, expected
 def test_jog_speeds_and_rate_are_positive_numbers(capsys, option, value):
     assert main(["ros", "jog", option, value]) == 2
     assert f"argument {option}: expected a finite number > 0" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("stdin", ["devnull", "pipe"])
+def test_jog_without_a_terminal_says_it_needs_one_before_starting_ros(stdin):
+    """`kinematics ros jog < /dev/null` (or from a pipe) used to print its banner and exit 0, as
+    if the user had quit. It says that it needs a terminal, exits 1, prints no banner, and does
+    not start ROS (rclpy is made unimportable: reaching it would say "needs ROS 2" instead)."""
+    code = (
+        "import sys; sys.modules['rclpy'] = None; from kinematics_node.cli.main import main; "
+        "sys.exit(main(['ros', 'jog', '--wait', '1']))"
+    )
+    where: dict[str, Any] = {"stdin": subprocess.DEVNULL} if stdin == "devnull" else {"input": "w"}
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=ROOT, **where
+    )
+    assert out.returncode == 1
+    assert out.stdout == ""  # no banner
+    assert out.stderr.count("\n") == 1 and "Traceback" not in out.stderr
+    assert out.stderr.startswith("kinematics: error: kinematics ros jog reads keys from a terminal")
+    assert "standard input is not one" in out.stderr and "--keys-from-stdin" in out.stderr
+    assert "needs ROS 2" not in out.stderr
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("0,-1.2,1.4", ((None, 0.0), (None, -1.2), (None, 1.4))),
+        ("elbow_joint=0.5, wrist_1_joint = -1", (("elbow_joint", 0.5), ("wrist_1_joint", -1.0))),
+    ],
+)
+def test_joint_values_are_named_or_in_chain_order(text, expected):
+    from kinematics_node.cli.ros_services import joint_values
+
+    assert joint_values(text) == expected
+
+
+@pytest.mark.parametrize("verb", ["fk", "jacobian"])
+@pytest.mark.parametrize(
+    ("q", "says"),
+    [
+        ("0,elbow_joint=1", "give every value a joint name (NAME=VALUE,...) or none"),
+        ("0,1,x", "expected numbers (VALUE,... in chain order, or NAME=VALUE,...), got 'x'"),
+        ("=1", "a joint name is missing before '='"),
+        ("elbow_joint=nan", "every value must be finite"),
+        ("0,,1", "got ''"),
+    ],
+)
+def test_bad_joint_values_are_a_usage_error_naming_the_option(capsys, verb, q, says):
+    assert main(["ros", verb, "--q", q]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "argument --q" in err and says in err
+
+
+def test_the_jacobian_frame_is_one_of_three(capsys):
+    assert main(["ros", "jacobian", "--frame", "tool"]) == 2
+    assert "invalid choice: 'tool'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("status", "node", "matches"),
+    [
+        ("kinematics_node: end effector", "kinematics_node", True),  # before the full name
+        ("/kinematics_node: end effector", "kinematics_node", True),
+        ("/arm/kinematics_node: end effector", "kinematics_node", True),
+        ("/arm/kinematics_node: end effector", "/arm/kinematics_node", True),
+        ("/arm/kinematics_node: end effector", "/other/kinematics_node", False),
+        ("/arm/my_kinematics_node: end effector", "kinematics_node", False),
+        ("servo: status", "kinematics_node", False),
+        ("/kinematics_node: end effector", "", False),
+    ],
+)
+def test_a_status_is_matched_to_its_node_by_name_or_full_name(status, node, matches):
+    from kinematics_node.cli.ros_topics import status_of_node
+
+    assert status_of_node(status, node) is matches

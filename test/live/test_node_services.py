@@ -36,7 +36,11 @@ def node(client, tmp_path_factory):
     from live_node import NodeProcess
 
     directory = tmp_path_factory.mktemp("services")
-    process = NodeProcess({"robot_description": ur5e_description()}, directory)
+    # the joint state is published once, here: its age is not these tests' concern (no limit;
+    # test_node_joint_state_age.py tests the limit)
+    process = NodeProcess(
+        {"robot_description": ur5e_description(), "joint_states_max_age": 0.0}, directory
+    )
     fk = client.node.create_client(ComputeFK, "compute_fk")
     assert fk.wait_for_service(timeout_sec=20.0), process.log()
     client.node.destroy_client(fk)

@@ -213,6 +213,8 @@ def test_malformed_joint_states_are_refused_and_warned_about_with_throttling(ur5
     stream.pub.publish(joint_state(UR5E_JOINTS, good, stamp_ns=21_000_000_000))
     wait_until(lambda: any(stamp_ns(p) == 21_000_000_000 for p in stream.poses), 5, "a pose")
     wait_until(lambda: len(diagnostics) > 0, 5, "diagnostics")
+    # named after the node's full name (`service.kinematics.diagnostics_name`)
+    assert {s.name for a in diagnostics for s in a.status} == {"/kinematics_node: end effector"}
     for array in diagnostics:
         for status in array.status:
             for kv in status.values:

@@ -313,11 +313,20 @@ def test_kinematics_ros_jog_moves_the_arm_from_a_terminal(rig):
 
 
 def test_kinematics_ros_jog_reads_keys_from_a_pipe_and_ends_with_its_input(rig):
-    """Without a terminal: keys from standard input as they come; at its end, the last key's
-    twist is held for its 0.6 s, then the command exits by itself."""
+    """Without a terminal, with --keys-from-stdin: keys from standard input as they come; at its
+    end, the last key's twist is held for its 0.6 s, then the command exits by itself."""
     before = rig.last_position()
     jog = subprocess.run(
-        [str(KINEMATICS), "ros", "jog", "--speed", "0.04", "--frame", "base_link"],
+        [
+            str(KINEMATICS),
+            "ros",
+            "jog",
+            "--speed",
+            "0.04",
+            "--frame",
+            "base_link",
+            "--keys-from-stdin",
+        ],
         input="f",  # one press: down along z
         capture_output=True,
         text=True,

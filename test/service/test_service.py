@@ -167,6 +167,16 @@ def test_diagnostics_report_rate_latency_and_singularity(ros, ur5, clock):
     assert "no recent joint_states" in ur5.diagnostics().status[0].message
 
 
+def test_diagnostics_are_named_after_the_node_s_full_name(ros, ur5_path):
+    """Two nodes in different namespaces publish distinct statuses on the one /diagnostics."""
+    params = {"robot_description": ur5_path.read_text(), "tip_link": "tool0"}
+    names = {
+        KinematicsService(ros.types, params, node_name=fqn).diagnostics().status[0].name
+        for fqn in ("/arm1/kinematics_node", "/arm2/kinematics_node")
+    }
+    assert names == {"/arm1/kinematics_node: end effector", "/arm2/kinematics_node: end effector"}
+
+
 # =========================================================================== FK / Jacobian
 def test_fk_service_agrees_with_the_core_and_fills_missing_joints(ros, ur5, q_ur5):
     chain = chain_of(ur5)

@@ -7,20 +7,26 @@ drift (the commanded pose is integrated and tracked), with a status on every cyc
 
     from kinematics_node.core.servo import Servo, ServoConfig, TwistCommand
 
-Needs Ruckig (`pip install ruckig`, or the package's `servo` extra) for the jerk-limited smoothing.
+The joint motion is smoothed by Ruckig within the jerk limits too where Ruckig is installed
+(`pip install ruckig`, or the package's `servo` extra); without it, by an acceleration-limited
+smoothing of our own (`smoothers`, `ServoConfig.smoothing`).
 Conventions as in the rest of the core: twists (ω, v), lengths in m, angles in rad, time in s.
 """
 
 from __future__ import annotations
 
 from .commands import Command, JointJogCommand, PoseCommand, TwistCommand
-from .config import TWIST_AXES, ServoConfig
+from .config import SMOOTHING_CHOICES, TWIST_AXES, ServoConfig
 from .limits import ServoLimits, braking_distance, braking_speed
 from .servo import Servo, ServoOutput
+from .smoothers import NO_RUCKIG_NOTE, RUCKIG_INSTALL, Smoothing, choose_smoothing
 from .smoothing import MissingDependencyError, ruckig_available
 from .status import ServoStatus, StatusCode
 
 __all__ = [
+    "NO_RUCKIG_NOTE",
+    "RUCKIG_INSTALL",
+    "SMOOTHING_CHOICES",
     "TWIST_AXES",
     "Command",
     "JointJogCommand",
@@ -31,9 +37,11 @@ __all__ = [
     "ServoLimits",
     "ServoOutput",
     "ServoStatus",
+    "Smoothing",
     "StatusCode",
     "TwistCommand",
     "braking_distance",
     "braking_speed",
+    "choose_smoothing",
     "ruckig_available",
 ]

@@ -18,6 +18,9 @@ from typing import Literal
 from ..exceptions import InvalidInputError
 
 AxesFrame = Literal["base", "tip"]
+SmoothingKind = Literal["auto", "ruckig", "acceleration"]
+SMOOTHING_CHOICES: tuple[SmoothingKind, ...] = ("auto", "ruckig", "acceleration")
+"""The values of `ServoConfig.smoothing` (`smoothers`)."""
 TWIST_AXES = ("wx", "wy", "wz", "vx", "vy", "vz")
 """Names of the six twist components, in the core's (ω, v) order."""
 
@@ -125,6 +128,12 @@ class ServoConfig:
             rows of its Jacobian that are not zero), e.g. (wz, vx, vy, vz) for a SCARA.
         task_axes_frame: "base" or "tip": the axes in which `task_axes` are meant.
 
+    Smoothing (`smoothers`):
+        smoothing: "auto" (Ruckig's jerk-limited smoothing where Ruckig is installed, else an
+            acceleration-limited one of our own, with the same position, velocity and
+            acceleration limits and no jerk limit), "ruckig" (refused where it is missing) or
+            "acceleration" (ours, even with Ruckig).
+
     Safety:
         max_following_error: [rad or m] when the measured joint positions are farther than this
             from the commanded ones, the arm is not following: the servo stops smoothly and says so.
@@ -161,6 +170,7 @@ class ServoConfig:
     task_axes: tuple[str, ...] | None = None
     task_axes_frame: AxesFrame = "base"
     max_following_error: float = 0.2
+    smoothing: SmoothingKind = "auto"
 
     def __post_init__(self) -> None:
         for name, (low, high, low_ok) in _RANGES.items():
@@ -202,6 +212,11 @@ class ServoConfig:
                     f"got {self.task_axes!r}"
                 )
             object.__setattr__(self, "task_axes", axes)
+        if self.smoothing not in SMOOTHING_CHOICES:
+            raise InvalidInputError(
+                f"ServoConfig.smoothing must be one of {', '.join(map(repr, SMOOTHING_CHOICES))}, "
+                f"got {self.smoothing!r}"
+            )
         if self.task_axes_frame not in ("base", "tip"):
             raise InvalidInputError(
                 f"ServoConfig.task_axes_frame must be 'base' or 'tip', got {self.task_axes_frame!r}"

@@ -25,7 +25,8 @@ the arm is and to notice an arm that does not follow):
    can do it exactly (saturation, as in Flacco, De Luca & Khatib 2012's SNS); otherwise the whole
    motion is slowed, which keeps the tool on its path. The result is scaled into the velocity
    limits, the null-space motion giving way first, then the damped directions, then the whole.
-4. Ruckig moves the commanded state toward that velocity within the acceleration and jerk limits,
+4. Ruckig moves the commanded state toward that velocity within the acceleration and jerk limits
+   (without Ruckig, a smoothing of our own does, within the acceleration limits: `smoothers`),
    with the joint acceleration J⁺(ẍ − J̇q̇) fed forward so that a ramping twist is followed
    without lag; guards re-plan a joint that would pass its velocity limit or could no longer stop
    inside its position limits (`smoothing`).
@@ -66,7 +67,7 @@ from .axes import select_axes, task_jacobian_rows
 from .commands import JointJogCommand, PoseCommand, TwistCommand
 from .config import TWIST_AXES, ServoConfig
 from .limits import ServoLimits, braking_distance, braking_speed_one, free_distances
-from .smoothing import JerkLimitedIntegrator, VelocityRamp
+from .smoothers import choose_smoothing
 from .status import ServoStatus, StatusCode
 
 FloatArray = NDArray[np.float64]
@@ -213,7 +214,7 @@ class Servo:
         InvalidInputError: bad initial positions, or a configuration the chain cannot meet (a joint
             range narrower than its margins, more task axes than joints).
         UnknownNameError: a limit override names a joint the chain does not have.
-        MissingDependencyError: Ruckig is not installed.
+        MissingDependencyError: `config.smoothing` is "ruckig" and Ruckig is not installed.
     """
 
     def __init__(
@@ -246,7 +247,9 @@ class Servo:
         keep[self._rows] = True
         self._dropped_mask = ~keep
         self._dropped: tuple[bool, ...] = tuple(self._dropped_mask.tolist())
-        self._integrator = JerkLimitedIntegrator(self.limits, cfg.period_s, q0)
+        # Ruckig's jerk-limited smoothing, or the acceleration-limited one without it (`smoothers`)
+        self.smoothing = choose_smoothing(cfg.smoothing)
+        self._integrator = self.smoothing.integrator(self.limits, cfg.period_s, q0)
         n = chain.dof
         lim = self.limits
         # Beyond this distance from a bound, braking never limits a joint's speed.
@@ -334,7 +337,7 @@ class Servo:
         lin_a = cfg.max_linear_speed_m_s / cfg.twist_acceleration_time_s
         ang_a = cfg.max_angular_speed_rad_s / cfg.twist_acceleration_time_s
         acc = np.array((ang_a, ang_a, ang_a, lin_a, lin_a, lin_a))
-        self._ramp = VelocityRamp(acc, acc / cfg.jerk_time_s, cfg.period_s)
+        self._ramp = self.smoothing.ramp(acc, acc / cfg.jerk_time_s, cfg.period_s)
         self._ramp_acc: list[float] = acc.tolist()
         self._ramp_jerk: list[float] = (acc / cfg.jerk_time_s).tolist()
         self._stop_acc: list[float] = (_STOP_SHARE * lim.acceleration).tolist()

@@ -96,10 +96,13 @@ def run(
     return Trace(times, out_q, out_v, out_a, meas, statuses, q_start, dt)
 
 
-def limit_violations(limits: ServoLimits, trace: Trace, rel: float = 1e-9) -> list[str]:
+def limit_violations(
+    limits: ServoLimits, trace: Trace, rel: float = 1e-9, jerk: bool = True
+) -> list[str]:
     """Every cycle on which a joint leaves its position bounds (with margin) or its velocity,
-    acceleration or jerk limit, judged on the commanded positions' finite differences (the arm
-    rests at q_start before the first cycle) and on the reported velocities and accelerations."""
+    acceleration or jerk limit (`jerk` False: not the jerk limit, which only Ruckig's smoothing
+    keeps), judged on the commanded positions' finite differences (the arm rests at q_start
+    before the first cycle) and on the reported velocities and accelerations."""
     dt = trace.dt
     q = np.vstack([np.repeat(trace.q_start[None], 3, axis=0), trace.q])
     problems = []
@@ -123,6 +126,8 @@ def limit_violations(limits: ServoLimits, trace: Trace, rel: float = 1e-9) -> li
         ("finite-difference jerk", np.abs(j_fd) - limits.jerk * (1 + rel), 1e-3),
         ("reported-acceleration jerk", np.abs(j_rep) - limits.jerk * (1 + rel), 1e-6),
     ]
+    if not jerk:
+        checks = [c for c in checks if "jerk" not in c[0]]
     for what, excess, tol in checks:
         bad = np.argwhere(excess > tol)
         if bad.size:
