@@ -33,7 +33,7 @@ from ..core import KinematicsError, SerialChain
 from ..core.exceptions import RobotDescriptionError, UnknownNameError
 from ..core.ik.options import IKOptions
 from ..core.model import mimic_rule
-from . import ros_commands
+from . import bag, ros_commands
 
 _MAX_SHOWN = 40  # characters of user input echoed in an error message
 _MAX_STEPS = 1_000_000  # demo: joint states simulated at most
@@ -822,6 +822,7 @@ def build_parser() -> argparse.ArgumentParser:
     servo_demo.add_argument(
         "--no-ros", action="store_true", help="run in this process even where ROS 2 is available"
     )
+    bag.add_parser(sub)  # `kinematics bag`: rosbags is imported only when it runs
     ros_commands.add_parser(sub)  # `kinematics ros ...`: ROS is imported only when it runs
     return parser
 
@@ -926,6 +927,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _servo_demo(args)
         if args.command == "ros":
             return ros_commands.run(args)
+        if args.command == "bag":
+            return bag.run(args)
         # overflow in extreme but finite inputs shows in the results (checked finite), not as
         # numpy's warnings on stderr
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):

@@ -38,6 +38,7 @@ from .outputs import (
     POSE_TYPE,
     TF_TYPE,
     TWIST_TYPE,
+    Computed,
     Conditioning,
     EndEffector,
     Written,
@@ -324,11 +325,8 @@ class _Table:
             + ["limit_distance", "limit_joint"]
         )
 
-    def add(self, motion: Motion, T: NDArray[np.float64], V: NDArray[np.float64], c: Conditioning):
-        from ..core import so3
-
+    def add(self, motion: Motion, computed: Computed, c: Conditioning) -> None:
         chain = self.chain
-        quat = so3.quaternion_from_matrix(T[:, :3, :3])
         room = np.minimum(motion.q - chain.lower, chain.upper - motion.q)
         nearest = np.argmin(np.where(np.isfinite(room), room, np.inf), axis=1)
         distance = room[np.arange(len(nearest)), nearest]
@@ -338,9 +336,9 @@ class _Table:
                 motion.stamp_ns * 1e-9,
                 motion.q,
                 motion.qdot,
-                T[:, :3, 3],
-                quat,
-                V,
+                computed.T[:, :3, 3],
+                computed.quaternion,
+                computed.V,
                 c.manipulability,
                 c.condition_number,
                 c.min_singular_value,
@@ -349,7 +347,7 @@ class _Table:
         )
         names = [
             chain.joint_names[k] if math.isfinite(d) else ""
-            for k, d in zip(nearest, distance, strict=True)
+            for k, d in zip(nearest.tolist(), distance.tolist(), strict=True)
         ]
         for values, name in zip(block.tolist(), names, strict=True):
             self.out.writerow([repr(v) for v in values] + [name])
@@ -443,31 +441,19 @@ def _run(
             t2 = time.perf_counter()
             timings["decode"] += t2 - t1
             m = motion.advance(groups, log_ns)
-            pose, twist, tf, J = ee.messages(m)
-            known = np.isfinite(m.qdot).all(axis=1)
-            V = (J[known] @ m.qdot[known][:, :, None])[:, :, 0]
-            tool_speed = np.linalg.norm(V[:, 3:], axis=1)
-            if table is not None:
-                cond = conditioning(m.log_time_ns, J)
-                V_all = np.full((len(m.rows), 6), math.nan)
-                V_all[known] = V
-                T = chain.fk(m.q)
-                table.add(m, T, V_all, cond)
-                sampled = _sampled(m.log_time_ns, options.conditioning_rate_hz, last_bin)
-                cond = Conditioning(
-                    cond.log_time_ns[sampled],
-                    cond.manipulability[sampled],
-                    cond.condition_number[sampled],
-                    cond.min_singular_value[sampled],
-                )
+            c = ee.messages(m)
+            sampled = _sampled(m.log_time_ns, options.conditioning_rate_hz, last_bin)
+            if table is not None:  # every row's conditioning; the report samples it
+                every = conditioning(m.log_time_ns, c.J)
+                table.add(m, c, every)
+                cond = every.take(sampled)
             else:
-                sampled = _sampled(m.log_time_ns, options.conditioning_rate_hz, last_bin)
-                cond = conditioning(m.log_time_ns[sampled], J[sampled])
+                cond = conditioning(m.log_time_ns[sampled], c.J[sampled])
             if sampled.size:
                 last_bin = int(
                     m.log_time_ns[sampled[-1]] // int(1e9 / options.conditioning_rate_hz)
                 )
-            findings.add(m, tool_speed, cond)
+            findings.add(m, c, sampled, cond)
             t3 = time.perf_counter()
             timings["kinematics"] += t3 - t2
             _copy(output, batch)
@@ -477,7 +463,7 @@ def _run(
                     output.rows("/tf_static", static)
                     written["/tf_static"] += 1
                 static_done = True
-            for name, w in ((pose_topic, pose), (twist_topic, twist), ("/tf", tf)):
+            for name, w in ((pose_topic, c.pose), (twist_topic, c.twist), ("/tf", c.tf)):
                 output.rows(name, w)
                 written[name] += len(w.log_time_ns)
             t0 = time.perf_counter()

@@ -50,6 +50,30 @@ class Conditioning:
     condition_number: FloatArray
     min_singular_value: FloatArray
 
+    def take(self, rows: IntArray) -> Conditioning:
+        """The samples at `rows`."""
+        return Conditioning(
+            self.log_time_ns[rows],
+            self.manipulability[rows],
+            self.condition_number[rows],
+            self.min_singular_value[rows],
+        )
+
+
+@dataclass(frozen=True)
+class Computed:
+    """What `EndEffector.messages` gives for m rows: the messages, the poses T (m, 4, 4), their
+    quaternions (m, 4), the world Jacobians J (m, 6, n), rows (ω, v), and the world twists
+    V (m, 6), (ω, v) (NaN rows where q̇ is unknown)."""
+
+    pose: Written
+    twist: Written
+    tf: Written
+    T: FloatArray
+    J: FloatArray
+    V: FloatArray
+    quaternion: FloatArray
+
 
 class EndEffector:
     """Turns `Motion` into the messages the recording gains.
@@ -71,23 +95,23 @@ class EndEffector:
         self.static_parents = tuple(links[i] for i in np.flatnonzero(~moving))
         self.static_children = tuple(links[i + 1] for i in np.flatnonzero(~moving))
 
-    def messages(self, motion: Motion) -> tuple[Written, Written, Written, FloatArray]:
-        """(ee_pose, ee_twist, /tf, J) for the rows of `motion`; twists only where q̇ is known.
-        J: (m, 6, n) world Jacobians, rows (ω, v), for the conditioning."""
+    def messages(self, motion: Motion) -> Computed:
+        """The messages and quantities of the rows of `motion`; twists only where q̇ is known."""
         chain, stamp, log = self.chain, motion.stamp_ns, motion.log_time_ns
         T, J = chain.fk_jacobian(motion.q, "world")
         quat = so3.quaternion_from_matrix(T[:, :3, :3])
         pose = Written(log, pose_stamped_cdr(stamp, chain.base_link, T[:, :3, 3], quat))
         known = np.isfinite(motion.qdot).all(axis=1)
-        V = (J[known] @ motion.qdot[known][:, :, None])[:, :, 0]
-        omega, v = V[:, :3], V[:, 3:]
+        V_world = np.full((len(log), 6), np.nan)
+        V_world[known] = (J[known] @ motion.qdot[known][:, :, None])[:, :, 0]
+        omega, v = V_world[known, :3], V_world[known, 3:]
         frame = chain.base_link
         if self.twist_frame == "body":
             Rt = np.swapaxes(T[known, :3, :3], 1, 2)
             omega, v = (Rt @ omega[:, :, None])[:, :, 0], (Rt @ v[:, :, None])[:, :, 0]
             frame = chain.tip_link
         twist = Written(log[known], twist_stamped_cdr(stamp[known], frame, v, omega))
-        return pose, twist, self._tf(motion), J
+        return Computed(pose, twist, self._tf(motion), T, J, V_world, quat)
 
     def _tf(self, motion: Motion) -> Written:
         t, quat = self.chain.parent_link_transforms(motion.q)

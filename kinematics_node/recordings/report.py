@@ -6,6 +6,7 @@
 * joints at or near their position limits (within `near_limit` of them), and joint speeds over
   the description's velocity limits;
 * the tool's peak speed (the tip origin's, from the twist);
+* the sampled series (tool position, speed, condition number) that `picture` draws;
 * what the joint_states gave (`joint_motion.Counts`): skipped, waiting, log times used.
 """
 
@@ -19,9 +20,10 @@ from numpy.typing import NDArray
 
 from ..core import SerialChain
 from .joint_motion import Counts, Motion
-from .outputs import Conditioning
+from .outputs import Computed, Conditioning
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 #: A log-time step longer than this many median steps is a gap in the stream.
 GAP_FACTOR = 5.0
@@ -62,14 +64,17 @@ class Findings:
     joints: dict[str, JointExtreme] = field(default_factory=dict)
     peak_tool_speed: float = 0.0
     peak_tool_speed_ns: int = 0
+    series: list[tuple[IntArray, FloatArray, FloatArray, FloatArray]] = field(default_factory=list)
     _open: Episode | None = None
 
     def __post_init__(self) -> None:
         self.joints = {name: JointExtreme() for name in self.chain.joint_names}
 
-    def add(self, motion: Motion, tool_speed: FloatArray, cond: Conditioning) -> None:
-        """One batch: its posed rows, the tip origin's speed where known (aligned with the rows
-        whose q̇ is known), and its conditioning samples."""
+    def add(
+        self, motion: Motion, computed: Computed, sampled: IntArray, cond: Conditioning
+    ) -> None:
+        """One batch: its posed rows, what was computed for them, and the rows sampled for the
+        conditioning (`cond`), which also make the series the picture draws."""
         log = motion.log_time_ns
         if log.size:
             previous = self.last_ns
@@ -91,12 +96,23 @@ class Findings:
             if speed.size:
                 ext.peak_speed = max(ext.peak_speed, float(speed.max()))
                 ext.over_speed_samples += int((speed > chain.velocity_limit[j]).sum())
-        if tool_speed.size:
-            k = int(np.argmax(tool_speed))
+        tool_speed = np.linalg.norm(computed.V[:, 3:], axis=1)  # NaN where q̇ is unknown
+        if known.any():
+            k = int(np.nanargmax(np.where(known, tool_speed, -1.0)))
             if tool_speed[k] > self.peak_tool_speed:
-                self.peak_tool_speed = float(tool_speed[k])
-                self.peak_tool_speed_ns = int(log[known][k])
+                self.peak_tool_speed, self.peak_tool_speed_ns = float(tool_speed[k]), int(log[k])
+        self.series.append(
+            (log[sampled], computed.T[sampled, :3, 3], tool_speed[sampled], cond.condition_number)
+        )
         self._episodes(cond)
+
+    def series_arrays(self) -> tuple[IntArray, FloatArray, FloatArray, FloatArray]:
+        """The sampled series: log times [ns], tool positions (k, 3) [m], tool speeds [m/s]
+        (NaN: unknown) and condition numbers."""
+        if not self.series:
+            return np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0), np.zeros(0)
+        t, p, s, c = zip(*self.series, strict=True)
+        return np.concatenate(t), np.concatenate(p), np.concatenate(s), np.concatenate(c)
 
     def _episodes(self, cond: Conditioning) -> None:
         near = cond.condition_number > self.singular_condition

@@ -1,0 +1,241 @@
+"""`kinematics bag RECORDING... --out OUT`: forward kinematics of recorded joint_states, without ROS.
+
+Each recording (a rosbag2 directory; a folder of them counts as each) becomes a new recording in
+MCAP storage with everything copied and ee_pose, ee_twist, /tf and /tf_static added
+(`kinematics_node.recordings`). One recording: OUT is the output recording. Several: OUT is a
+folder, each output named after its input, and the recordings run on the local cores, one
+process each.
+
+Needs rosbags (`pip install 'kinematics_service[bags]'`); matplotlib for --plot; tqdm draws the
+progress bar when installed and stderr is a terminal.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+from typing import Any
+
+from ..core import KinematicsError
+
+INSTALL = "pip install 'kinematics_service[bags]'"
+
+EXAMPLES = """examples:
+  kinematics bag run1 --out run1-kinematics                 # the robot from its /robot_description
+  kinematics bag run1 --out run1-kin --robot panda --tip panda_hand_tcp --csv run1.csv
+  kinematics bag run1 --out run1-kin --urdf my_arm.urdf.xacro --plot run1.png
+  kinematics bag runs/ --out runs-kinematics                # every recording in runs/
+
+Open the output in Foxglove (3D panel: /tf; plots: /ee_pose, /ee_twist) or replay it with
+ros2 bag play for RViz: the robot moves without robot_state_publisher.
+"""
+
+
+class BagError(KinematicsError):
+    """A usage problem of `kinematics bag`, said in one line (main prints it, exit status 1)."""
+
+
+def add_parser(commands: Any) -> None:
+    """Add the `bag` command to main.py's subcommands."""
+    bag = commands.add_parser(
+        "bag",
+        help="forward kinematics of a rosbag2 recording: ee_pose, ee_twist, /tf added",
+        description="Read joint_states from rosbag2 recordings (sqlite3 or MCAP) and write new\n"
+        "recordings (MCAP) with every message copied and ee_pose, ee_twist, /tf and /tf_static\n"
+        "added, stamped like the joint_states; report the stream, singularities, joints near\n"
+        "their limits and the tool's peak speed. No ROS installation needed (rosbags).",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    bag.add_argument(
+        "recordings", nargs="+", metavar="RECORDING", help="rosbag2 directories or folders of them"
+    )
+    bag.add_argument(
+        "--out", required=True, metavar="OUT", help="output recording (folder for several)"
+    )
+    robot = bag.add_mutually_exclusive_group()
+    robot.add_argument(
+        "--urdf",
+        metavar="FILE",
+        help="URDF or xacro file (default: the recording's /robot_description)",
+    )
+    robot.add_argument(
+        "--robot", metavar="NAME", help="a bundled robot: ur5e, panda, iiwa14, scara, planar3r"
+    )
+    bag.add_argument("--base", metavar="LINK", help="base link (default: the root link)")
+    bag.add_argument("--tip", metavar="LINK", help="tip link (default: the single leaf)")
+    bag.add_argument(
+        "--joint-states",
+        default="/joint_states",
+        metavar="TOPIC",
+        help="joint_states topic (default: %(default)s)",
+    )
+    bag.add_argument(
+        "--namespace", default="", metavar="NS", help="write /NS/ee_pose and /NS/ee_twist"
+    )
+    bag.add_argument(
+        "--twist-frame", choices=("world", "body"), default="world", help="as the node's parameter"
+    )
+    bag.add_argument(
+        "--csv", metavar="FILE", help="a table: one row per joint_states message (one recording)"
+    )
+    bag.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="a picture of the tool's path, speed and conditioning (one recording)",
+    )
+    bag.add_argument(
+        "--singular-condition",
+        type=float,
+        default=100.0,
+        metavar="K",
+        help="condition number that counts as near a singularity (default: %(default)g)",
+    )
+    bag.add_argument(
+        "--near-limit",
+        type=float,
+        default=0.05,
+        metavar="D",
+        help="distance to a position limit that counts as near [rad or m] (default: %(default)g)",
+    )
+    bag.add_argument("--force", action="store_true", help="replace existing outputs")
+    bag.add_argument(
+        "--jobs",
+        type=int,
+        default=0,
+        metavar="N",
+        help="processes for several recordings (default: the cores)",
+    )
+
+
+def _description(args: argparse.Namespace) -> tuple[str | None, str]:
+    if args.urdf:
+        from ..service.description_file import read_description_file
+
+        return read_description_file(args.urdf).xml, f"--urdf {args.urdf}"
+    if args.robot:
+        from ..sim.robots import robot_path
+
+        return robot_path(args.robot).read_text(encoding="utf-8"), f"--robot {args.robot}"
+    return None, ""
+
+
+def _tip(args: argparse.Namespace) -> str | None:
+    if args.tip is None and args.robot:
+        from ..sim.robots import default_chain_links
+
+        return default_chain_links(args.robot)[1]
+    return args.tip
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run `kinematics bag`; errors raise (main prints them as one line, exit status 1)."""
+    try:
+        import rosbags  # noqa: F401
+    except ImportError:
+        raise BagError(f"kinematics bag needs rosbags: {INSTALL}") from None
+    from ..recordings.job import BagOptions, recordings_in
+
+    for value, name in (
+        (args.singular_condition, "--singular-condition"),
+        (args.near_limit, "--near-limit"),
+    ):
+        if not value > 0 or value == float("inf"):
+            raise BagError(f"{name} {value}: expected a finite number > 0")
+    sources = recordings_in([Path(p) for p in args.recordings])
+    if not sources:
+        raise BagError(
+            f"no rosbag2 recording (a directory with metadata.yaml) in {args.recordings}"
+        )
+    text, where = _description(args)
+    options = BagOptions(
+        description=text,
+        description_source=where,
+        base_link=args.base,
+        tip_link=_tip(args),
+        joint_states=args.joint_states,
+        namespace=args.namespace,
+        twist_frame=args.twist_frame,
+        force=args.force,
+        csv=None if args.csv is None else Path(args.csv),
+        singular_condition=args.singular_condition,
+        near_limit=args.near_limit,
+    )
+    if args.plot:
+        from ..sim.demo import check_matplotlib, check_picture_path
+
+        try:
+            check_matplotlib()
+            check_picture_path(args.plot)
+        except ValueError as exc:
+            raise BagError(str(exc)) from None
+    out = Path(args.out)
+    first = Path(args.recordings[0])
+    if len(args.recordings) == 1 and ((first / "metadata.yaml").is_file() or not first.is_dir()):
+        return _one(sources[0], out, options, args.plot)
+    if args.csv or args.plot:
+        raise BagError("--csv and --plot take one recording; give them with one RECORDING")
+    return _many(sources, out, options, args.jobs or os.cpu_count() or 1)
+
+
+def _progress(label: str) -> tuple[Callable[[int, int], None] | None, Callable[[], None]]:
+    """A progress bar on a terminal (tqdm where installed), else nothing."""
+    if not sys.stderr.isatty():
+        return None, lambda: None
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        return None, lambda: None
+    bar = tqdm(total=0, unit="msg", unit_scale=True, desc=label, leave=False, file=sys.stderr)
+
+    def update(done: int, total: int) -> None:
+        bar.total = total or None
+        bar.n = done
+        bar.refresh()
+
+    return update, bar.close
+
+
+def _one(source: Path, out: Path, options: Any, plot: str | None) -> int:
+    from ..recordings.job import process_recording
+
+    update, close = _progress(source.name)
+    try:
+        result = process_recording(source, out, options, progress=update)
+    finally:
+        close()
+    print(result.report())
+    if plot:
+        from ..recordings.picture import draw
+
+        draw(result, Path(plot))
+        print(f"picture: {plot}")
+    return 0
+
+
+def _task(source: Path, out: Path, options: Any) -> str:
+    from ..recordings.job import process_recording
+
+    return process_recording(source, out, options).report()
+
+
+def _many(sources: list[Path], folder: Path, options: Any, jobs: int) -> int:
+    names = [s.name for s in sources]
+    if len(set(names)) != len(names):
+        raise BagError(f"two recordings share a name, and outputs are named after them: {names}")
+    folder.mkdir(parents=True, exist_ok=True)
+    failed = 0
+    with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(sources)))) as pool:
+        futures = {pool.submit(_task, s, folder / s.name, options): s for s in sources}
+        for future in as_completed(futures):
+            source = futures[future]
+            try:
+                print(future.result(), flush=True)
+            except (KinematicsError, OSError) as exc:
+                failed += 1
+                print(f"kinematics: error: {source}: {' '.join(str(exc).split())}", file=sys.stderr)
+    return 1 if failed else 0
