@@ -33,6 +33,8 @@ setup(
     extras_require={
         "xacro": ["xacro>=2.0"],
         "demo": ["matplotlib>=3.5"],
+        # `kinematics bag` and `record-demo`: rosbag2 recordings without ROS; tqdm's progress bar
+        "bags": ["rosbags>=0.10", "tqdm>=4"],
         # Jerk limits of kinematics_node.core.servo (optional: without it the servo smooths within
         # the position, velocity and acceleration limits, with no jerk limit)
         "servo": ["ruckig>=0.9"],
@@ -46,6 +48,8 @@ setup(
             "matplotlib>=3.5",
             "pyyaml>=5",  # reads config/kinematics.yaml in the package-file tests
             "ruckig>=0.9",  # the servo's jerk-limited smoothing (extra "servo")
+            "tqdm>=4",  # the recordings' progress bar (extra "bags")
+            "mcap-ros2-support>=0.5",  # decodes recordings independently of rosbags
         ],
         # Peers for the side-by-side benchmarks; KDL comes from Debian (apt install python3-pykdl).
         "bench": [
@@ -56,6 +60,7 @@ setup(
             "roboticstoolbox-python>=1.1",
             "pybullet>=3.2",  # only for its KUKA iiwa description
             "ruckig>=0.9",  # benchmarks/servo_benchmark.py
+            "rosbags>=0.10",  # benchmarks/bag_benchmark.py
         ],
         # ruff within one minor release: `make test` checks the formatting, whose output may
         # change between minor releases

@@ -301,6 +301,37 @@ def twist_stamped_cdr(
     return _stamped_vectors(stamp_ns, frame_id, linear, angular)
 
 
+def joint_state_cdr(
+    stamp_ns: IntArray,
+    names: Sequence[str],
+    position: FloatArray,
+    velocity: FloatArray | None = None,
+    effort: FloatArray | None = None,
+    frame_id: str = "",
+) -> NDArray[np.uint8]:
+    """sensor_msgs/JointState, one row of bytes per message: (N,) stamps [ns], the joint names,
+    positions (N, n) and, when given, velocities and efforts (N, n) (else empty sequences)."""
+    n = len(names)
+    template = _Template()
+    template.stamp("stamp")
+    template.string(frame_id)
+    template.uint32(n)
+    for name in names:
+        template.string(name)
+    fields = [("position", position), ("velocity", velocity), ("effort", effort)]
+    for field, values in fields:
+        count = 0 if values is None else n
+        template.uint32(count)
+        if count:
+            template.float64s(field, count)
+    rows = template.rows(len(stamp_ns))
+    rows["stamp"] = _stamps(stamp_ns)
+    for field, values in fields:
+        if values is not None:
+            rows[field] = values
+    return _as_bytes(rows)
+
+
 def tf_message_cdr(
     stamp_ns: IntArray,
     parents: Sequence[str],

@@ -823,6 +823,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--no-ros", action="store_true", help="run in this process even where ROS 2 is available"
     )
     bag.add_parser(sub)  # `kinematics bag`: rosbags is imported only when it runs
+    bag.add_record_demo_parser(sub)
     ros_commands.add_parser(sub)  # `kinematics ros ...`: ROS is imported only when it runs
     return parser
 
@@ -929,6 +930,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return ros_commands.run(args)
         if args.command == "bag":
             return bag.run(args)
+        if args.command == "record-demo":
+            return bag.run_record_demo(args)
         # overflow in extreme but finite inputs shows in the results (checked finite), not as
         # numpy's warnings on stderr
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):

@@ -239,6 +239,15 @@ class _Output:
 def _qos(topic: str) -> list[Any]:
     """Offered QoS metadata of an added topic: /tf_static transient local (as
     robot_state_publisher offers it, so a player latches it), the rest volatile, reliable."""
+    return latched_qos() if topic == "/tf_static" else _offered(latched=False)
+
+
+def latched_qos() -> list[Any]:
+    """rosbags' QoS metadata of a transient-local publisher of depth 1 (a latched topic)."""
+    return _offered(latched=True)
+
+
+def _offered(latched: bool) -> list[Any]:
     from rosbags.interfaces import (
         Qos,
         QosDurability,
@@ -248,14 +257,13 @@ def _qos(topic: str) -> list[Any]:
         QosTime,
     )
 
-    static = topic == "/tf_static"
     never = QosTime(sec=2147483647, nsec=4294967295)  # rosbag2's "infinite" duration
     return [
         Qos(
             history=QosHistory.KEEP_LAST,
-            depth=1 if static else 100,
+            depth=1 if latched else 100,
             reliability=QosReliability.RELIABLE,
-            durability=QosDurability.TRANSIENT_LOCAL if static else QosDurability.VOLATILE,
+            durability=QosDurability.TRANSIENT_LOCAL if latched else QosDurability.VOLATILE,
             deadline=never,
             lifespan=never,
             liveliness=QosLiveliness.AUTOMATIC,

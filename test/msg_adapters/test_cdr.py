@@ -10,6 +10,7 @@ import pytest
 from kinematics_node.core.exceptions import InvalidInputError
 from msg_adapters.cdr import (
     decode_joint_states,
+    joint_state_cdr,
     pose_stamped_cdr,
     tf_message_cdr,
     twist_stamped_cdr,
@@ -169,3 +170,24 @@ def test_tf_rows_are_rosbags_bytes():
 def test_a_stamp_beyond_int32_seconds_is_refused():
     with pytest.raises(InvalidInputError, match="int32 seconds"):
         pose_stamped_cdr(np.array([2**31 * 10**9]), "b", np.zeros((1, 3)), np.zeros((1, 4)))
+
+
+@pytest.mark.parametrize("fields", ["position", "position+velocity", "all"])
+def test_joint_state_rows_are_rosbags_bytes(fields):
+    rng = np.random.default_rng(7)
+    n = 12
+    stamp = rng.integers(0, 2**31 - 1, size=n) * 10**9 + rng.integers(0, 10**9, size=n)
+    P, V, E = (rng.normal(size=(n, 7)) for _ in range(3))
+    vel = V if fields != "position" else None
+    eff = E if fields == "all" else None
+    rows = joint_state_cdr(stamp, ARM, P, vel, eff, frame_id="arm")
+    for i in range(n):
+        want = _joint_state(
+            int(stamp[i]),
+            "arm",
+            ARM,
+            P[i],
+            [] if vel is None else V[i],
+            [] if eff is None else E[i],
+        )
+        assert rows[i].tobytes() == want
