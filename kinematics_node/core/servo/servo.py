@@ -21,10 +21,13 @@ the arm is and to notice an arm that does not follow):
    agrees (`_escape`). A redundant arm adds null-space motion away from its joint limits.
 3. Joint limits: a joint near a position limit may move towards it no faster than it can still
    brake (`limits.braking_speed`, at half its acceleration and jerk). When the solution asks more,
-   the joint is held at that speed and the task is solved again by the other joints where they
-   can do it exactly (saturation, as in Flacco, De Luca & Khatib 2012's SNS); otherwise the whole
-   motion is slowed, which keeps the tool on its path. The result is scaled into the velocity
-   limits, the null-space motion giving way first, then the damped directions, then the whole.
+   the joint is held at that speed and the other joints carry the largest share of the commanded
+   twist they can carry exactly, the loop's correction whole (`task_scaling`, Flacco, De Luca &
+   Khatib 2015's SNS with task scaling), each joint's velocity changing by little per period so
+   that the smoothing does not lag; the commanded pose advances by the same share, so the tool
+   slows along its path and a pure rotation keeps its point (`_scale_task`). Otherwise the result
+   is scaled into the velocity limits, the null-space motion giving way first, then the damped
+   directions, then the whole.
 4. Ruckig moves the commanded state toward that velocity within the acceleration and jerk limits,
    with the joint acceleration J⁺(ẍ − J̇q̇) fed forward so that a ramping twist is followed
    without lag; guards re-plan a joint that would pass its velocity limit or could no longer stop
@@ -61,7 +64,7 @@ from .._checks import check_transform
 from ..chain import SerialChain
 from ..exceptions import InvalidInputError, UnknownNameError
 from ..model import readonly
-from . import _quat, dls
+from . import _quat, dls, task_scaling
 from .axes import select_axes, task_jacobian_rows
 from .commands import JointJogCommand, PoseCommand, TwistCommand
 from .config import TWIST_AXES, ServoConfig
@@ -97,6 +100,10 @@ _REACH_SHARE = 0.5  # a braked motion is slowed along its joint direction to wha
 # the same edge figures, the steps script's path error 77-81 mm on the UR5e, 67 at 0.5)
 _SLOPE_RATE = 0.05  # [rad/s] joint speed along v_min above which dσ/dθ is read off J̇
 _BRAKE_LINEAR_SHARE = 0.5  # only where u_min is mostly linear (|u_lin|² ≥ this): not a wrist
+_TASK_REACH_WIDENING = (0.1, 1.0, 2.0, 4.0, 8.0)  # a motion slowed at a joint limit changes each
+# joint's velocity by at most the first of these × _REACH_SHARE of its planning acceleration per
+# period (the Panda's pure rotation through joint 7's limit: 0.25: 0.01 mm off the point while
+# slowed, 0.1: 0.006 mm); the others only where nothing fits within it
 _SETTLE_S = 1.0  # [s] after a twist command's timeout has ramped the twist to zero, the loop stays
 # closed at most this long for the arm to reach the reference (K = 10/s leaves e⁻¹⁰ of a gap)
 
@@ -343,6 +350,7 @@ class Servo:
         self._ramp_held = False  # invalidated by `_hold_ramp` (not by a new command)
         self._ramp_target: list[float] = [0.0] * 6
         self._last_jacobian: FloatArray | None = None  # the task Jacobian of the last period
+        self._task_share = 1.0  # the share of the commanded twist of the last period
         self._null_ease = 0.0  # share of the null-space speed allowed (eased in per command)
         self._anchor: FloatArray = self._integrator.q  # last well-conditioned configuration
         self._ref_p = (0.0, 0.0, 0.0)
@@ -404,6 +412,7 @@ class Servo:
         self._mode = None
         self._winding_down = False
         self._last_jacobian = None
+        self._task_share = 1.0
         self._ref_valid = False
         self._ramp_valid = False
         self._ramp_held = False
@@ -507,6 +516,7 @@ class Servo:
             integ.reset(self._measured)
         if self._mode != mode:
             self._last_jacobian = None
+            self._task_share = 1.0
             self._null_ease = 0.0
             self._ref_valid = False
             self._ramp_valid = False
@@ -1062,6 +1072,8 @@ class Servo:
     def _solve(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> list[float]:
         qd = self._solve_at(Jt, x, details)
         self._last_jacobian = Jt
+        if "task_share" not in details:
+            self._task_share = 1.0
         return qd
 
     def _solve_at(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> list[float]:
@@ -1092,8 +1104,6 @@ class Servo:
         if s_last < lam and s.shape[0] == Jt.shape[0]:
             damped = damped + self._escape(commanded, sol, details)
             exact = False
-        fixed: FloatArray | float = 0.0
-        active = None  # all joints
         at_limit = self._no_joint
         if limited is not None:
             qd = (undamped + damped).tolist()
@@ -1102,17 +1112,13 @@ class Servo:
                 for m, v, lw, h in zip(limited, qd, lo, hi, strict=True)
             ]
             if any(over):
-                at_limit = np.array(over)
-                self._hold_ramp()
-                saturated = self._saturate(Jt, x, lo, hi, limited, sol)
-                if saturated is not None:
-                    fixed, undamped, damped, rows, active = saturated
-                    exact = False
-                # else: the other joints cannot take over the task exactly; the uniform scaling
-                # below slows the whole arm along its path instead, to a stop at the limit.
+                details["at_limit"] = np.array(over)
+                return self._scale_task(
+                    Jt, x, sol, undamped + damped, lo, hi, details, braked[1] if braked else 1.0
+                )
         details["at_limit"] = at_limit
-        null = self._null_motion(active, rows)
-        total = undamped + null if exact else undamped + damped + null + fixed
+        null = self._null_motion(None, rows)
+        total = undamped + null if exact else undamped + damped + null
         total_list = total.tolist()
         if braked is not None:
             reach = self._reachable_share(total_list)
@@ -1131,7 +1137,7 @@ class Servo:
             return total_list
         # Fit into the box: the whole undamped part first (uniform scaling keeps its direction),
         # then as much of the damped part, then of the null-space motion.
-        base = undamped + fixed
+        base = undamped
         s_base = self._max_scale(self._zero_list, base.tolist(), lo, hi)
         base = base * s_base
         s_damped = self._max_scale(base.tolist(), damped.tolist(), lo, hi)
@@ -1277,6 +1283,25 @@ class Servo:
         twist `ramped` (ω, v) [base axes]: the pose moves on along the commanded path, slower."""
         self._advance_reference(ramped, -share * self.config.period_s)
 
+    def _reach_box(
+        self, lo: list[float], hi: list[float], widen: float
+    ) -> tuple[list[float], list[float]]:
+        """The velocity box [lo, hi] narrowed to what each joint reaches from its velocity within
+        `_REACH_SHARE` of its planning acceleration in one period (where the two do not meet,
+        the bound of [lo, hi] nearest the joint's velocity)."""
+        dt = self.config.period_s
+        lo_r, hi_r = [], []
+        integ = self._integrator
+        centre = [v + a * dt for v, a in zip(integ.v_list, integ.a_list, strict=True)]
+        for v, a, lw, h in zip(centre, self._plan_acceleration_list, lo, hi, strict=True):
+            b = widen * _REACH_SHARE * a * dt
+            low, high = max(lw, v - b), min(h, v + b)
+            if low > high:
+                low = high = h if v > h else lw
+            lo_r.append(low)
+            hi_r.append(high)
+        return lo_r, hi_r
+
     def _reachable_share(self, qd: list[float]) -> float:
         """The largest share s ≤ 1 of the joint velocities `qd` that every joint reaches from its
         velocity within `_REACH_SHARE` of its planning acceleration in one period (1 if there is
@@ -1371,60 +1396,82 @@ class Servo:
         """The tip pose at joint values `q` as 12 floats (rotation row-major, then position)."""
         return self._fk_pose(q if self._to_internal is None else self._to_internal(q))[0]
 
-    def _saturate(
+    def _scale_task(
         self,
         Jt: FloatArray,
         x: FloatArray,
+        sol: dls.DLSSolution,
+        first: FloatArray,
         lo: list[float],
         hi: list[float],
-        limited: list[bool],
-        sol: dls.DLSSolution,
-    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_]] | None:
-        """Hold the joints that would pass a position bound at that bound's speed and solve the
-        task with the others (saturation in the null space, after Flacco, De Luca & Khatib 2012).
+        details: dict[str, Any],
+        kept: float,
+    ) -> list[float]:
+        """Joint velocities within [lo, hi] when the solution `first` of the task velocity x
+        would take a joint past the speed at which it can still brake before its position bound.
 
-        Returns (fixed, undamped, damped, row basis of the active columns, active mask), or None
-        when the remaining joints cannot do the task exactly (too few, or ill-conditioned): then
-        any solution would move the tool in directions nobody commanded.
+        The joint is held at that speed and the others take over what they can carry exactly
+        (`task_scaling`): the largest share s of the commanded twist c, with the loop's
+        correction x − c whole, so the tool slows along its path (a pure rotation keeps its
+        point) instead of a least-squares fit that leaks into directions nobody commanded. The
+        commanded pose advances by the same share (`_hold_back`), so the loop does not pull the
+        tool off the path either. Where the correction alone does not fit, the whole task
+        velocity is scaled. A pose command's whole task velocity is its command.
+
+        `kept`: the share of c that `_brake` kept (x holds kept·c).
         """
-        cfg = self.config
-        n = self._n
-        m = Jt.shape[0]
-        active = [True] * n
-        fixed = [0.0] * n
-        undamped, damped, rows = sol.undamped, sol.damped, sol.row_basis
-        for _ in range(n):
-            qd = [
-                f + u + d for f, u, d in zip(fixed, undamped.tolist(), damped.tolist(), strict=True)
-            ]
-            bad = [
-                a and b and (v > h + 1e-12 or v < lw - 1e-12)
-                for a, b, v, lw, h in zip(active, limited, qd, lo, hi, strict=True)
-            ]
-            if True not in bad:
-                return np.array(fixed), undamped, damped, rows, np.array(active)
-            for k, b in enumerate(bad):
-                if b:
-                    v = qd[k]
-                    fixed[k] = lo[k] if v < lo[k] else hi[k] if v > hi[k] else v
-                    active[k] = False
-            if sum(active) < m:
-                return None
-            kept = np.array(active)
-            held = ~kept
-            part = dls.solve(
-                Jt[:, kept],
-                x - Jt[:, held] @ np.array(fixed)[held],
-                cfg.singular_value_threshold,
-                cfg.max_damping,
+        threshold = self.config.singular_value_threshold
+        commanded = details.get("commanded")
+        c = x if commanded is None else np.asarray(commanded) * kept
+        c_full = c
+        a0 = dls.apply(sol, c)
+        first_parts = (a0, first - a0, sol.row_basis)
+        # Within what the joints reach from their motion in a period (a target they lag bends
+        # the path); where nothing fits there, wider, and then never faster than the last share.
+        motion = None
+        for widen in _TASK_REACH_WIDENING:
+            lo_r, hi_r = self._reach_box(lo, hi, widen)
+            motion = task_scaling.scale_into_bounds(
+                Jt, c, x - c, lo_r, hi_r, first_parts, threshold
             )
-            if part.singular_values[-1] < cfg.singular_value_threshold:
-                return None
-            undamped = np.zeros(n)
-            damped = np.zeros(n)
-            undamped[kept] = part.undamped
-            rows = part.row_basis
-        return None
+            if motion is not None:
+                break
+            if widen == _TASK_REACH_WIDENING[0]:
+                c = c * self._task_share
+                a0 = a0 * self._task_share
+                first_parts = (a0, first - a0, sol.row_basis)
+        if motion is None:
+            lo_r, hi_r = lo, hi
+            motion = task_scaling.scale_into_bounds(Jt, c, x - c, lo, hi, first_parts, threshold)
+        if motion is None:  # the correction alone asks too much: slow all of x (s = 0 fits)
+            motion = task_scaling.scale_into_bounds(
+                Jt,
+                x,
+                np.zeros_like(x),
+                lo,
+                hi,
+                (first, np.zeros(self._n), sol.row_basis),
+                threshold,
+            )
+        if motion is None:  # pragma: no cover - q̇ = 0 is inside every box
+            return self._zero_list
+        share = motion.share * float(np.linalg.norm(c)) / max(float(np.linalg.norm(c_full)), 1e-300)
+        share = min(1.0, share)
+        self._task_share = share
+        details["task_share"] = share
+        if share < 1.0:
+            details["scaled"] = True
+            if commanded is not None:
+                self._hold_back(kept * (1.0 - share), details["ramped"])
+        active = None if motion.active.all() else motion.active
+        null = self._null_motion(active, motion.row_basis)
+        total = motion.velocities
+        total_list = total.tolist()
+        total = total + self._max_scale(total_list, null.tolist(), lo_r, hi_r) * null
+        return [
+            a if t < a else b if t > b else t
+            for t, a, b in zip(total.tolist(), lo, hi, strict=True)
+        ]
 
     # ------------------------------------------------------------------ status
     def _status(
@@ -1447,7 +1494,12 @@ class Servo:
                 message = "stopped: no fresh command"
         elif at_limit:
             code = StatusCode.AT_JOINT_LIMIT
-            message = f"at the position limit of {', '.join(at_limit)}; the other joints go on"
+            share = details.get("task_share", 1.0)
+            message = f"at the position limit of {', '.join(at_limit)}; " + (
+                "the other joints go on"
+                if share >= 1.0
+                else f"slowed along the path to {100.0 * share:.0f} % of the command"
+            )
         elif sigma_min < cfg.singular_value_threshold:
             code = StatusCode.NEAR_SINGULARITY
             message = (

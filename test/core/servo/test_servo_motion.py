@@ -612,3 +612,34 @@ def test_after_a_stop_a_new_command_starts_from_where_the_arm_was_moved():
     servo.submit(TwistCommand((0, 0, 0), (0.05, 0, 0), "base_link", 100.01), 100.01)
     out = servo.step(100.01, moved)
     assert np.abs(out.positions - moved).max() < 1e-3
+
+
+@pytest.mark.parametrize(("name", "seconds"), [("panda", 8.0), ("iiwa14", 9.0)])
+def test_a_pure_rotation_through_a_joint_limit_keeps_the_tool_point(name, seconds):
+    """Issue 32 item 10: a pure rotation about the tool's z axis until the last joint meets its
+    limit. The other joints take over only what they carry exactly (task scaling) and the rest
+    slows: the tool point stays put (before: 5.0 mm on the Panda, 14.5 mm on the iiwa14; now
+    within 0.1 mm for the Panda's first 8 s, 1.2 mm later, 0.8 mm on the iiwa14: see the xfail below for the issue's 0.1 mm), no joint passes a bound."""
+    chain = robot(name)
+    servo = _servo(name)
+    trace = run(servo, _twist((0.0, 0.0, 0.5), (0.0, 0.0, 0.0), chain.tip_link), seconds)
+    assert limit_violations(servo.limits, trace) == []
+    last = chain.joint_names[-1]
+    assert any(last in s.joints_at_limit for s in trace.statuses)  # the limit was met
+    p0 = chain.fk(HOMES[name])[:3, 3]
+    moved = np.linalg.norm(chain.fk(trace.q)[:, :3, 3] - p0, axis=1)
+    assert moved.max() < 1.5e-3
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="issue 32 item 10's 0.1 mm: the smoothing lags the "
+    "joints' take-over (Panda 1.2 mm, iiwa14 0.8 mm, measured)",
+)
+@pytest.mark.parametrize(("name", "seconds"), [("panda", 12.0), ("iiwa14", 9.0)])
+def test_a_pure_rotation_through_a_joint_limit_keeps_the_tool_point_within_0_1_mm(name, seconds):
+    chain = robot(name)
+    servo = _servo(name)
+    trace = run(servo, _twist((0.0, 0.0, 0.5), (0.0, 0.0, 0.0), chain.tip_link), seconds)
+    p0 = chain.fk(HOMES[name])[:3, 3]
+    assert np.linalg.norm(chain.fk(trace.q)[:, :3, 3] - p0, axis=1).max() < 1e-4
