@@ -16,6 +16,39 @@ pytest_plugins = ["service_testing"]
 if os.environ.get("KINEMATICS_LAUNCH_TEST_SEPARATE"):  # CMake runs it through add_launch_test
     collect_ignore = ["launch/test_launch_integration.py"]
 
+#: The tests that start or import ROS 2 (rclpy, the built node, launch), relative to test/: a
+#: folder (ending in /) or a module. They carry the marker `ros`, and they are all that a run with
+#: KINEMATICS_TESTS=ros keeps: CI runs the whole suite on its first ROS distribution and only these
+#: on the others, since the rest never touches ROS and gives the same answers on every one.
+#: test_suite_split.py checks that every module that imports rclpy or starts the node is here.
+ROS_TESTS = ("live/", "launch/", "ros/", "cli/test_ros_commands.py")
+_HERE = Path(__file__).resolve().parent
+
+
+def touches_ros(path: Path) -> bool:
+    """Whether the test module at `path` is one of `ROS_TESTS`."""
+    rel = path.resolve().relative_to(_HERE).as_posix()
+    return any(
+        rel.startswith(entry) if entry.endswith("/") else rel == entry for entry in ROS_TESTS
+    )
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line("markers", "ros: starts or imports ROS 2 (conftest.ROS_TESTS)")
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    for item in items:
+        if touches_ros(item.path):
+            item.add_marker(pytest.mark.ros)
+    only = os.environ.get("KINEMATICS_TESTS", "all")
+    if only not in ("all", "ros"):
+        raise pytest.UsageError(f"KINEMATICS_TESTS={only!r}: expected 'all' or 'ros'")
+    if only == "ros":
+        kept = [item for item in items if item.get_closest_marker("ros")]
+        config.hook.pytest_deselected(items=[item for item in items if item not in kept])
+        items[:] = kept
+
 
 @pytest.fixture(params=REAL_ARMS, ids=[a[0] for a in REAL_ARMS])
 def real_arm(request):

@@ -33,7 +33,7 @@ from ..core import SerialChain
 from ..core.exceptions import InvalidInputError
 from ..core.model import ChainSpec, JointModel
 
-FORMAT = "kinematics-chain-cache-2"
+FORMAT = "kinematics-chain-cache-3"
 
 
 def cache_directory() -> Path | None:

@@ -341,11 +341,12 @@ def cmd_info(args: argparse.Namespace, chain: SerialChain) -> Output:
     rows.append("home pose of the tip, M:")
     rows.append(_fmt_matrix(chain.M))
     # the chain's notes, then the description's about joints off the chain (the chain's notes
-    # already speak of its own joints)
+    # already speak of its own joints, and repeat those on the whole robot, e.g. a missing name)
     elsewhere = [
         note
         for note in description_notes
-        if (found := _NOTE_JOINT.match(note)) is None or found.group(1) not in moving
+        if note not in chain.notes
+        and ((found := _NOTE_JOINT.match(note)) is None or found.group(1) not in moving)
     ]
     if chain.notes:
         rows.append("notes on this chain:")

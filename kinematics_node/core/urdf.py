@@ -8,14 +8,21 @@ transforms. A mimic joint (value = multiplier · leader + offset) stays a moving
 whose value follows its leader, which becomes the chain's actuated variable (see
 `SerialChain`). Floating and planar joints on the chain, kinematic loops, missing links and
 zero axes are refused with an error that names the joint or link. What is accepted and adjusted
-(normalised axes) or taken as given (mimic joints) is listed in `RobotDescription.notes` and,
-for one chain, in `ChainSpec.notes`.
+(normalised axes), taken as given (mimic joints) or missing but harmless for kinematics (a <robot>
+without a name) is listed in `RobotDescription.notes` and, for one chain, in `ChainSpec.notes`.
+
+Only what kinematics reads is checked (`check_kinematic_elements`: link names; each joint's name,
+type, parent, child, origin, axis, limit and mimic) and handed to yourdfpy. Visual, collision,
+inertial, material, calibration, safety and transmission elements are not read, so a malformed one
+is neither refused nor noted (robot_state_publisher and other urdfdom-based tools refuse such a
+description).
 """
 
 from __future__ import annotations
 
 import codecs
 import contextlib
+import dataclasses
 import io
 import logging
 import math
@@ -248,6 +255,10 @@ def check_kinematic_elements(root: ET.Element) -> None:
             raise RobotDescriptionError(f"{what} is defined twice")
         joint_names.add(name)
         jtype = j.get("type")
+        if jtype is None:
+            raise RobotDescriptionError(
+                f"{what} has no type attribute; expected one of {', '.join(_JOINT_TYPES)}"
+            )
         if jtype not in _JOINT_TYPES:
             raise RobotDescriptionError(
                 f"{what} has type {shorten(str(jtype), 40)!r}; expected one of {', '.join(_JOINT_TYPES)}"
@@ -291,7 +302,46 @@ def check_kinematic_elements(root: ET.Element) -> None:
                 _numbers(mimic, attr, what, count=1)
 
 
-def _load_robot(text: str) -> Any:
+#: What `_kinematic_copy` keeps of a <joint>: its children and their attributes.
+_JOINT_PARTS = {
+    "parent": ("link",),
+    "child": ("link",),
+    "origin": ("xyz", "rpy"),
+    "axis": ("xyz",),
+    "limit": ("lower", "upper", "effort", "velocity"),
+    "mimic": ("joint", "multiplier", "offset"),
+}
+
+#: The <robot name> given to yourdfpy for a description without one (yourdfpy needs a name).
+_NAMELESS = "unnamed_robot"
+
+
+def _kinematic_copy(root: ET.Element) -> bytes:
+    """The part of a description that kinematics reads, as URDF bytes for yourdfpy: <robot name>,
+    each <link name>, and each <joint name type> with the attributes of its <parent>, <child>,
+    <origin>, <axis>, <limit> and <mimic>, all validated by `check_kinematic_elements`.
+
+    yourdfpy parses every element it knows and indexes attributes directly, so a <cylinder>
+    without a radius or a <robot> without a name would reach the user as a bare KeyError
+    ('radius', 'name'); what is not handed to it cannot fail there.
+    """
+    robot = ET.Element("robot", name=root.get("name") or _NAMELESS)
+    for link in root.findall("link"):
+        ET.SubElement(robot, "link", name=str(link.get("name")))
+    for joint in root.findall("joint"):
+        copy = ET.SubElement(
+            robot, "joint", name=str(joint.get("name")), type=str(joint.get("type"))
+        )
+        for tag, attrs in _JOINT_PARTS.items():
+            part = joint.find(tag)
+            if part is not None:
+                kept = {a: value for a in attrs if (value := part.get(a)) is not None}
+                ET.SubElement(copy, tag, kept)
+    return ET.tostring(robot, encoding="utf-8")
+
+
+def _load_robot(root: ET.Element) -> Any:
+    """yourdfpy's model of `_kinematic_copy(root)`; `root` has passed `check_kinematic_elements`."""
     import yourdfpy
 
     log = logging.getLogger("yourdfpy")
@@ -299,16 +349,30 @@ def _load_robot(text: str) -> Any:
     log.setLevel(logging.CRITICAL)  # we report problems ourselves, with the culprit's name
     try:
         urdf = yourdfpy.URDF.load(
-            io.BytesIO(text.encode("utf-8")),
+            io.BytesIO(_kinematic_copy(root)),
             build_scene_graph=False,
             load_meshes=False,
             load_collision_meshes=False,
         )
-    except Exception as exc:
-        raise RobotDescriptionError(f"URDF could not be parsed: {_one_line(exc)}") from None
+    except Exception as exc:  # not expected after check_kinematic_elements: say what it was
+        raise RobotDescriptionError(
+            f"URDF could not be parsed: yourdfpy raised {type(exc).__name__}: {_one_line(exc)}"
+        ) from None
     finally:
         log.setLevel(level)
     return urdf.robot
+
+
+def _robot_notes(root: ET.Element) -> tuple[str, ...]:
+    """Notes on the <robot> element itself: a missing or empty name (URDF requires one; urdfdom
+    and Pinocchio refuse the description without it, but no kinematic quantity depends on it)."""
+    name = root.get("name")
+    if name:
+        return ()
+    what = "no name attribute" if name is None else "an empty name"
+    return (
+        f"the <robot> element has {what}, which URDF requires; loaded anyway, as kinematics does not use the name",
+    )
 
 
 class RobotDescription:
@@ -321,8 +385,9 @@ class RobotDescription:
         moving_joint_names: joints of a type in `MOVING_JOINT_TYPES` (mimic followers included),
             in document order.
         notes: what the description has that is accepted and adjusted or ignored, as sentences
-            for users, in document order: moving joints whose axis is normalised, mimic joints
-            (and whom they follow), <mimic> on joints that cannot move. () when nothing.
+            for users, in document order: a <robot> without a name, moving joints whose axis is
+            normalised or whose <limit> lacks effort or velocity, mimic joints (and whom they
+            follow), <mimic> on joints that cannot move. () when nothing.
 
     Raises:
         RobotDescriptionError: as `read_description`.
@@ -337,7 +402,8 @@ class RobotDescription:
             str(j.get("name")) for j in joints if j.get("type") in MOVING_JOINT_TYPES
         )
         self.link_names = frozenset(str(link.get("name")) for link in self.root.findall("link"))
-        self.notes = _description_notes(joints)
+        self._robot_notes = _robot_notes(self.root)
+        self.notes = self._robot_notes + _description_notes(joints)
         self._robot: Any = None  # yourdfpy's model; loading it twice in a race is harmless
 
     def chain_spec(self, base_link: str | None = None, tip_link: str | None = None) -> ChainSpec:
@@ -350,8 +416,11 @@ class RobotDescription:
         robot = self._robot
         if robot is None:
             check_kinematic_elements(self.root)
-            robot = self._robot = _load_robot(self.xml)
-        return _chain_spec(robot, base_link, tip_link)
+            robot = self._robot = _load_robot(self.root)
+        spec = _chain_spec(robot, base_link, tip_link)
+        if self._robot_notes:
+            spec = dataclasses.replace(spec, notes=self._robot_notes + spec.notes)
+        return spec
 
     def actuated_joints(self) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
         """(names, lower, upper, velocity) of every moving joint without <mimic>, in document
@@ -396,6 +465,20 @@ def _axis_note(name: str, xyz: Any, norm: float) -> str:
     return f"joint {name!r}: axis ({shown}) has norm {norm:.6g}; normalised to a unit vector"
 
 
+def _limit_note(name: str, has_effort: bool, has_velocity: bool) -> str | None:
+    """A note on a moving joint's <limit> without effort or velocity, which URDF requires (urdfdom
+    refuses the description); loaded anyway: a missing velocity limit is taken as unlimited, and
+    kinematics does not use the effort."""
+    missing = [
+        attr for attr, has in (("effort", has_effort), ("velocity", has_velocity)) if not has
+    ]
+    if not missing:
+        return None
+    what = " and no ".join(missing)
+    taken = "" if has_velocity else "; its velocity is taken as unlimited"
+    return f"joint {name!r}: <limit> has no {what} attribute, which URDF requires{taken}"
+
+
 def _description_notes(joints: list[ET.Element]) -> tuple[str, ...]:
     """`RobotDescription.notes`: one pass over the <joint> elements, reading attributes only
     (malformed numbers are left to `check_kinematic_elements`, which names them)."""
@@ -411,6 +494,11 @@ def _description_notes(joints: list[ET.Element]) -> tuple[str, ...]:
             norm = math.sqrt(sum(v * v for v in xyz)) if len(xyz) == 3 else math.nan
             if math.isfinite(norm) and norm > 0.0 and abs(norm - 1.0) > _AXIS_NOTED:
                 notes.append(_axis_note(str(name), xyz, norm))
+        limit = j.find("limit")
+        if kind in MOVING_JOINT_TYPES and limit is not None:
+            note = _limit_note(str(name), "effort" in limit.attrib, "velocity" in limit.attrib)
+            if note is not None:
+                notes.append(note)
         mimic = j.find("mimic")
         if mimic is None:
             continue
@@ -606,6 +694,10 @@ def _build_spec(base: str, tip: str, path: list[Any], joints: dict[str, Any]) ->
             axis, norm = _unit_axis(j)
             if abs(norm - 1.0) > _AXIS_NOTED:
                 notes.append(_axis_note(j.name, np.asarray(j.axis, dtype=np.float64), norm))
+            if j.limit is not None:
+                note = _limit_note(j.name, j.limit.effort is not None, j.limit.velocity is not None)
+                if note is not None:
+                    notes.append(note)
             R_align = frame_aligned_with(axis)
             H = T_joint.copy()
             H[:3, :3] = T_joint[:3, :3] @ R_align
@@ -632,19 +724,24 @@ def _build_spec(base: str, tip: str, path: list[Any], joints: dict[str, Any]) ->
         if leader not in actuated:
             actuated.append(leader)
     types, lower, upper, vel = [], [], [], []
+    follower_of = {  # a follower of each leader, for the messages below
+        leader: moving[k].name
+        for k, (leader, _, _) in enumerate(followers)
+        if leader != moving[k].name
+    }
     for name in actuated:
         leader_joint = joints.get(name)
+        follower = f"mimic joint {follower_of.get(name, '')!r}"
         if leader_joint is None:
-            raise RobotDescriptionError(
-                f"a mimic joint follows joint {name!r}, which is not defined"
-            )
+            raise RobotDescriptionError(f"{follower} follows joint {name!r}, which is not defined")
         if leader_joint.type not in MOVING_JOINT_TYPES:
             raise RobotDescriptionError(
-                f"a mimic joint follows joint {name!r} of type {leader_joint.type!r}, which cannot move"
+                f"{follower} follows joint {name!r} of type {leader_joint.type!r}, which cannot move"
             )
         if leader_joint.mimic is not None:
             raise RobotDescriptionError(
-                f"mimic joint chains are not supported: {name!r} itself mimics {leader_joint.mimic.joint!r}"
+                f"{follower} follows {name!r}, which itself mimics {leader_joint.mimic.joint!r}: "
+                "mimic joint chains are not supported"
             )
         t, lo, up, v = _joint_limits(leader_joint)
         types.append(t)

@@ -273,3 +273,55 @@ def test_the_core_says_why_a_search_stopped_once_and_in_its_own_words():
     assert res.message.startswith("unreachable: the target is 3.0") and "best effort" in res.message
     res = chain.ik(ur_hole_target(), options=IKOptions(method="numeric", max_restarts=2))
     assert "max_restarts=2 reached" in res.message  # the library user's own setting, named
+
+
+# =========================================================================== descriptions
+def test_a_description_without_links_is_refused_in_one_line_for_what_it_lacks(capsys):
+    """example-robot-data's ur3.urdf, an empty <robot> without a name: exit 1 and one line that
+    says what is missing (it was yourdfpy's KeyError passed on: "URDF could not be parsed:
+    'name'"), in this process and in a process of its own."""
+    ur3 = str(erd_path("ur_description/urdf/ur3.urdf"))
+    code, out, err = run(capsys, "info", "--urdf", ur3)
+    assert code == 1 and out == ""
+    assert error_line(err) == "the robot description has no <link>"
+    done = subprocess.run(
+        [sys.executable, "-m", "kinematics_node.cli", "info", "--urdf", ur3],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 1 and done.stdout == ""
+    assert error_line(done.stderr) == "the robot description has no <link>"
+
+
+def test_a_robot_without_a_name_is_loaded_and_the_note_printed_once(capsys, tmp_path):
+    urdf = tmp_path / "nameless.urdf"
+    urdf.write_text(LINKS_NAMED_LIKE_PARAMETERS.replace('<robot name="named">', "<robot>"))
+    code, out, err = run(capsys, "info", "--urdf", str(urdf), "--tip", "tip_link")
+    assert code == 0 and err == ""
+    assert out.count("the <robot> element has no name attribute, which URDF requires") == 1
+    code, out, _ = run(capsys, "info", "--urdf", str(urdf), "--tip", "tip_link", "--json")
+    data = json.loads(out)
+    assert code == 0 and data["notes"][0].startswith("the <robot> element has no name")
+
+
+@pytest.mark.parametrize(
+    "old, new, expected",
+    [
+        ('<origin xyz="0.3 0 0"/>', '<origin xyz="0.3 0"/>',
+         'joint \'j2\': <origin xyz="0.3 0"> must hold 3 numbers, got 2'),
+        ('<parent link="arm"/>', "", 'joint \'j2\' needs a <parent link="..."/> element'),
+        ('<link name="camera"/>', "<link/>", "<link> number 4 has no name attribute"),
+        ('lower="-1" upper="1" effort="1" velocity="1"/></joint>', 'lower="abc" upper="1"/></joint>',
+         'joint \'j1\': <limit lower="abc"> must be a number'),
+        ('<joint name="j2" type="revolute">', '<joint name="j2">',
+         "joint 'j2' has no type attribute; expected one of revolute, continuous, prismatic, "
+         "fixed, floating, planar"),
+    ],
+)  # fmt: skip
+def test_a_malformed_element_is_refused_in_one_line_naming_it(capsys, tmp_path, old, new, expected):
+    urdf = tmp_path / "malformed.urdf"
+    assert old in LINKS_NAMED_LIKE_PARAMETERS
+    urdf.write_text(LINKS_NAMED_LIKE_PARAMETERS.replace(old, new, 1))
+    code, out, err = run(capsys, "info", "--urdf", str(urdf), "--tip", "tip_link")
+    assert code == 1 and out == ""
+    assert error_line(err) == expected

@@ -1,5 +1,5 @@
 """Real descriptions from example-robot-data (Panda with its hand, Tiago, PR2, Baxter, Z1, UR5,
-UR10) against Pinocchio, an oracle nobody here wrote: FK, the world, space and body Jacobians and
+UR10, UR3 without its robot name) against Pinocchio, an oracle nobody here wrote: FK, the world, space and body Jacobians and
 every link pose agree to 1e-9 on arm chains and on chains through mimic followers; IK answers keep
 every joint within its limits, followers' included.
 
@@ -14,9 +14,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from kin_testing import erd_path
+from kin_testing import PinocchioOracle, erd_path
 
-from kinematics_node.core import IKOptions, SerialChain, se3
+from kinematics_node.core import IKOptions, RobotDescriptionError, SerialChain, se3
+from kinematics_node.core.urdf import RobotDescription
 
 pin = pytest.importorskip("pinocchio", reason="Pinocchio (pip 'pin') is the oracle for these tests")
 
@@ -384,3 +385,35 @@ def test_ik_and_closed_form_keep_a_mimic_driven_joint_within_its_limits(multipli
         assert_within_every_limit(chain, res.q, f"ik target {k}")
         solved += bool(res.success)
     assert solved >= 3  # the shoulder can turn half a turn and flip the elbow for many targets
+
+
+# =========================================================================== a <robot> without a name
+UR3_EMPTY = "ur_description/urdf/ur3.urdf"  # a <robot> without a name, and nothing in it
+UR3 = "ur_description/urdf/ur3_robot.urdf"
+
+
+def test_example_robot_data_ur3_urdf_is_refused_for_what_it_lacks_not_for_its_name() -> None:
+    """example-robot-data's ur3.urdf is a <robot> element without a name and without a link: what
+    makes it unusable is the missing links (it was refused as yourdfpy's KeyError 'name')."""
+    path = erd_path(UR3_EMPTY)
+    with pytest.raises(RobotDescriptionError) as refused:
+        SerialChain.from_urdf(path)
+    assert str(refused.value) == "the robot description has no <link>"
+    assert any("<robot> element has no name" in note for note in RobotDescription(path).notes)
+
+
+def test_a_real_ur3_without_its_robot_name_loads_with_a_note_and_matches_pinocchio() -> None:
+    """ur3_robot.urdf with `name="ur3"` removed from <robot> loads, says so in chain.notes, and its
+    FK and world Jacobian equal Pinocchio's on the file as shipped (Pinocchio refuses the nameless
+    one: "No name given for the robot")."""
+    path = erd_path(UR3)
+    text = path.read_text(encoding="utf-8")
+    nameless = text.replace('<robot name="ur3"', "<robot", 1)
+    assert nameless != text and 'name="ur3"' not in nameless.split("<link")[0]
+    chain = SerialChain.from_urdf(nameless, None, "tool0")
+    assert chain.notes[0].startswith("the <robot> element has no name attribute")
+    oracle = PinocchioOracle.from_urdf(path, chain.joint_names)
+    for q in random_q(chain, np.random.default_rng(32), 20):
+        T_ref, J_ref = oracle.pose_and_jacobians(q, "tool0")
+        np.testing.assert_allclose(chain.fk(q), T_ref, atol=1e-9, rtol=0)
+        np.testing.assert_allclose(chain.jacobian(q, "world"), J_ref["world"], atol=1e-9, rtol=0)

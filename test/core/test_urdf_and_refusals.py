@@ -1,5 +1,7 @@
 """URDF/xacro parsing and every refusal: the error must name the culprit."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -11,6 +13,7 @@ from kinematics_node.core import (
     se3,
 )
 from kinematics_node.core.rotations import matrix_from_rpy
+from kinematics_node.core.urdf import RobotDescription
 
 
 def urdf(joints: str, links=("base", "l1", "l2", "tip"), extra_links=()) -> str:
@@ -233,3 +236,81 @@ def test_dh_and_poe_refusals():
         SerialChain.from_poe(
             np.array([[0, 0, 1, 0, 0, 0]]).T, 2 * np.eye(4) - np.diag([0, 0, 0, 1])
         )
+
+
+# ---------------------------------------------------------------- descriptions that bend the standard
+EVERY_ELEMENT = Path(__file__).resolve().parents[1] / "fuzz" / "every_element.urdf"
+
+
+@pytest.mark.parametrize(
+    "old, new",
+    [
+        ('<cylinder radius="0.06" length="0.1"/>', '<cylinder length="0.1"/>'),  # KeyError 'radius'
+        ('<box size="0.12 0.12 0.1"/>', "<box/>"),  # KeyError 'size'
+        ('<sphere radius="0.05"/>', ""),  # an empty <geometry>: IndexError
+        ('<mass value="2.0"/>', '<mass value="two"/>'),  # ValueError
+        ('<origin xyz="0 0 0.05" rpy="0 0 0"/>\n      <mass', '<origin xyz="0 0"/><mass'),
+        ('<color rgba="0.5 0.5 0.5 1"/>', '<color rgba="grey"/>'),
+        ('rising="0.0"', 'rising="never"'),  # <calibration> of a joint
+        ('k_position="15"', 'k_position=""'),  # <safety_controller> of a joint
+    ],
+)
+def test_what_kinematics_does_not_read_is_not_refused(old, new):
+    """Visual, collision, inertial, material, calibration and safety elements play no part in
+    kinematics: a malformed one leaves the chain as it is (yourdfpy refused each with its own
+    exception passed on, e.g. 'URDF could not be parsed: 'radius'')."""
+    text = EVERY_ELEMENT.read_text(encoding="utf-8")
+    assert old in text
+    chain = SerialChain.from_urdf(text.replace(old, new, 1))
+    clean = SerialChain.from_urdf(text)
+    np.testing.assert_array_equal(chain.S, clean.S)
+    np.testing.assert_array_equal(chain.M, clean.M)
+    assert chain.notes == clean.notes
+
+
+def test_a_robot_without_a_name_loads_and_says_so():
+    nameless = GOOD.replace('<robot name="t">', "<robot>")
+    chain = SerialChain.from_urdf(nameless)
+    note = "the <robot> element has no name attribute, which URDF requires"
+    assert chain.notes[0].startswith(note)
+    assert RobotDescription(nameless).notes[0] == chain.notes[0]
+    np.testing.assert_array_equal(chain.S, SerialChain.from_urdf(GOOD).S)
+    empty = SerialChain.from_urdf(GOOD.replace('name="t"', 'name=""'))
+    assert empty.notes[0].startswith("the <robot> element has an empty name")
+
+
+def test_a_joint_without_a_type_is_refused_saying_so():
+    text = GOOD.replace('<joint name="j2" type="prismatic">', '<joint name="j2">')
+    with pytest.raises(RobotDescriptionError, match=r"^joint 'j2' has no type attribute; expected"):
+        SerialChain.from_urdf(text)
+
+
+def test_a_mimic_of_an_undefined_joint_names_the_follower():
+    text = GOOD.replace("</joint>", '<mimic joint="jx"/></joint>', 2).replace(
+        '<mimic joint="jx"/>', "", 1
+    )  # j2 mimics jx
+    with pytest.raises(
+        RobotDescriptionError, match=r"^mimic joint 'j2' follows joint 'jx', which is not defined"
+    ):
+        SerialChain.from_urdf(text)
+
+
+@pytest.mark.parametrize(
+    "limit, missing, velocity",
+    [
+        ('<limit lower="-2" upper="2" effort="1"/>', "velocity", np.inf),
+        ('<limit lower="-2" upper="2" velocity="1"/>', "effort", 1.0),
+        ('<limit lower="-2" upper="2"/>', "effort and no velocity", np.inf),
+    ],
+)
+def test_a_limit_without_effort_or_velocity_loads_with_a_note(limit, missing, velocity):
+    """URDF requires both on a <limit> (urdfdom refuses the description); kinematics does not use
+    the effort, and a missing velocity limit is unlimited, as before: now it says so."""
+    text = GOOD.replace('<limit lower="-2" upper="2" effort="1" velocity="1"/>', limit, 1)
+    chain = SerialChain.from_urdf(text)
+    assert chain.velocity_limit[0] == velocity
+    note = f"joint 'j1': <limit> has no {missing} attribute, which URDF requires"
+    assert [n for n in chain.notes if "<limit>" in n] == [
+        note + ("; its velocity is taken as unlimited" if "velocity" in missing else "")
+    ]
+    assert RobotDescription(text).notes == chain.notes

@@ -6,7 +6,13 @@ JointState messages, and the three service requests (rosbags message types).
 Invariant, for every input: a valid answer (every number in it finite), or a refusal — a
 `KinematicsError` from the core, a one-line `kinematics` error from the CLI, `success = false`
 with a message from a service (not "internal error") — never another exception, a non-finite
-number in a result, or a hang (each input runs under a SIGALRM time bound).
+number in a result, or a hang (each input runs under a SIGALRM time bound). A refused URDF is a
+`RobotDescriptionError` (or an `UnknownNameError` for the base or tip asked for) whose message is
+ours, not a parser's exception passed on (`refusal_problem`: no bare `'name'`).
+
+`element_mutations` makes every single-step mutation of a description (each attribute of each
+element dropped or garbled, each element removed or emptied); `test_fuzz.py` checks that each is
+loaded, or refused by a message that names the element (`names_element`).
 
 `run(surface, n, seed)` returns the counts; `test_fuzz.py` runs a seeded sample in CI and
 `benchmarks/fuzz_long.py` the long run.
@@ -24,6 +30,7 @@ import signal
 import sys
 import tempfile
 import traceback
+import xml.etree.ElementTree as ET
 from collections import Counter
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -32,7 +39,12 @@ from typing import Any
 
 import numpy as np
 
-from kinematics_node.core import KinematicsError, SerialChain
+from kinematics_node.core import (
+    KinematicsError,
+    RobotDescriptionError,
+    SerialChain,
+    UnknownNameError,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 ROBOTS = ROOT / "config" / "robots"
@@ -153,8 +165,106 @@ def _check_chain(chain: SerialChain, rng: np.random.Generator) -> None:
 
 
 # ====================================================================== 1. URDF text
+#: A description using every element and attribute of the URDF specification (wiki.ros.org/urdf/XML).
+EVERY_ELEMENT = Path(__file__).resolve().parent / "every_element.urdf"
+
+#: Values an attribute is garbled to: empty, not a number, too few numbers, NaN, overflowing.
+GARBLED = ("", "abc", "1 2", "nan", "1e999")
+
+#: A parser's exception passed on instead of a message of ours: a bare key ('name'), Python's
+#: wording of a failed conversion or index, or our last-resort wrapper of yourdfpy's errors.
+_NOT_OURS = re.compile(
+    r"""^'[^']*'$|:\s*'[^']*'$|KeyError|IndexError|TypeError|AttributeError|could not convert|"""
+    r"""not subscriptable|has no attribute|out of range|out of bounds|could not broadcast|"""
+    r"""URDF could not be parsed"""
+)
+
+
+def refusal_problem(exc: BaseException) -> str | None:
+    """What is wrong with the refusal of a URDF, or None: it must be a `RobotDescriptionError` (an
+    `UnknownNameError` for a base or tip link asked for) with a one-line message of ours."""
+    message = str(exc)
+    if not isinstance(exc, (RobotDescriptionError, UnknownNameError)):
+        return f"refused with {type(exc).__name__}, not RobotDescriptionError: {message!r}"
+    if "\n" in message:
+        return f"multi-line error: {message!r}"
+    if _NOT_OURS.search(message):
+        return f"a parser's exception passed on, not a message naming the element: {message!r}"
+    return None
+
+
+@dataclass(frozen=True)
+class Mutation:
+    """One single-step change of a description: `text` (the changed URDF), `tag` of the element
+    changed, `owner` (the name of the element or of the <link>/<joint>/<material> it sits in, as
+    in the original), `change` (what was done) and `kind` ("attribute", "remove", "empty")."""
+
+    text: str
+    tag: str
+    owner: str
+    change: str
+    kind: str
+
+
+def element_mutations(text: str) -> Iterator[Mutation]:
+    """Every single-step mutation of `text`: each attribute of each element dropped, then set to
+    each of `GARBLED`; each element but the root removed; each element with children emptied."""
+    original = ET.fromstring(text)
+    parent = {child: el for el in original.iter() for child in el}
+
+    def owner_of(el: ET.Element | None) -> str:
+        while el is not None:
+            if el.tag in ("robot", "link", "joint", "material", "transmission") and el.get("name"):
+                return str(el.get("name"))
+            el = parent.get(el)
+        return ""
+
+    for index, el in enumerate(original.iter()):
+        owner = owner_of(el)
+        for attr in el.attrib:
+            for value in (None, *GARBLED):
+                change = f"{attr} dropped" if value is None else f'{attr}="{value}"'
+                yield Mutation(
+                    _mutated(text, index, "attribute", attr, value), el.tag, owner, change,
+                    "attribute",
+                )  # fmt: skip
+        if el is not original:
+            yield Mutation(_mutated(text, index, "remove"), el.tag, owner, "removed", "remove")
+            if len(el):
+                yield Mutation(_mutated(text, index, "empty"), el.tag, owner, "emptied", "empty")
+
+
+def _mutated(
+    text: str, index: int, kind: str, attr: str | None = None, value: str | None = None
+) -> str:
+    """`text` with its `index`-th element (document order) changed: an attribute dropped (value
+    None) or set, the element removed from its parent, or its children removed."""
+    root = ET.fromstring(text)
+    elements = list(root.iter())
+    target = elements[index]
+    if kind == "attribute" and attr is not None:
+        if value is None:
+            del target.attrib[attr]
+        else:
+            target.set(attr, value)
+    elif kind == "remove":
+        next(el for el in elements if target in list(el)).remove(target)
+    else:
+        for child in list(target):
+            target.remove(child)
+    return ET.tostring(root, encoding="unicode")
+
+
+def names_element(message: str, mutation: Mutation) -> bool:
+    """True if a refusal's `message` names the element `mutation` changed: its tag as ``<tag``, or
+    the quoted name of the element or of the link or joint it sits in."""
+    return f"<{mutation.tag}" in message or (
+        bool(mutation.owner) and repr(mutation.owner) in message
+    )
+
+
 def _urdf_surface() -> tuple[Callable[[np.random.Generator], Any], Callable[[Any], str]]:
-    bases = [p.read_text(encoding="utf-8") for p in sorted(ROBOTS.glob("*.urdf"))]
+    bases = [p.read_text(encoding="utf-8") for p in (*sorted(ROBOTS.glob("*.urdf")), EVERY_ELEMENT)]
     number = re.compile(r'(?<=["\s])-?\d+(\.\d*)?(e-?\d+)?(?=["\s])')
     attribute = re.compile(r'\s[a-z_]+="[^"]*"')
     element = re.compile(
@@ -170,7 +280,7 @@ def _urdf_surface() -> tuple[Callable[[np.random.Generator], Any], Callable[[Any
     def gen(rng: np.random.Generator) -> tuple[bytes, str | None, str | None]:
         text = bases[rng.integers(len(bases))]
         for _ in range(int(rng.integers(1, 4))):
-            op = rng.integers(7)
+            op = rng.integers(9)
             if op == 0 and (m := pick(number, text, rng)):
                 text = text[: m.start()] + _number_text(rng) + text[m.end() :]
             elif op == 1 and (m := pick(attribute, text, rng)):
@@ -186,6 +296,12 @@ def _urdf_surface() -> tuple[Callable[[np.random.Generator], Any], Callable[[Any
                 text = text[:cut] if rng.random() < 0.5 else text[:cut] + "é\0\x01" + text[cut:]
             elif op == 6:
                 text = text.replace("<robot", "<robt", 1).replace("</robot>", "</robt>")
+            elif op == 7:  # a <robot> without a name
+                text = re.sub(r'(<robot\b[^>]*?)\sname="[^"]*"', r"\1", text, count=1)
+            elif op == 8 and (m := pick(attribute, text, rng)):  # any attribute garbled
+                name = m.group(0).split("=")[0]
+                garbled = f'{name}="{GARBLED[rng.integers(len(GARBLED))]}"'
+                text = text[: m.start()] + garbled + text[m.end() :]
         enc = str(rng.choice(encodings))
         if enc not in ("utf-8", "utf-16", "utf-8-sig", "utf-32") and rng.random() < 0.7:
             text = re.sub(
@@ -204,8 +320,9 @@ def _urdf_surface() -> tuple[Callable[[np.random.Generator], Any], Callable[[Any
         try:
             chain = SerialChain.from_urdf(data, base, tip)
         except KinematicsError as exc:
-            if "\n" in str(exc):
-                raise Violation(f"multi-line error: {exc!s}") from None
+            problem = refusal_problem(exc)
+            if problem is not None:
+                raise Violation(problem) from None
             return "refused"
         _check_chain(chain, np.random.default_rng(len(data)))
         return "ok"

@@ -504,3 +504,31 @@ def test_no_description_message_names_every_way_to_give_one(ros, clock):
     assert resp.message == NO_DESCRIPTION
     for way in ("robot_description parameter", "robot_description_file", "robot_description topic"):
         assert way in resp.message
+
+
+# =========================================================================== descriptions that bend the standard
+def test_a_robot_without_a_name_is_loaded_and_the_note_logged(ros, clock):
+    """A <robot> without a name (it was refused: "URDF could not be parsed: 'name'")."""
+    svc = KinematicsService(ros.types, {}, clock=clock)
+    assert svc.on_description_message(UR5E.read_text().replace('<robot name="ur5e"', "<robot", 1))
+    assert svc.status.state == "loaded" and svc.model.robot_name == ""
+    log = svc.take_log()
+    assert any("the <robot> element has no name attribute" in text for _, text in log), log
+    named = KinematicsService(ros.types, {}, clock=clock)
+    named.on_description_message(UR5E.read_text())
+    assert level(ros, svc) == level(ros, named)
+
+
+def test_a_malformed_element_is_what_services_and_diagnostics_say(ros, clock):
+    """A joint without a type: the refusal names the joint and what it lacks in the services'
+    answers and in /diagnostics' last_refusal (it read "has type 'None'")."""
+    text = UR5E.read_text()
+    bent = text.replace('<joint name="elbow_joint" type="revolute">', '<joint name="elbow_joint">')
+    assert bent != text
+    svc = KinematicsService(ros.types, {}, clock=clock)
+    assert not svc.on_description_message(bent)
+    expected = "joint 'elbow_joint' has no type attribute; expected one of revolute, continuous"
+    for resp in answers(ros, svc):
+        assert not resp.success and expected in resp.message, resp.message
+    assert expected in values(svc)["last_refusal"]
+    assert level(ros, svc) == "ERROR"
