@@ -19,7 +19,9 @@ below the threshold), since any fit then moves the tool in directions nobody com
 
 from __future__ import annotations
 
+import itertools
 import math
+from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
@@ -141,3 +143,95 @@ def scale_into_bounds(
         b[active] = dls.apply(part, correction - J[:, ~active].dot(fixed[~active]))
         rows = part.row_basis
     return best
+
+
+_EXACT_TOL = 1e-11  # [rad/s or m/s] slack on the bounds of `exact_share` (rounding of the solves)
+_ENUMERATED = 3  # up to this many free dimensions the vertices are enumerated, beyond: HiGHS
+
+
+@lru_cache(maxsize=16)
+def _vertex_patterns(count: int, d: int) -> tuple[NDArray[np.intp], FloatArray]:
+    """(which coordinates, (C, d); which bound of each, (2^d, d) of 0.0 lower / 1.0 upper)."""
+    combos = np.array(list(itertools.combinations(range(count), d)), dtype=np.intp)
+    sides = np.array(list(itertools.product((0.0, 1.0), repeat=d)), dtype=np.float64)
+    return combos.reshape(-1, d), sides.reshape(-1, d)
+
+
+def exact_share(
+    J: FloatArray,
+    command: FloatArray,
+    correction: FloatArray,
+    lo: list[float],
+    hi: list[float],
+    prefer: list[float],
+    shares: tuple[float, float] = (0.0, 1.0),
+    largest: bool = True,
+) -> tuple[FloatArray, float] | None:
+    """(q̇, s): the largest share s ∈ [0, 1] of `command` with J q̇ = s·command + correction and
+    lo ≤ q̇ ≤ hi, exactly: a linear program, max s over y = (q̇, s) with [J, −c] y = r.
+
+    Unlike `scale_into_bounds` the box need not hold q̇ = 0 (the servo's box is what the joints
+    reach in one period from their motion), and the optimum is the optimum, not a greedy one.
+    With d = n + 1 − m free dimensions (2 for a 7-joint arm following 6 axes, 1 for 6 joints)
+    the polytope's vertices are enumerated (C(n+1, d)·2^d small solves at once); of those that
+    reach the largest s, the one nearest `prefer` (n,) is taken. Beyond `_ENUMERATED`
+    dimensions, SciPy's HiGHS solves it (about 1 ms). `shares`: the range of s ([0, 1] unless
+    the caller allows more); `largest` False: the smallest s instead.
+
+    Returns None when no q̇ in the box does the correction with any s ∈ [0, 1], or when
+    [J, −c] loses rank (a singularity the command does not fill).
+    """
+    m, n = J.shape
+    A = np.hstack((J, -np.asarray(command, dtype=np.float64)[:, None]))
+    U, sv, Vt = np.linalg.svd(A)
+    if sv.shape[0] < m or float(sv[-1]) <= 1e-9 * max(float(sv[0]), 1e-300):
+        return None
+    low = np.array(list(lo) + [shares[0]])
+    high = np.array(list(hi) + [shares[1]])
+    if not np.all(low <= high):
+        return None
+    y_p = Vt[:m].T.dot(U.T.dot(correction) / sv)
+    N = Vt[m:].T  # (n + 1, d), the null space of [J, −c]
+    d = n + 1 - m
+    L, H = low - y_p, high - y_p
+    if d == 0:
+        points = np.zeros((1, 0))
+    elif d > _ENUMERATED:
+        from scipy.optimize import linprog  # noqa: PLC0415 - rare, and SciPy loads slowly
+
+        res = linprog(
+            -N[-1] if largest else N[-1],
+            A_ub=np.vstack((N, -N)),
+            b_ub=np.concatenate((H, -L)),
+            bounds=[(None, None)] * d,
+            method="highs",
+        )
+        if res.status != 0:
+            return None
+        points = res.x[None, :]
+    else:
+        combos, sides = _vertex_patterns(n + 1, d)
+        M = N[combos]  # (C, d, d)
+        det = np.linalg.det(M)
+        good = np.abs(det) > 1e-12
+        if not good.any():
+            return None
+        combos, M = combos[good], M[good]
+        inv = np.linalg.inv(M)
+        Lc, Hc = L[combos], H[combos]  # (C, d)
+        rhs = Lc[:, None, :] + sides[None, :, :] * (Hc - Lc)[:, None, :]  # (C, 2^d, d)
+        points = np.einsum("cij,cpj->cpi", inv, rhs).reshape(-1, d)
+    values = points.dot(N.T)  # (P, n + 1): y − y_p
+    feasible = np.all((values >= L - _EXACT_TOL) & (values <= H + _EXACT_TOL), axis=1)
+    if not feasible.any():
+        return None
+    ys = values[feasible] + y_p
+    s_all = ys[:, -1] if largest else -ys[:, -1]
+    best = float(s_all.max())
+    top = ys[s_all >= best - 1e-12]
+    if top.shape[0] > 1:
+        gap = top[:, :-1] - np.asarray(prefer)
+        top = top[int(np.argmin(np.einsum("ij,ij->i", gap, gap)))][None, :]
+    y = top[0]
+    qd = np.minimum(np.maximum(y[:-1], low[:-1]), high[:-1])
+    return qd, min(shares[1], max(shares[0], float(y[-1])))

@@ -614,12 +614,13 @@ def test_after_a_stop_a_new_command_starts_from_where_the_arm_was_moved():
     assert np.abs(out.positions - moved).max() < 1e-3
 
 
-@pytest.mark.parametrize(("name", "seconds"), [("panda", 8.0), ("iiwa14", 9.0)])
+@pytest.mark.parametrize(("name", "seconds"), [("panda", 12.0), ("iiwa14", 9.0)])
 def test_a_pure_rotation_through_a_joint_limit_keeps_the_tool_point(name, seconds):
     """Issue 32 item 10: a pure rotation about the tool's z axis until the last joint meets its
-    limit. The other joints take over only what they carry exactly (task scaling) and the rest
-    slows: the tool point stays put (before: 5.0 mm on the Panda, 14.5 mm on the iiwa14; now
-    within 0.1 mm for the Panda's first 8 s, 1.2 mm later, 0.8 mm on the iiwa14: see the xfail below for the issue's 0.1 mm), no joint passes a bound."""
+    limit. The other joints take over only what they carry exactly, at velocities the smoothing
+    reaches within the period (`JerkLimitedIntegrator.follow`), and the rest slows: the tool
+    point stays put (5.0 mm on the Panda, 14.5 mm on the iiwa14 before task scaling, 1.2 and
+    0.8 mm with it and the smoothing lagging; now 0.13 and 0.008 mm), no joint passes a bound."""
     chain = robot(name)
     servo = _servo(name)
     trace = run(servo, _twist((0.0, 0.0, 0.5), (0.0, 0.0, 0.0), chain.tip_link), seconds)
@@ -628,18 +629,17 @@ def test_a_pure_rotation_through_a_joint_limit_keeps_the_tool_point(name, second
     assert any(last in s.joints_at_limit for s in trace.statuses)  # the limit was met
     p0 = chain.fk(HOMES[name])[:3, 3]
     moved = np.linalg.norm(chain.fk(trace.q)[:, :3, 3] - p0, axis=1)
-    assert moved.max() < 1.5e-3
+    assert moved.max() < (0.2e-3 if name == "panda" else 1e-4)
 
 
 @pytest.mark.xfail(
     strict=True,
-    reason="issue 32 item 10's 0.1 mm: the smoothing lags the "
-    "joints' take-over (Panda 1.2 mm, iiwa14 0.8 mm, measured)",
+    reason="issue 32 item 10's 0.1 mm on the Panda: 0.13 mm (one way), 0.16 (the other), "
+    "measured; the take-over gathers motion it cannot always slow within a period's reach",
 )
-@pytest.mark.parametrize(("name", "seconds"), [("panda", 12.0), ("iiwa14", 9.0)])
-def test_a_pure_rotation_through_a_joint_limit_keeps_the_tool_point_within_0_1_mm(name, seconds):
-    chain = robot(name)
-    servo = _servo(name)
-    trace = run(servo, _twist((0.0, 0.0, 0.5), (0.0, 0.0, 0.0), chain.tip_link), seconds)
-    p0 = chain.fk(HOMES[name])[:3, 3]
+def test_a_pure_rotation_through_the_pandas_joint_limit_keeps_the_tool_point_within_0_1_mm():
+    chain = robot("panda")
+    servo = _servo("panda")
+    trace = run(servo, _twist((0.0, 0.0, 0.5), (0.0, 0.0, 0.0), chain.tip_link), 12.0)
+    p0 = chain.fk(HOMES["panda"])[:3, 3]
     assert np.linalg.norm(chain.fk(trace.q)[:, :3, 3] - p0, axis=1).max() < 1e-4

@@ -85,3 +85,42 @@ def test_largest_share_names_the_joint_that_limits_it():
     assert (s, k) == (0.25, 1)
     s, k = task_scaling.largest_share([2.0, 0.0], [0.0, 1.0], [-1.0, -1.0], [1.0, 1.0])
     assert s == -1.0 and k == 0  # joint 0 fits for no share at all
+
+
+@pytest.mark.parametrize("name", ["ur5e", "panda", "iiwa14"])
+def test_exact_share_is_the_linear_programs_optimum_in_a_box_away_from_zero(name):
+    """`exact_share` against HiGHS, in small boxes around a moving state (q̇ = 0 outside them,
+    where SNS's premise fails): the same largest share to 1e-9, J q̇ = s c + r exactly."""
+    chain = robot(name)
+    rng = np.random.default_rng(3)
+    solved = infeasible = 0
+    for _ in range(120):
+        q = rng.uniform(np.maximum(chain.lower, -3), np.minimum(chain.upper, 3))
+        J = chain.jacobian(q, "world")
+        c = rng.normal(size=6) * np.array([0.5, 0.5, 0.5, 0.1, 0.1, 0.1])
+        v = rng.normal(size=chain.dof) * 0.3
+        w = rng.uniform(1e-4, 0.05, chain.dof)
+        lo, hi = v - w, v + w
+        r = J @ (v + rng.uniform(-0.8, 0.8, chain.dof) * w) - rng.uniform(0.0, 1.2) * c
+        best = _lp_share(J, c, r, lo, hi)
+        got = task_scaling.exact_share(J, c, r, lo.tolist(), hi.tolist(), v.tolist())
+        if best is None:
+            assert got is None
+            infeasible += 1
+            continue
+        assert got is not None
+        qd, s = got
+        assert s == pytest.approx(best, abs=1e-9)
+        np.testing.assert_allclose(J @ qd, s * c + r, atol=1e-9)
+        assert np.all(qd >= lo - 1e-12) and np.all(qd <= hi + 1e-12)
+        solved += 1
+    assert solved >= 40 and infeasible >= 5  # both kinds were met
+
+
+def test_exact_share_the_smallest_share_in_a_range():
+    J = robot("panda").jacobian(np.array([0.0, -0.4, 0.0, -2.2, 0.0, 1.9, 0.8]), "world")
+    c = np.array([0.0, 0.0, 0.5, 0.0, 0.0, 0.0])
+    lo, hi = [-2.0] * 7, [2.0] * 7
+    got = task_scaling.exact_share(J, c, np.zeros(6), lo, hi, [0.0] * 7, (0.3, 1.5), False)
+    assert got is not None and got[1] == pytest.approx(0.3)
+    np.testing.assert_allclose(J @ got[0], 0.3 * c, atol=1e-12)
