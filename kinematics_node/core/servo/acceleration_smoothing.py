@@ -159,6 +159,24 @@ class AccelerationLimitedIntegrator:
         self.at_rest = not (any(v) or any(a))
         return braking
 
+    def reachable(self, periods: float = 1.0) -> tuple[list[float], list[float]]:
+        """(lo, hi): per joint, the velocities `step` reaches exactly within `periods` periods
+        from the current velocity: v ± A·dt·periods, within the velocity limit (the interface
+        `JerkLimitedIntegrator.reachable` gives with a jerk limit)."""
+        lo, hi = [], []
+        for v, s, v_low, v_high in zip(
+            self.v_list, self._step, self._v_low, self._v_high, strict=True
+        ):
+            lo.append(max(v - s * periods, v_low))
+            hi.append(min(v + s * periods, v_high))
+        return lo, hi
+
+    def follow(self, target_velocity: Sequence[float]) -> list[bool] | None:
+        """Advance one period to exactly `target_velocity` where it lies in `reachable()`: with no
+        jerk limit that is what `step` does (constant acceleration, every joint arriving at the
+        end of the period); outside it, `step` toward it. Returns what `step` returns."""
+        return self.step(target_velocity)
+
     def _reach(
         self, q: list[float], v: list[float], braking: list[bool] | None
     ) -> tuple[list[float], list[float], list[bool] | None]:

@@ -21,10 +21,13 @@ the arm is and to notice an arm that does not follow):
    agrees (`_escape`). A redundant arm adds null-space motion away from its joint limits.
 3. Joint limits: a joint near a position limit may move towards it no faster than it can still
    brake (`limits.braking_speed`, at half its acceleration and jerk). When the solution asks more,
-   the joint is held at that speed and the task is solved again by the other joints where they
-   can do it exactly (saturation, as in Flacco, De Luca & Khatib 2012's SNS); otherwise the whole
-   motion is slowed, which keeps the tool on its path. The result is scaled into the velocity
-   limits, the null-space motion giving way first, then the damped directions, then the whole.
+   the joint is held at that speed and the other joints carry the largest share of the commanded
+   twist they can carry exactly, the loop's correction whole (`task_scaling`, Flacco, De Luca &
+   Khatib 2015's SNS with task scaling), each joint's velocity changing by little per period so
+   that the smoothing does not lag; the commanded pose advances by the same share, so the tool
+   slows along its path and a pure rotation keeps its point (`_scale_task`). Otherwise the result
+   is scaled into the velocity limits, the null-space motion giving way first, then the damped
+   directions, then the whole.
 4. Ruckig moves the commanded state toward that velocity within the acceleration and jerk limits
    (without Ruckig, a smoothing of our own does, within the acceleration limits: `smoothers`),
    with the joint acceleration J⁺(ẍ − J̇q̇) fed forward so that a ramping twist is followed
@@ -62,7 +65,7 @@ from .._checks import check_transform
 from ..chain import SerialChain
 from ..exceptions import InvalidInputError, UnknownNameError
 from ..model import readonly
-from . import _quat, dls
+from . import _quat, dls, task_scaling
 from .axes import select_axes, task_jacobian_rows
 from .commands import JointJogCommand, PoseCommand, TwistCommand
 from .config import TWIST_AXES, ServoConfig
@@ -98,6 +101,20 @@ _REACH_SHARE = 0.5  # a braked motion is slowed along its joint direction to wha
 # the same edge figures, the steps script's path error 77-81 mm on the UR5e, 67 at 0.5)
 _SLOPE_RATE = 0.05  # [rad/s] joint speed along v_min above which dσ/dθ is read off J̇
 _BRAKE_LINEAR_SHARE = 0.5  # only where u_min is mostly linear (|u_lin|² ≥ this): not a wrist
+_TASK_REACH_WIDENING = (0.1, 1.0, 2.0, 4.0, 8.0)  # a motion slowed at a joint limit changes each
+# joint's velocity by at most the first of these × _REACH_SHARE of its planning acceleration per
+# period (the Panda's pure rotation through joint 7's limit: 0.25: 0.01 mm off the point while
+# slowed, 0.1: 0.006 mm); the others only where nothing fits within it
+_TAKE_OVER_SHARE = 0.25  # at a joint limit, the other joints' velocities change by at most this
+# share of their acceleration limits per second (`Servo._exact_motion`): the largest share of
+# the task one period ahead, unbounded, spun them up until they could not be slowed in time
+_SHARE_OVERSHOOT = 1.5  # where the joints cannot slow in time, the share of the command may
+# pass what it is allowed (up to this; below 0 down to 1 - this): along the path still
+_LAG_PERIODS = (2.0, 4.0, 8.0, 16.0)  # where nothing the joints reach in one period keeps the
+# path, what they reach in this many (the smoothing lags a little): 1 kHz, Panda 3.2 -> 0.8 mm
+_TAKE_OVER_TIME_S = 1.0  # at a joint limit the share grows from 0 to 1 in no less than this
+# (faster, the joints' take-over gathered more motion than they could slow in time: Panda
+# 0.29 mm with no bound, 0.13 with this)
 _SETTLE_S = 1.0  # [s] after a twist command's timeout has ramped the twist to zero, the loop stays
 # closed at most this long for the arm to reach the reference (K = 10/s leaves e⁻¹⁰ of a gap)
 
@@ -258,6 +275,7 @@ class Servo:
         self._plan_acceleration = 0.5 * lim.acceleration
         self._plan_jerk = 0.5 * lim.jerk
         self._plan_acceleration_list: list[float] = self._plan_acceleration.tolist()
+        self._take_over_acceleration: list[float] = (_TAKE_OVER_SHARE * lim.acceleration).tolist()
         zone = braking_distance(lim.velocity, self._plan_acceleration, self._plan_jerk) + (
             2.0 * cfg.period_s * lim.velocity
         )
@@ -346,6 +364,8 @@ class Servo:
         self._ramp_held = False  # invalidated by `_hold_ramp` (not by a new command)
         self._ramp_target: list[float] = [0.0] * 6
         self._last_jacobian: FloatArray | None = None  # the task Jacobian of the last period
+        self._task_share = 1.0  # the share of the commanded twist of the last period
+        self._exact = False  # the last period's joint velocities were reached exactly (`follow`)
         self._null_ease = 0.0  # share of the null-space speed allowed (eased in per command)
         self._anchor: FloatArray = self._integrator.q  # last well-conditioned configuration
         self._ref_p = (0.0, 0.0, 0.0)
@@ -407,6 +427,8 @@ class Servo:
         self._mode = None
         self._winding_down = False
         self._last_jacobian = None
+        self._task_share = 1.0
+        self._exact = False
         self._ref_valid = False
         self._ramp_valid = False
         self._ramp_held = False
@@ -510,6 +532,8 @@ class Servo:
             integ.reset(self._measured)
         if self._mode != mode:
             self._last_jacobian = None
+            self._task_share = 1.0
+            self._exact = False
             self._null_ease = 0.0
             self._ref_valid = False
             self._ramp_valid = False
@@ -677,7 +701,11 @@ class Servo:
             target = self._jog_target(details)
         else:
             target = self._task_target(details)
-        braking = integ.step(target, details.get("target_acceleration"))
+        if details.get("exact"):
+            braking = integ.follow(target)
+        else:
+            braking = integ.step(target, details.get("target_acceleration"))
+        self._exact = bool(details.get("exact"))
         if self._winding_down and not (any(self._ramp.v) or any(self._ramp.a)):
             # The twist is down to zero. The loop stays closed until the arm is on the
             # reference (within a tenth of the pose tolerances), for at most _SETTLE_S: the
@@ -1065,6 +1093,8 @@ class Servo:
     def _solve(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> list[float]:
         qd = self._solve_at(Jt, x, details)
         self._last_jacobian = Jt
+        if "task_share" not in details:
+            self._task_share = 1.0
         return qd
 
     def _solve_at(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> list[float]:
@@ -1095,8 +1125,6 @@ class Servo:
         if s_last < lam and s.shape[0] == Jt.shape[0]:
             damped = damped + self._escape(commanded, sol, details)
             exact = False
-        fixed: FloatArray | float = 0.0
-        active = None  # all joints
         at_limit = self._no_joint
         if limited is not None:
             qd = (undamped + damped).tolist()
@@ -1104,18 +1132,14 @@ class Servo:
                 m and (v > h + 1e-12 or v < lw - 1e-12)
                 for m, v, lw, h in zip(limited, qd, lo, hi, strict=True)
             ]
-            if any(over):
-                at_limit = np.array(over)
-                self._hold_ramp()
-                saturated = self._saturate(Jt, x, lo, hi, limited, sol)
-                if saturated is not None:
-                    fixed, undamped, damped, rows, active = saturated
-                    exact = False
-                # else: the other joints cannot take over the task exactly; the uniform scaling
-                # below slows the whole arm along its path instead, to a stop at the limit.
+            if any(over) or self._exact:
+                details["at_limit"] = np.array(over) if any(over) else at_limit
+                return self._scale_task(
+                    Jt, x, sol, undamped + damped, lo, hi, details, braked[1] if braked else 1.0
+                )
         details["at_limit"] = at_limit
-        null = self._null_motion(active, rows)
-        total = undamped + null if exact else undamped + damped + null + fixed
+        null = self._null_motion(None, rows)
+        total = undamped + null if exact else undamped + damped + null
         total_list = total.tolist()
         if braked is not None:
             reach = self._reachable_share(total_list)
@@ -1134,7 +1158,7 @@ class Servo:
             return total_list
         # Fit into the box: the whole undamped part first (uniform scaling keeps its direction),
         # then as much of the damped part, then of the null-space motion.
-        base = undamped + fixed
+        base = undamped
         s_base = self._max_scale(self._zero_list, base.tolist(), lo, hi)
         base = base * s_base
         s_damped = self._max_scale(base.tolist(), damped.tolist(), lo, hi)
@@ -1280,6 +1304,25 @@ class Servo:
         twist `ramped` (ω, v) [base axes]: the pose moves on along the commanded path, slower."""
         self._advance_reference(ramped, -share * self.config.period_s)
 
+    def _reach_box(
+        self, lo: list[float], hi: list[float], widen: float
+    ) -> tuple[list[float], list[float]]:
+        """The velocity box [lo, hi] narrowed to what each joint reaches from its velocity within
+        `_REACH_SHARE` of its planning acceleration in one period (where the two do not meet,
+        the bound of [lo, hi] nearest the joint's velocity)."""
+        dt = self.config.period_s
+        lo_r, hi_r = [], []
+        integ = self._integrator
+        centre = [v + a * dt for v, a in zip(integ.v_list, integ.a_list, strict=True)]
+        for v, a, lw, h in zip(centre, self._plan_acceleration_list, lo, hi, strict=True):
+            b = widen * _REACH_SHARE * a * dt
+            low, high = max(lw, v - b), min(h, v + b)
+            if low > high:
+                low = high = h if v > h else lw
+            lo_r.append(low)
+            hi_r.append(high)
+        return lo_r, hi_r
+
     def _reachable_share(self, qd: list[float]) -> float:
         """The largest share s ≤ 1 of the joint velocities `qd` that every joint reaches from its
         velocity within `_REACH_SHARE` of its planning acceleration in one period (1 if there is
@@ -1374,59 +1417,187 @@ class Servo:
         """The tip pose at joint values `q` as 12 floats (rotation row-major, then position)."""
         return self._fk_pose(q if self._to_internal is None else self._to_internal(q))[0]
 
-    def _saturate(
+    def _scale_task(
         self,
         Jt: FloatArray,
         x: FloatArray,
+        sol: dls.DLSSolution,
+        first: FloatArray,
         lo: list[float],
         hi: list[float],
-        limited: list[bool],
-        sol: dls.DLSSolution,
-    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_]] | None:
-        """Hold the joints that would pass a position bound at that bound's speed and solve the
-        task with the others (saturation in the null space, after Flacco, De Luca & Khatib 2012).
+        details: dict[str, Any],
+        kept: float,
+    ) -> list[float]:
+        """Joint velocities within [lo, hi] when the solution `first` of the task velocity x
+        would take a joint past the speed at which it can still brake before its position bound.
 
-        Returns (fixed, undamped, damped, row basis of the active columns, active mask), or None
-        when the remaining joints cannot do the task exactly (too few, or ill-conditioned): then
-        any solution would move the tool in directions nobody commanded.
+        The joint is held at that speed and the others take over what they can carry exactly
+        (`task_scaling`): the largest share s of the commanded twist c, with the loop's
+        correction x − c whole, so the tool slows along its path (a pure rotation keeps its
+        point) instead of a least-squares fit that leaks into directions nobody commanded. The
+        commanded pose advances by the same share (`_hold_back`), so the loop does not pull the
+        tool off the path either. Where the correction alone does not fit, the whole task
+        velocity is scaled. A pose command's whole task velocity is its command.
+
+        `kept`: the share of c that `_brake` kept (x holds kept·c).
         """
-        cfg = self.config
-        n = self._n
-        m = Jt.shape[0]
-        active = [True] * n
-        fixed = [0.0] * n
-        undamped, damped, rows = sol.undamped, sol.damped, sol.row_basis
-        for _ in range(n):
-            qd = [
-                f + u + d for f, u, d in zip(fixed, undamped.tolist(), damped.tolist(), strict=True)
-            ]
-            bad = [
-                a and b and (v > h + 1e-12 or v < lw - 1e-12)
-                for a, b, v, lw, h in zip(active, limited, qd, lo, hi, strict=True)
-            ]
-            if True not in bad:
-                return np.array(fixed), undamped, damped, rows, np.array(active)
-            for k, b in enumerate(bad):
-                if b:
-                    v = qd[k]
-                    fixed[k] = lo[k] if v < lo[k] else hi[k] if v > hi[k] else v
-                    active[k] = False
-            if sum(active) < m:
-                return None
-            kept = np.array(active)
-            held = ~kept
-            part = dls.solve(
-                Jt[:, kept],
-                x - Jt[:, held] @ np.array(fixed)[held],
-                cfg.singular_value_threshold,
-                cfg.max_damping,
+        threshold = self.config.singular_value_threshold
+        commanded = details.get("commanded")
+        c = x if commanded is None else np.asarray(commanded) * kept
+        c_full = c
+        a0 = dls.apply(sol, c)
+        first_parts = (a0, first - a0, sol.row_basis)
+        at_limit = details.get("at_limit")
+        held = [False] * self._n if at_limit is None else at_limit.tolist()
+        exact = self._exact_motion(Jt, c, x - c, first, lo, hi, held)
+        if exact is None:
+            # nothing the joints reach in this period keeps the path: what they reach within a
+            # few, to which the smoothing brings them with a little lag (at 1 kHz a period's
+            # reach is 100 times smaller than at 100 Hz, and the first period at the limit,
+            # after a Ruckig step, may not fit it)
+            for periods in _LAG_PERIODS:
+                exact = self._exact_motion(Jt, c, x - c, first, lo, hi, held, periods)
+                if exact is not None:
+                    details["lagged"] = True
+                    break
+        if exact is not None:
+            total_list, share = exact
+            if share != 1.0 and commanded is not None:  # past 1 (`_SHARE_OVERSHOOT`): ahead
+                self._hold_back(kept * (1.0 - share), details["ramped"])
+            share = min(1.0, share)
+            self._task_share = share
+            details["task_share"] = share
+            details["exact"] = not details.get("lagged", False)
+            if share < 1.0:
+                details["scaled"] = True
+            return total_list
+        # Within what the joints reach from their motion in a period (a target they lag bends
+        # the path); where nothing fits there, wider, and then never faster than the last share.
+        motion = None
+        for widen in _TASK_REACH_WIDENING:
+            lo_r, hi_r = self._reach_box(lo, hi, widen)
+            motion = task_scaling.scale_into_bounds(
+                Jt, c, x - c, lo_r, hi_r, first_parts, threshold
             )
-            if part.singular_values[-1] < cfg.singular_value_threshold:
-                return None
-            undamped = np.zeros(n)
-            damped = np.zeros(n)
-            undamped[kept] = part.undamped
-            rows = part.row_basis
+            if motion is not None:
+                break
+            if widen == _TASK_REACH_WIDENING[0]:
+                c = c * self._task_share
+                a0 = a0 * self._task_share
+                first_parts = (a0, first - a0, sol.row_basis)
+        if motion is None:
+            lo_r, hi_r = lo, hi
+            motion = task_scaling.scale_into_bounds(Jt, c, x - c, lo, hi, first_parts, threshold)
+        if motion is None:  # the correction alone asks too much: slow all of x (s = 0 fits)
+            motion = task_scaling.scale_into_bounds(
+                Jt,
+                x,
+                np.zeros_like(x),
+                lo,
+                hi,
+                (first, np.zeros(self._n), sol.row_basis),
+                threshold,
+            )
+        if motion is None:  # pragma: no cover - q̇ = 0 is inside every box
+            return self._zero_list
+        share = motion.share * float(np.linalg.norm(c)) / max(float(np.linalg.norm(c_full)), 1e-300)
+        share = min(1.0, share)
+        self._task_share = share
+        details["task_share"] = share
+        if share < 1.0:
+            details["scaled"] = True
+            if commanded is not None:
+                self._hold_back(kept * (1.0 - share), details["ramped"])
+        active = None if motion.active.all() else motion.active
+        null = self._null_motion(active, motion.row_basis)
+        total = motion.velocities
+        total_list = total.tolist()
+        total = total + self._max_scale(total_list, null.tolist(), lo_r, hi_r) * null
+        return [
+            a if t < a else b if t > b else t
+            for t, a, b in zip(total.tolist(), lo, hi, strict=True)
+        ]
+
+    def _exact_motion(
+        self,
+        Jt: FloatArray,
+        command: FloatArray,
+        correction: FloatArray,
+        first: FloatArray,
+        lo: list[float],
+        hi: list[float],
+        held: list[bool],
+        periods: float = 1.0,
+    ) -> tuple[list[float], float] | None:
+        """(q̇, s): joint velocities that the smoothing reaches exactly at the end of this period
+        (`JerkLimitedIntegrator.reachable`), within [lo, hi], doing the largest share s of the
+        command with the correction whole (`task_scaling.exact_share`); the solution `first`
+        itself (s = 1) where it fits. None where nothing fits: the caller slows the task as it
+        can, and the smoothing lags.
+
+        Per joint, the box is what it reaches, within that [lo, hi] (a joint that cannot get
+        into it this period, braking for its position limit, brakes as hard as its jerk
+        allows), and within that a velocity change of `_TAKE_OVER_SHARE` of its acceleration
+        limit per second. The share is capped as the joints left free (not `held`) near a
+        singularity of their own, and grows by at most dt / `_TAKE_OVER_TIME_S` per period.
+        Where nothing fits, the share may leave [0, cap] (as little as it can, still along the
+        path: `_SHARE_OVERSHOOT`). `periods`: the reach of that many periods instead of one (the
+        smoothing then lags)."""
+        integ = self._integrator
+        dt = self.config.period_s
+        r_lo, r_hi = integ.reachable(periods)
+        dt = dt * periods
+        c_lo, c_hi = [], []
+        for a, b, c, d, v, cap in zip(
+            lo, hi, r_lo, r_hi, integ.v_list, self._take_over_acceleration, strict=True
+        ):
+            low, high = (a if a > c else c), (b if b < d else d)
+            if low > high:
+                low = high = c if c > b else d
+            e, f = v - cap * dt, v + cap * dt
+            if e > high:
+                e = f = high
+            elif f < low:
+                e = f = low
+            c_lo.append(low if low > e else e)
+            c_hi.append(high if high < f else f)
+        want = first.tolist()
+        if all(a <= w <= b for w, a, b in zip(want, c_lo, c_hi, strict=True)):
+            return want, 1.0
+        # the velocities are those at the end of the period: so is the Jacobian they go with
+        # (at the positions the joints reach at their present acceleration; at the start, the
+        # tool point of a fast take-over drifted by J̇ q̇ dt: 0.26 mm in 0.4 s on the Panda)
+        half = 0.5 * dt
+        J_end = self._task_jacobian(
+            [
+                q + dt * (v + half * a)
+                for q, v, a in zip(integ.q_list, integ.v_list, integ.a_list, strict=True)
+            ]
+        )
+        # The joints that take over must not run into a singularity of their own (the iiwa14's
+        # joints 1-6 without joint 7, σ_min 0.097 to 0.034 in 0.8 s of take-over): the share is
+        # bounded as the smallest singular value of the joints left free falls, to nothing at
+        # the servo's threshold (a velocity damper, as `_brake`'s at the edge of the workspace)
+        free = [not h for h in held]
+        eps = self.config.singular_value_threshold
+        sigma = float(dls.svd(J_end[:, free])[1][-1]) if sum(free) >= J_end.shape[0] else 0.0
+        cap = (sigma - eps) / eps
+        cap = 0.0 if cap < 0.0 else 1.0 if cap > 1.0 else cap
+        cap = min(cap, self._task_share + dt / _TAKE_OVER_TIME_S)
+        prefer = [
+            a if w < a else b if w > b else w for w, a, b in zip(want, c_lo, c_hi, strict=True)
+        ]
+        for shares, largest in (
+            ((0.0, cap), True),
+            # the joints' motion carries them past the cap: as little past as they can
+            ((cap, _SHARE_OVERSHOOT), False),
+            ((1.0 - _SHARE_OVERSHOOT, 0.0), True),
+        ):
+            found = task_scaling.exact_share(
+                J_end, command, correction, c_lo, c_hi, prefer, shares, largest
+            )
+            if found is not None:
+                return found[0].tolist(), found[1]
         return None
 
     # ------------------------------------------------------------------ status
@@ -1450,7 +1621,12 @@ class Servo:
                 message = "stopped: no fresh command"
         elif at_limit:
             code = StatusCode.AT_JOINT_LIMIT
-            message = f"at the position limit of {', '.join(at_limit)}; the other joints go on"
+            share = details.get("task_share", 1.0)
+            message = f"at the position limit of {', '.join(at_limit)}; " + (
+                "the other joints go on"
+                if share >= 1.0
+                else f"slowed along the path to {100.0 * share:.0f} % of the command"
+            )
         elif sigma_min < cfg.singular_value_threshold:
             code = StatusCode.NEAR_SINGULARITY
             message = (

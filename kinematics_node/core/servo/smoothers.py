@@ -56,6 +56,10 @@ class JointSmoother(Protocol):
         target_acceleration: Sequence[float] | None = None,
     ) -> list[bool] | None: ...
 
+    def reachable(self, periods: float = 1.0) -> tuple[list[float], list[float]]: ...
+
+    def follow(self, target_velocity: Sequence[float]) -> list[bool] | None: ...
+
 
 class TwistRamp(Protocol):
     """The ramp of the commanded twist (both smoothings)."""

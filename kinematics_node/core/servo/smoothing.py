@@ -221,6 +221,104 @@ class JerkLimitedIntegrator:
         self.at_rest = not (any(v) or any(a))
         return braking
 
+    def reachable(self, periods: float = 1.0) -> tuple[list[float], list[float]]:
+        """(lo, hi): per joint, the velocities that `follow` reaches exactly at the end of the next
+        period from the current state (v, a): v + a·dt + [j_lo, j_hi]·dt²/2, the jerk j within
+        the jerk limit and what keeps the acceleration within its limit, and the velocity within
+        its limit less what it may bulge within the period (|a|·dt/2 + J·dt²/8). `periods`: the
+        same over that many periods (what `step` reaches, with lag, in that time).
+
+        A target inside it is reached with no lag at all, so a vector of joint velocities that
+        keeps the tool on its path at both ends of the period keeps it there in between, up to
+        the period's own curvature; `Servo` keeps a joint-limited motion inside it. (Smoothers
+        without a jerk limit: v ± A·dt.)"""
+        dt = self.period_s * periods
+        half = 0.5 * dt * dt
+        lo: list[float] = []
+        hi: list[float] = []
+        for v, a, J, A, vm in zip(
+            self.v_list, self.a_list, self._jerk, self._acc, self._v_high, strict=True
+        ):
+            j_hi = min(J, (A - a) / dt)
+            j_lo = max(-J, (-A - a) / dt)
+            if j_lo > j_hi:  # pragma: no cover - the state keeps |a| ≤ A
+                j_lo = j_hi = 0.0
+            centre = v + a * dt
+            room = vm - abs(a) * 0.5 * dt - J * dt * dt * 0.125
+            lo.append(max(centre + j_lo * half, -room))
+            hi.append(min(centre + j_hi * half, room))
+        return lo, hi
+
+    def follow(self, target_velocity: Sequence[float]) -> list[bool] | None:
+        """Advance one period to exactly `target_velocity` (n,) [rad/s or m/s], which should lie in
+        `reachable()`: each joint's jerk is constant over each half of the period (the two
+        halves' jerks within the limit), its acceleration ending as near the period's mean
+        acceleration (target − v)/dt as they allow, so that no oscillation of the acceleration
+        builds up from period to period. Unlike `step`, no joint lags: the joint velocities
+        arrive together where the servo put them.
+
+        A target outside `reachable()`, a profile that would pass a velocity or acceleration
+        limit, or a joint whose braking motion would then pass a position bound: `step` toward
+        the target instead (Ruckig, with its guards). Returns what `step` returns."""
+        dt = self.period_s
+        h = 0.5 * dt
+        q_new: list[float] = []
+        v_new: list[float] = []
+        a_new: list[float] = []
+        for q, v, a, t, J, A, vm in zip(
+            self.q_list,
+            self.v_list,
+            self.a_list,
+            target_velocity,
+            self._jerk,
+            self._acc,
+            self._v_tolerated,
+            strict=True,
+        ):
+            # v1 = v + a dt + (3 j1 + j2) dt²/8, a1 = a + (j1 + j2) dt/2: u = 3 j1 + j2, w = j1 + j2
+            u = (t - v - a * dt) * 8.0 / (dt * dt)
+            if abs(u) > 4.0 * J * (1.0 + 1e-9):
+                return self.step(target_velocity)
+            w_lo = max(
+                u - 2.0 * J, (u - 2.0 * J) / 3.0, 2.0 * (-A - a) / dt, u - 4.0 * (A - a) / dt
+            )
+            w_hi = min(u + 2.0 * J, (u + 2.0 * J) / 3.0, 2.0 * (A - a) / dt, u + 4.0 * (A + a) / dt)
+            w = 2.0 * ((t - v) / dt - a) / dt  # the mean acceleration at the end
+            if w_lo <= w_hi:
+                w = w_lo if w < w_lo else w_hi if w > w_hi else w
+            else:
+                w = 0.5 * u  # constant jerk (within the limits where t is reachable)
+            j1, j2 = 0.5 * (u - w), 0.5 * (3.0 * w - u)
+            j1 = -J if j1 < -J else J if j1 > J else j1
+            j2 = -J if j2 < -J else J if j2 > J else j2
+            peak = 0.0
+            qk, vk, ak = q, v, a
+            for j in (j1, j2):
+                if j != 0.0 and 0.0 < -ak / j < h:  # the velocity's extremum inside this half
+                    peak = max(peak, abs(vk - ak * ak / (2.0 * j)))
+                qk += h * (vk + h * (0.5 * ak + h * j / 6.0))
+                vk += h * (ak + 0.5 * h * j)
+                ak += h * j
+            if (
+                max(peak, abs(vk)) > vm
+                or abs(ak) > A * (1.0 + 1e-12)
+                or abs(vk - t) > 1e-9 * (1.0 + abs(t))  # a jerk clipped: not reached
+            ):
+                return self.step(target_velocity)
+            q_new.append(qk)
+            v_new.append(t)  # exactly the target (the profile's end, up to rounding)
+            a_new.append(ak)
+        checked, bad = self._check(q_new, v_new, a_new, None, None)
+        if bad is not None:
+            return self.step(target_velocity)
+        self._reach_lo, self._reach_hi = checked[0], checked[1]
+        n = self._n
+        state = _frozen(q_new + v_new + a_new)
+        self.q, self.v, self.a = state[:n], state[n : 2 * n], state[2 * n :]
+        self.q_list, self.v_list, self.a_list = q_new, v_new, a_new
+        self.at_rest = not (any(v_new) or any(a_new))
+        return None
+
     def _check(
         self,
         q: list[float],

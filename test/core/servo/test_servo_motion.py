@@ -612,3 +612,49 @@ def test_after_a_stop_a_new_command_starts_from_where_the_arm_was_moved():
     servo.submit(TwistCommand((0, 0, 0), (0.05, 0, 0), "base_link", 100.01), 100.01)
     out = servo.step(100.01, moved)
     assert np.abs(out.positions - moved).max() < 1e-3
+
+
+@pytest.mark.parametrize(("name", "seconds"), [("panda", 12.0), ("iiwa14", 9.0)])
+def test_a_pure_rotation_through_a_joint_limit_keeps_the_tool_point(name, seconds):
+    """Issue 32 item 10: a pure rotation about the tool's z axis until the last joint meets its
+    limit. The other joints take over only what they carry exactly, at velocities the smoothing
+    reaches within the period (`JerkLimitedIntegrator.follow`), and the rest slows: the tool
+    point stays put (5.0 mm on the Panda, 14.5 mm on the iiwa14 before task scaling, 1.2 and
+    0.8 mm with it and the smoothing lagging; now 0.13 and 0.008 mm), no joint passes a bound."""
+    chain = robot(name)
+    servo = _servo(name)
+    trace = run(servo, _twist((0.0, 0.0, 0.5), (0.0, 0.0, 0.0), chain.tip_link), seconds)
+    assert limit_violations(servo.limits, trace) == []
+    last = chain.joint_names[-1]
+    assert any(last in s.joints_at_limit for s in trace.statuses)  # the limit was met
+    p0 = chain.fk(HOMES[name])[:3, 3]
+    moved = np.linalg.norm(chain.fk(trace.q)[:, :3, 3] - p0, axis=1)
+    assert moved.max() < (0.2e-3 if name == "panda" else 1e-4)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="issue 32 item 10's 0.1 mm on the Panda: 0.13 mm (one way), 0.16 (the other), "
+    "measured; the take-over gathers motion it cannot always slow within a period's reach",
+)
+def test_a_pure_rotation_through_the_pandas_joint_limit_keeps_the_tool_point_within_0_1_mm():
+    chain = robot("panda")
+    servo = _servo("panda")
+    trace = run(servo, _twist((0.0, 0.0, 0.5), (0.0, 0.0, 0.0), chain.tip_link), 12.0)
+    p0 = chain.fk(HOMES["panda"])[:3, 3]
+    assert np.linalg.norm(chain.fk(trace.q)[:, :3, 3] - p0, axis=1).max() < 1e-4
+
+
+@pytest.mark.parametrize("name", ["panda", "iiwa14"])
+def test_without_ruckig_a_pure_rotation_through_a_joint_limit_keeps_the_tool_point(name):
+    """The same take-over with the acceleration-limited smoothing (no Ruckig): its `reachable`
+    and `follow` are what the exact share needs, with no jerk limit to respect."""
+    chain = robot(name)
+    servo = _servo(name, smoothing="acceleration")
+    assert not servo.smoothing.jerk_limited
+    trace = run(servo, _twist((0.0, 0.0, 0.5), (0.0, 0.0, 0.0), chain.tip_link), 9.0)
+    assert limit_violations(servo.limits, trace, jerk=False) == []
+    assert any(chain.joint_names[-1] in s.joints_at_limit for s in trace.statuses)
+    p0 = chain.fk(HOMES[name])[:3, 3]
+    moved = np.linalg.norm(chain.fk(trace.q)[:, :3, 3] - p0, axis=1)
+    assert moved.max() < 0.2e-3, moved.max()
