@@ -26,6 +26,7 @@ ROSDEP_KEY = {
     "pytest": "python3-pytest",
     "yaml": "python3-yaml",
     "matplotlib": "python3-matplotlib",
+    "tqdm": "python3-tqdm",
 }
 
 
