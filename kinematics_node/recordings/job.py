@@ -383,14 +383,20 @@ def process_recording(
         raise RecordingError(f"{out} exists: give --force to replace it")
     if out.resolve() == source.resolve():
         raise RecordingError(f"{out} is the input: the input is never modified")
+    if not out.parent.is_dir():
+        raise RecordingError(f"{out}: its folder {out.parent} does not exist")
     reader = _open_reader(source)
-    staging = out.with_name(f".{out.name}.partial-{os.getpid()}")
+    # written as <OUT's folder>/.<OUT>.partial-<pid>/<OUT's name>, so that the recording's file
+    # is named after OUT (rosbags names it after its directory) when it is moved into place
+    partial = out.with_name(f".{out.name}.partial-{os.getpid()}")
+    staging = partial / out.name
     table_staging = (
         None
         if options.csv is None
         else options.csv.with_name(f".{options.csv.name}.partial-{os.getpid()}")
     )
-    shutil.rmtree(staging, ignore_errors=True)
+    shutil.rmtree(partial, ignore_errors=True)
+    partial.mkdir()
     try:
         result = _run(reader, source, staging, table_staging, options, progress)
         if out.exists():
@@ -402,7 +408,7 @@ def process_recording(
         return result
     finally:
         reader.close()
-        shutil.rmtree(staging, ignore_errors=True)
+        shutil.rmtree(partial, ignore_errors=True)
         if table_staging is not None:
             table_staging.unlink(missing_ok=True)
 

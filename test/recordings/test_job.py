@@ -178,6 +178,19 @@ def _refused(tmp_path: Path, src: Path, match: str, **options) -> None:
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".refused")] == []
 
 
+def test_the_output_is_named_after_out_and_the_same_input_gives_the_same_bytes(tmp_path):
+    src = write_recording(tmp_path / "in", count=50)
+    for name in ("one", "two"):
+        process_recording(src, tmp_path / name, OPTIONS)
+    assert sorted(p.name for p in (tmp_path / "one").iterdir()) == ["metadata.yaml", "one.mcap"]
+    one = (tmp_path / "one" / "one.mcap").read_bytes()
+    two = (tmp_path / "two" / "two.mcap").read_bytes()
+    assert one.replace(b"one.mcap", b"two.mcap") == two
+    with pytest.raises(RecordingError, match="its folder .* does not exist"):
+        process_recording(src, tmp_path / "no" / "out", OPTIONS)
+    assert not (tmp_path / "no").exists()
+
+
 def test_not_a_recording_is_refused(tmp_path):
     (tmp_path / "empty").mkdir()
     _refused(tmp_path, tmp_path / "empty", "is not a readable rosbag2 recording")
