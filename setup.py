@@ -35,6 +35,8 @@ setup(
         "demo": ["matplotlib>=3.5"],
         # `kinematics bag` and `record-demo`: rosbag2 recordings without ROS; tqdm's progress bar
         "bags": ["rosbags>=0.10", "tqdm>=4"],
+        # many recordings (and, next, workspace maps) on a Dask cluster: kinematics bag --scheduler
+        "dask": ["dask[distributed]>=2024.1"],
         # Jerk limits of kinematics_node.core.servo (optional: without it the servo smooths within
         # the position, velocity and acceleration limits, with no jerk limit)
         "servo": ["ruckig>=0.9"],
@@ -50,6 +52,7 @@ setup(
             "ruckig>=0.9",  # the servo's jerk-limited smoothing (extra "servo")
             "tqdm>=4",  # the recordings' progress bar (extra "bags")
             "mcap-ros2-support>=0.5",  # decodes recordings independently of rosbags
+            "dask[distributed]>=2024.1",  # a real local cluster and dask scheduler/worker commands
         ],
         # Peers for the side-by-side benchmarks; KDL comes from Debian (apt install python3-pykdl).
         "bench": [

@@ -4,7 +4,7 @@ Each recording (a rosbag2 directory; a folder of them counts as each) becomes a 
 MCAP storage with everything copied and ee_pose, ee_twist, /tf and /tf_static added
 (`kinematics_node.recordings`). One recording: OUT is the output recording. Several: OUT is a
 folder, each output named after its input, and the recordings run on the local cores, one
-process each.
+process each, or with --scheduler on a Dask cluster (`recordings.tasks`; so does one recording).
 
 Needs rosbags (`pip install 'kinematics_service[bags]'`); matplotlib for --plot; tqdm draws the
 progress bar when installed and stderr is a terminal.
@@ -16,7 +16,6 @@ import argparse
 import os
 import sys
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -103,6 +102,12 @@ def add_parser(commands: Any) -> None:
         help="distance to a position limit that counts as near [rad or m] (default: %(default)g)",
     )
     bag.add_argument("--force", action="store_true", help="replace existing outputs")
+    bag.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run the recordings on a Dask cluster (e.g. tcp://host:8786; needs "
+        "'kinematics_service[dask]')",
+    )
     bag.add_argument(
         "--jobs",
         type=int,
@@ -210,10 +215,14 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     first = Path(args.recordings[0])
     if len(args.recordings) == 1 and ((first / "metadata.yaml").is_file() or not first.is_dir()):
-        return _one(sources[0], out, options, args.plot)
+        if args.scheduler is None:
+            return _one(sources[0], out, options, args.plot)
+        if args.plot:
+            raise BagError("--plot draws in this process: give it without --scheduler")
+        return _on_cluster([(sources[0].resolve(), out.resolve(), options)], args.scheduler)
     if args.csv or args.plot:
         raise BagError("--csv and --plot take one recording; give them with one RECORDING")
-    return _many(sources, out, options, args.jobs or os.cpu_count() or 1)
+    return _many(sources, out, options, args.jobs or os.cpu_count() or 1, args.scheduler)
 
 
 def _progress(label: str) -> tuple[Callable[[int, int], None] | None, Callable[[], None]]:
@@ -251,25 +260,44 @@ def _one(source: Path, out: Path, options: Any, plot: str | None) -> int:
     return 0
 
 
-def _task(source: Path, out: Path, options: Any) -> str:
+def _task(job: tuple[Path, Path, Any]) -> str:
+    """One recording, in a process or on a Dask worker of its own: its report."""
     from ..recordings.job import process_recording
 
+    source, out, options = job
     return process_recording(source, out, options).report()
 
 
-def _many(sources: list[Path], folder: Path, options: Any, jobs: int) -> int:
+def _many(sources: list[Path], folder: Path, options: Any, jobs: int, scheduler: str | None) -> int:
     names = [s.name for s in sources]
     if len(set(names)) != len(names):
         raise BagError(f"two recordings share a name, and outputs are named after them: {names}")
+    created = not folder.exists()
     folder.mkdir(parents=True, exist_ok=True)
+    # absolute paths: a Dask worker may run in another directory
+    work = [(s.resolve(), (folder / s.name).resolve(), options) for s in sources]
+    try:
+        return _on_cluster(work, scheduler, jobs)
+    except KinematicsError:  # nothing ran (no Dask, no scheduler): leave no empty folder
+        if created and not any(folder.iterdir()):
+            folder.rmdir()
+        raise
+
+
+def _on_cluster(
+    work: list[tuple[Path, Path, Any]], scheduler: str | None, jobs: int | None = None
+) -> int:
+    """Each (recording, output, options) as a task: on the local cores, or on Dask."""
+    from ..recordings.tasks import run_tasks
+
     failed = 0
-    with ProcessPoolExecutor(max_workers=max(1, min(jobs, len(sources)))) as pool:
-        futures = {pool.submit(_task, s, folder / s.name, options): s for s in sources}
-        for future in as_completed(futures):
-            source = futures[future]
-            try:
-                print(future.result(), flush=True)
-            except (KinematicsError, OSError) as exc:
-                failed += 1
-                print(f"kinematics: error: {source}: {' '.join(str(exc).split())}", file=sys.stderr)
+    for outcome in run_tasks(_task, work, scheduler=scheduler, processes=jobs):
+        if outcome.error is None:
+            print(outcome.result, flush=True)
+            continue
+        failed += 1
+        why = " ".join(str(outcome.error).split()) or type(outcome.error).__name__
+        print(f"kinematics: error: {outcome.item[0]}: {why}", file=sys.stderr, flush=True)
+    if failed:
+        print(f"kinematics: {failed} of {len(work)} recordings failed", file=sys.stderr)
     return 1 if failed else 0

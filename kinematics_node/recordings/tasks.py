@@ -1,0 +1,100 @@
+"""A list of independent tasks, run on the local cores or, given a scheduler's address, on a Dask
+distributed cluster (`dask scheduler` and `dask worker`s, started as Dask's documentation says).
+
+`run_tasks(function, items)` calls `function(item)` for each item in processes of their own and
+yields each outcome as it finishes. The same function runs either way, so the results are the
+same; Dask's scheduler reruns the tasks of a worker that dies. No queue, socket or retry of our
+own: the local way is `concurrent.futures`, the other `distributed.Client.map` and `as_completed`.
+
+Dask is an optional extra (`pip install 'kinematics_service[dask]'`), needed only with a
+scheduler's address. (Shared with the workspace maps to come; it sits with the recordings, its
+first user, until then.)
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from typing import Any, Generic, TypeVar
+
+from ..core import KinematicsError
+
+INSTALL = "pip install 'kinematics_service[dask]'"
+
+Item = TypeVar("Item")
+
+
+class TaskError(KinematicsError):
+    """The tasks could not be run at all (no Dask, an unreachable scheduler), said in one line."""
+
+
+@dataclass(frozen=True)
+class Outcome(Generic[Item]):
+    """One task's end: its item, and its result or the error it raised."""
+
+    item: Item
+    result: Any = None
+    error: BaseException | None = None
+
+
+def run_tasks(
+    function: Callable[[Item], Any],
+    items: Sequence[Item],
+    scheduler: str | None = None,
+    processes: int | None = None,
+    connect_timeout_s: float = 10.0,
+) -> Iterator[Outcome[Item]]:
+    """`function(item)` for every item, as each finishes (in no set order).
+
+    Args:
+        function: a module-level function (it is pickled to the processes or workers).
+        scheduler: a Dask scheduler's address (e.g. ``tcp://10.0.0.5:8786``); None: the local
+            cores, one process each (at most `processes`, default: the cores).
+        connect_timeout_s: how long to try the scheduler [s].
+
+    Raises:
+        TaskError: Dask is not installed, or the scheduler cannot be reached.
+    """
+    if scheduler is None:
+        yield from _local(function, items, processes or os.cpu_count() or 1)
+    else:
+        yield from _dask(function, items, scheduler, connect_timeout_s)
+
+
+def _local(
+    function: Callable[[Item], Any], items: Sequence[Item], processes: int
+) -> Iterator[Outcome[Item]]:
+    with ProcessPoolExecutor(max_workers=max(1, min(processes, len(items)))) as pool:
+        futures = {pool.submit(function, item): item for item in items}
+        for future in as_completed(futures):
+            item = futures[future]
+            error = future.exception()
+            yield Outcome(item, None if error else future.result(), error)
+
+
+def _dask(
+    function: Callable[[Item], Any], items: Sequence[Item], scheduler: str, timeout: float
+) -> Iterator[Outcome[Item]]:
+    try:
+        from distributed import Client
+        from distributed import as_completed as dask_completed
+    except ImportError:
+        raise TaskError(f"--scheduler needs Dask distributed: {INSTALL}") from None
+    try:
+        client = Client(scheduler, timeout=f"{timeout}s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        why = " ".join(str(exc).split()) or type(exc).__name__
+        raise TaskError(f"cannot reach the Dask scheduler at {scheduler}: {why}") from None
+    try:
+        futures = client.map(function, list(items), pure=False)
+        owner = {f.key: item for f, item in zip(futures, items, strict=True)}
+        for future in dask_completed(futures):
+            item = owner[future.key]
+            try:
+                yield Outcome(item, future.result())
+            except Exception as exc:  # the task's own error, raised again here by Dask
+                yield Outcome(item, None, exc)
+    finally:
+        client.close()
