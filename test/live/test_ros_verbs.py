@@ -39,8 +39,11 @@ EMPTY_DOMAIN = 200 + os.getpid() % 30
 
 
 def _start(*args: str, domain: int = DOMAIN_ID) -> subprocess.Popen[str]:
+    # Up to six of these start rclpy at once on two cores, beside the node: on a loaded machine
+    # one waited more than the default 10 s for its service; 30 s unless the test says otherwise.
+    wait = () if "--wait" in args else ("--wait", "30")
     return subprocess.Popen(
-        [sys.executable, "-m", "kinematics_node.cli", "ros", *args],
+        [sys.executable, "-m", "kinematics_node.cli", "ros", *args, *wait],
         env=local_ros_env(domain),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
