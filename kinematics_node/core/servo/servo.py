@@ -110,7 +110,7 @@ _TAKE_OVER_SHARE = 0.25  # at a joint limit, the other joints' velocities change
 # the task one period ahead, unbounded, spun them up until they could not be slowed in time
 _SHARE_OVERSHOOT = 1.5  # where the joints cannot slow in time, the share of the command may
 # pass what it is allowed (up to this; below 0 down to 1 - this): along the path still
-_LAG_PERIODS = (2.0, 4.0, 8.0, 16.0)  # where nothing the joints reach in one period keeps the
+_PERIODS = (1.0, 2.0, 4.0, 8.0, 16.0)  # where nothing the joints reach in one period keeps the
 # path, what they reach in this many (the smoothing lags a little): 1 kHz, Panda 3.2 -> 0.8 mm
 _TAKE_OVER_TIME_S = 1.0  # at a joint limit the share grows from 0 to 1 in no less than this
 # (faster, the joints' take-over gathered more motion than they could slow in time: Panda
@@ -1450,18 +1450,10 @@ class Servo:
         at_limit = details.get("at_limit")
         held = [False] * self._n if at_limit is None else at_limit.tolist()
         exact = self._exact_motion(Jt, c, x - c, first, lo, hi, held)
-        if exact is None:
-            # nothing the joints reach in this period keeps the path: what they reach within a
-            # few, to which the smoothing brings them with a little lag (at 1 kHz a period's
-            # reach is 100 times smaller than at 100 Hz, and the first period at the limit,
-            # after a Ruckig step, may not fit it)
-            for periods in _LAG_PERIODS:
-                exact = self._exact_motion(Jt, c, x - c, first, lo, hi, held, periods)
-                if exact is not None:
-                    details["lagged"] = True
-                    break
+        if exact is not None and exact[2]:
+            details["lagged"] = True
         if exact is not None:
-            total_list, share = exact
+            total_list, share, _ = exact
             if share != 1.0 and commanded is not None:  # past 1 (`_SHARE_OVERSHOOT`): ahead
                 self._hold_back(kept * (1.0 - share), details["ramped"])
             share = min(1.0, share)
@@ -1527,13 +1519,13 @@ class Servo:
         lo: list[float],
         hi: list[float],
         held: list[bool],
-        periods: float = 1.0,
-    ) -> tuple[list[float], float] | None:
-        """(q̇, s): joint velocities that the smoothing reaches exactly at the end of this period
-        (`JerkLimitedIntegrator.reachable`), within [lo, hi], doing the largest share s of the
-        command with the correction whole (`task_scaling.exact_share`); the solution `first`
-        itself (s = 1) where it fits. None where nothing fits: the caller slows the task as it
-        can, and the smoothing lags.
+    ) -> tuple[list[float], float, bool] | None:
+        """(q̇, s, lagged): joint velocities that the smoothing reaches exactly at the end of this
+        period (`JerkLimitedIntegrator.reachable`), within [lo, hi], doing the largest share s of
+        the command with the correction whole (`task_scaling.exact_share`); the solution `first`
+        itself (s = 1) where it fits. Where nothing fits in one period's reach, what the joints
+        reach in more of `_PERIODS` (the smoothing then lags a little: `lagged` True). None where
+        nothing fits there either: the caller slows the task as it can, and the smoothing lags.
 
         Per joint, the box is what it reaches, within that [lo, hi] (a joint that cannot get
         into it this period, braking for its position limit, brakes as hard as its jerk
@@ -1541,63 +1533,74 @@ class Servo:
         limit per second. The share is capped as the joints left free (not `held`) near a
         singularity of their own, and grows by at most dt / `_TAKE_OVER_TIME_S` per period.
         Where nothing fits, the share may leave [0, cap] (as little as it can, still along the
-        path: `_SHARE_OVERSHOOT`). `periods`: the reach of that many periods instead of one (the
-        smoothing then lags)."""
+        path: `_SHARE_OVERSHOOT`). One linear program serves every box and range
+        (`task_scaling.ShareProblem`: one SVD a period)."""
         integ = self._integrator
         dt = self.config.period_s
-        r_lo, r_hi = integ.reachable(periods)
-        dt = dt * periods
-        c_lo, c_hi = [], []
-        for a, b, c, d, v, cap in zip(
-            lo, hi, r_lo, r_hi, integ.v_list, self._take_over_acceleration, strict=True
-        ):
-            low, high = (a if a > c else c), (b if b < d else d)
-            if low > high:
-                low = high = c if c > b else d
-            e, f = v - cap * dt, v + cap * dt
-            if e > high:
-                e = f = high
-            elif f < low:
-                e = f = low
-            c_lo.append(low if low > e else e)
-            c_hi.append(high if high < f else f)
         want = first.tolist()
-        if all(a <= w <= b for w, a, b in zip(want, c_lo, c_hi, strict=True)):
-            return want, 1.0
-        # the velocities are those at the end of the period: so is the Jacobian they go with
-        # (at the positions the joints reach at their present acceleration; at the start, the
-        # tool point of a fast take-over drifted by J̇ q̇ dt: 0.26 mm in 0.4 s on the Panda)
-        half = 0.5 * dt
-        J_end = self._task_jacobian(
-            [
-                q + dt * (v + half * a)
-                for q, v, a in zip(integ.q_list, integ.v_list, integ.a_list, strict=True)
+        problem: task_scaling.ShareProblem | None = None
+        cap = 1.0
+        for periods in _PERIODS:
+            r_lo, r_hi = integ.reachable(periods)
+            span = dt * periods
+            c_lo, c_hi = [], []
+            for a, b, c, d, v, top in zip(
+                lo, hi, r_lo, r_hi, integ.v_list, self._take_over_acceleration, strict=True
+            ):
+                low, high = (a if a > c else c), (b if b < d else d)
+                if low > high:
+                    low = high = c if c > b else d
+                e, f = v - top * span, v + top * span
+                if e > high:
+                    e = f = high
+                elif f < low:
+                    e = f = low
+                c_lo.append(low if low > e else e)
+                c_hi.append(high if high < f else f)
+            if periods == 1.0 and all(
+                a <= w <= b for w, a, b in zip(want, c_lo, c_hi, strict=True)
+            ):
+                return want, 1.0, False
+            if problem is None:
+                # the velocities are those at the end of the period: so is the Jacobian they go
+                # with (at the positions the joints reach at their present acceleration; at the
+                # start, the tool point of a fast take-over drifted by J̇ q̇ dt: 0.26 mm in 0.4 s
+                # on the Panda)
+                half = 0.5 * dt
+                J_end = self._task_jacobian(
+                    [
+                        q + dt * (v + half * a)
+                        for q, v, a in zip(integ.q_list, integ.v_list, integ.a_list, strict=True)
+                    ]
+                )
+                # The joints that take over must not run into a singularity of their own (the
+                # iiwa14's joints 1-6 without joint 7, σ_min 0.097 to 0.034 in 0.8 s of
+                # take-over): the share is bounded as the smallest singular value of the joints
+                # left free falls, to nothing at the servo's threshold (a velocity damper, as
+                # `_brake`'s at the edge of the workspace)
+                free = [not h for h in held]
+                eps = self.config.singular_value_threshold
+                sigma = (
+                    float(dls.svd(J_end[:, free])[1][-1]) if sum(free) >= J_end.shape[0] else 0.0
+                )
+                cap = (sigma - eps) / eps
+                cap = 0.0 if cap < 0.0 else 1.0 if cap > 1.0 else cap
+                cap = min(cap, self._task_share + dt / _TAKE_OVER_TIME_S)
+                problem = task_scaling.ShareProblem(J_end, command, correction)
+                if not problem.usable:
+                    return None
+            prefer = [
+                a if w < a else b if w > b else w for w, a, b in zip(want, c_lo, c_hi, strict=True)
             ]
-        )
-        # The joints that take over must not run into a singularity of their own (the iiwa14's
-        # joints 1-6 without joint 7, σ_min 0.097 to 0.034 in 0.8 s of take-over): the share is
-        # bounded as the smallest singular value of the joints left free falls, to nothing at
-        # the servo's threshold (a velocity damper, as `_brake`'s at the edge of the workspace)
-        free = [not h for h in held]
-        eps = self.config.singular_value_threshold
-        sigma = float(dls.svd(J_end[:, free])[1][-1]) if sum(free) >= J_end.shape[0] else 0.0
-        cap = (sigma - eps) / eps
-        cap = 0.0 if cap < 0.0 else 1.0 if cap > 1.0 else cap
-        cap = min(cap, self._task_share + dt / _TAKE_OVER_TIME_S)
-        prefer = [
-            a if w < a else b if w > b else w for w, a, b in zip(want, c_lo, c_hi, strict=True)
-        ]
-        for shares, largest in (
-            ((0.0, cap), True),
-            # the joints' motion carries them past the cap: as little past as they can
-            ((cap, _SHARE_OVERSHOOT), False),
-            ((1.0 - _SHARE_OVERSHOOT, 0.0), True),
-        ):
-            found = task_scaling.exact_share(
-                J_end, command, correction, c_lo, c_hi, prefer, shares, largest
-            )
-            if found is not None:
-                return found[0].tolist(), found[1]
+            for shares, largest in (
+                ((0.0, cap), True),
+                # the joints' motion carries them past the cap: as little past as they can
+                ((cap, _SHARE_OVERSHOOT), False),
+                ((1.0 - _SHARE_OVERSHOOT, 0.0), True),
+            ):
+                found = problem.solve(c_lo, c_hi, prefer, shares, largest)
+                if found is not None:
+                    return found[0].tolist(), found[1], periods != 1.0
         return None
 
     # ------------------------------------------------------------------ status
