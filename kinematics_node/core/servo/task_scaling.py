@@ -157,6 +157,91 @@ def _vertex_patterns(count: int, d: int) -> tuple[NDArray[np.intp], FloatArray]:
     return combos.reshape(-1, d), sides.reshape(-1, d)
 
 
+class ShareProblem:
+    """The linear program of `exact_share` for one (J, command, correction), prepared once for
+    several boxes: the SVD of [J, −c], its null space N and, for the vertex enumeration, the
+    inverses of N's square blocks. A box then costs a few small array operations (the servo
+    tries up to three ranges of the share in up to five boxes per period: one SVD, not 15).
+
+    `usable` is False where [J, −c] loses rank (a singularity the command does not fill):
+    `solve` then finds nothing."""
+
+    def __init__(self, J: FloatArray, command: FloatArray, correction: FloatArray) -> None:
+        m, n = J.shape
+        self._n = n
+        A = np.hstack((J, -np.asarray(command, dtype=np.float64)[:, None]))
+        U, sv, Vt = np.linalg.svd(A)
+        self.usable = not (sv.shape[0] < m or float(sv[-1]) <= 1e-9 * max(float(sv[0]), 1e-300))
+        if not self.usable:
+            return
+        self._y_p = Vt[:m].T.dot(U.T.dot(correction) / sv)
+        N = Vt[m:].T  # (n + 1, d), the null space of [J, −c]
+        self._N = N
+        d = n + 1 - m
+        self._d = d
+        self._blocks: tuple[NDArray[np.intp], FloatArray, FloatArray] | None = None
+        if 0 < d <= _ENUMERATED:
+            combos, sides = _vertex_patterns(n + 1, d)
+            M = N[combos]  # (C, d, d)
+            good = np.abs(np.linalg.det(M)) > 1e-12
+            if good.any():
+                self._blocks = (combos[good], np.linalg.inv(M[good]), sides)
+
+    def solve(
+        self,
+        lo: list[float],
+        hi: list[float],
+        prefer: list[float],
+        shares: tuple[float, float] = (0.0, 1.0),
+        largest: bool = True,
+    ) -> tuple[FloatArray, float] | None:
+        """`exact_share` in the box [lo, hi] (see there)."""
+        if not self.usable:
+            return None
+        low = np.array(list(lo) + [shares[0]])
+        high = np.array(list(hi) + [shares[1]])
+        if not np.all(low <= high):
+            return None
+        y_p, N, d = self._y_p, self._N, self._d
+        L, H = low - y_p, high - y_p
+        if d == 0:
+            points = np.zeros((1, 0))
+        elif d > _ENUMERATED:
+            from scipy.optimize import linprog  # noqa: PLC0415 - rare, and SciPy loads slowly
+
+            res = linprog(
+                -N[-1] if largest else N[-1],
+                A_ub=np.vstack((N, -N)),
+                b_ub=np.concatenate((H, -L)),
+                bounds=[(None, None)] * d,
+                method="highs",
+            )
+            if res.status != 0:
+                return None
+            points = res.x[None, :]
+        else:
+            if self._blocks is None:
+                return None
+            combos, inv, sides = self._blocks
+            Lc, Hc = L[combos], H[combos]  # (C, d)
+            rhs = Lc[:, None, :] + sides[None, :, :] * (Hc - Lc)[:, None, :]  # (C, 2^d, d)
+            points = np.einsum("cij,cpj->cpi", inv, rhs).reshape(-1, d)
+        values = points.dot(N.T)  # (P, n + 1): y − y_p
+        feasible = np.all((values >= L - _EXACT_TOL) & (values <= H + _EXACT_TOL), axis=1)
+        if not feasible.any():
+            return None
+        ys = values[feasible] + y_p
+        s_all = ys[:, -1] if largest else -ys[:, -1]
+        best = float(s_all.max())
+        top = ys[s_all >= best - 1e-12]
+        if top.shape[0] > 1:
+            gap = top[:, :-1] - np.asarray(prefer)
+            top = top[int(np.argmin(np.einsum("ij,ij->i", gap, gap)))][None, :]
+        y = top[0]
+        qd = np.minimum(np.maximum(y[:-1], low[:-1]), high[:-1])
+        return qd, min(shares[1], max(shares[0], float(y[-1])))
+
+
 def exact_share(
     J: FloatArray,
     command: FloatArray,
@@ -176,62 +261,10 @@ def exact_share(
     the polytope's vertices are enumerated (C(n+1, d)·2^d small solves at once); of those that
     reach the largest s, the one nearest `prefer` (n,) is taken. Beyond `_ENUMERATED`
     dimensions, SciPy's HiGHS solves it (about 1 ms). `shares`: the range of s ([0, 1] unless
-    the caller allows more); `largest` False: the smallest s instead.
+    the caller allows more); `largest` False: the smallest s instead. (`ShareProblem` solves
+    the same for several boxes at the cost of one.)
 
     Returns None when no q̇ in the box does the correction with any s ∈ [0, 1], or when
     [J, −c] loses rank (a singularity the command does not fill).
     """
-    m, n = J.shape
-    A = np.hstack((J, -np.asarray(command, dtype=np.float64)[:, None]))
-    U, sv, Vt = np.linalg.svd(A)
-    if sv.shape[0] < m or float(sv[-1]) <= 1e-9 * max(float(sv[0]), 1e-300):
-        return None
-    low = np.array(list(lo) + [shares[0]])
-    high = np.array(list(hi) + [shares[1]])
-    if not np.all(low <= high):
-        return None
-    y_p = Vt[:m].T.dot(U.T.dot(correction) / sv)
-    N = Vt[m:].T  # (n + 1, d), the null space of [J, −c]
-    d = n + 1 - m
-    L, H = low - y_p, high - y_p
-    if d == 0:
-        points = np.zeros((1, 0))
-    elif d > _ENUMERATED:
-        from scipy.optimize import linprog  # noqa: PLC0415 - rare, and SciPy loads slowly
-
-        res = linprog(
-            -N[-1] if largest else N[-1],
-            A_ub=np.vstack((N, -N)),
-            b_ub=np.concatenate((H, -L)),
-            bounds=[(None, None)] * d,
-            method="highs",
-        )
-        if res.status != 0:
-            return None
-        points = res.x[None, :]
-    else:
-        combos, sides = _vertex_patterns(n + 1, d)
-        M = N[combos]  # (C, d, d)
-        det = np.linalg.det(M)
-        good = np.abs(det) > 1e-12
-        if not good.any():
-            return None
-        combos, M = combos[good], M[good]
-        inv = np.linalg.inv(M)
-        Lc, Hc = L[combos], H[combos]  # (C, d)
-        rhs = Lc[:, None, :] + sides[None, :, :] * (Hc - Lc)[:, None, :]  # (C, 2^d, d)
-        points = np.einsum("cij,cpj->cpi", inv, rhs).reshape(-1, d)
-    values = points.dot(N.T)  # (P, n + 1): y − y_p
-    feasible = np.all((values >= L - _EXACT_TOL) & (values <= H + _EXACT_TOL), axis=1)
-    if not feasible.any():
-        return None
-    ys = values[feasible] + y_p
-    s_all = ys[:, -1] if largest else -ys[:, -1]
-    best = float(s_all.max())
-    top = ys[s_all >= best - 1e-12]
-    if top.shape[0] > 1:
-        gap = top[:, :-1] - np.asarray(prefer)
-        top = top[int(np.argmin(np.einsum("ij,ij->i", gap, gap)))][None, :]
-    y = top[0]
-    qd = np.minimum(np.maximum(y[:-1], low[:-1]), high[:-1])
-    return qd, min(shares[1], max(shares[0], float(y[-1])))
+    return ShareProblem(J, command, correction).solve(lo, hi, prefer, shares, largest)
