@@ -166,6 +166,8 @@ class JointTransforms:
             multiplier.append(m)
             offset.append(c)
         self.inputs = tuple(inputs)
+        #: for each moving joint (in order), the index of its input in `inputs`
+        self.input_columns = tuple(column)
         self._column = np.array(column, dtype=np.int64)
         self._multiplier = np.array(multiplier)
         self._offset = np.array(offset)
