@@ -3,11 +3,14 @@
 `part` selects rows: "linear" (v, units m/rad or m/m), "angular" (ω), or "full" (all six; mixes
 units, so its values depend on the length unit: prefer "linear"/"angular" for thresholds).
 All measures come from the singular values σ₁ ≥ … ≥ σ_k of the selected rows (k = min(rows, n)),
-`singular_values`; `conditioning` gives the measures the node publishes from one Jacobian.
+`singular_values`; `conditioning` gives the measures the node publishes from one Jacobian;
+`translational_ellipsoid` the shape the node's ~/markers and a recording's markers draw, and
+`condition_colour` its colour.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -101,3 +104,72 @@ def conditioning(J: ArrayLike, singular_threshold: float = 1e-3) -> Conditioning
         min_singular_value=float(s[..., -1]),
         near_singular=bool(s[..., -1] < singular_threshold),
     )
+
+
+#: Condition number at which `condition_colour` reaches red: the recordings' report calls the arm
+#: near a singularity above it (`kinematics bag --singular-condition`'s default).
+RED_CONDITION = 100.0
+
+
+@dataclass(frozen=True)
+class Ellipsoid:
+    """The translational manipulability ellipsoid {J_v q̇ : ‖q̇‖ ≤ 1} at the tool (MR §5.4), as a
+    pose and three semi-axes (see `translational_ellipsoid`).
+
+    Attributes:
+        centre: the tool origin in the base (3,) [m].
+        rotation: (3, 3), a proper rotation (det +1): its columns are the principal axes, the
+            left singular vectors of J_v in decreasing order of σ (the last one's sign flipped
+            where numpy's U has det −1).
+        semi_axes: σ₁ ≥ σ₂ ≥ σ₃ (3,) [m/rad for revolute joints]; 0 where J_v has fewer than 3
+            singular values (fewer than 3 joints).
+        condition_number: σ₁ / σ₃ (∞ where σ₃ = 0).
+    """
+
+    centre: FloatArray
+    rotation: FloatArray
+    semi_axes: FloatArray
+    condition_number: float
+
+    @property
+    def weakest(self) -> FloatArray:
+        """The most singular direction: the unit axis of the smallest σ (its sign is arbitrary)."""
+        return self.rotation[:, 2]
+
+
+def translational_ellipsoid(J: ArrayLike, centre: ArrayLike) -> Ellipsoid:
+    """`Ellipsoid` of the linear rows J_v of one world Jacobian (6, n), rows (ω, v), placed at
+    `centre` (3,), the tip origin in the base. One SVD: J_v = U Σ Vᵀ; axes U, lengths σ.
+
+    Raises:
+        ValueError: J is not (6, n), centre not (3,), or either is not finite.
+    """
+    Jm = np.asarray(J, dtype=np.float64)
+    p = np.asarray(centre, dtype=np.float64)
+    if Jm.ndim != 2 or Jm.shape[0] != 6 or p.shape != (3,):
+        raise ValueError(f"expected J (6, n) and centre (3,), got {Jm.shape} and {p.shape}")
+    if not (np.isfinite(Jm).all() and np.isfinite(p).all()):
+        raise ValueError("the Jacobian and the centre must be finite")
+    U, s, _ = np.linalg.svd(Jm[3:], full_matrices=True)
+    axes = np.zeros(3)
+    axes[: s.size] = s
+    if np.linalg.det(U) < 0:
+        U = U.copy()
+        U[:, 2] = -U[:, 2]
+    return Ellipsoid(p.copy(), U, axes, float(_condition(axes)))
+
+
+def condition_colour(condition: float, red_at: float = RED_CONDITION) -> tuple[float, float, float]:
+    """(r, g, b) in [0, 1] for a condition number: green at 1, yellow halfway, red from `red_at`
+    on (∞ included), on a log scale: t = ln κ / ln red_at, r = min(1, 2t), g = min(1, 2 − 2t).
+    r never falls and g never rises as κ grows.
+
+    Raises:
+        ValueError: `red_at` ≤ 1, or `condition` NaN or below 1.
+    """
+    if not red_at > 1.0:
+        raise ValueError(f"red_at must be > 1, got {red_at}")
+    if not condition >= 1.0:  # NaN too
+        raise ValueError(f"a condition number is >= 1, got {condition}")
+    t = 1.0 if condition >= red_at else math.log(condition) / math.log(red_at)
+    return min(1.0, 2.0 * t), min(1.0, 2.0 - 2.0 * t), 0.0

@@ -32,15 +32,19 @@ from numpy.typing import NDArray
 from msg_adapters.cdr import decode_joint_states, decode_string
 
 from ..core import KinematicsError, SerialChain
+from ..core.joint_transforms import JointTransforms
+from ..core.urdf import RobotDescription
 from .joint_motion import Counts, JointMotion, Motion
 from .mcap_batches import write_rows
 from .outputs import (
+    MARKERS_TYPE,
     POSE_TYPE,
     TF_TYPE,
     TWIST_TYPE,
     Computed,
     Conditioning,
     EndEffector,
+    Markers,
     Written,
     conditioning,
 )
@@ -74,6 +78,9 @@ class BagOptions:
             a sample; the CSV has every row).
         singular_condition: condition number above which the arm is near a singularity.
         near_limit: distance [rad or m] to a position limit reported as near.
+        markers_rate_hz: how often (per second of log time) the node's manipulability markers
+            are written, on <namespace>/kinematics_node/markers, the topic the node publishes
+            them on (0: none); coloured red from `singular_condition` on.
     """
 
     description: str | None = None
@@ -88,6 +95,7 @@ class BagOptions:
     conditioning_rate_hz: float = 100.0
     singular_condition: float = 100.0
     near_limit: float = 0.05
+    markers_rate_hz: float = 10.0
 
 
 @dataclass
@@ -156,9 +164,12 @@ def _description(reader: Any, options: BagOptions) -> tuple[str, str]:
     )
 
 
-def _chain(text: str, source: str, options: BagOptions) -> SerialChain:
+def _chain(text: str, source: str, options: BagOptions) -> tuple[SerialChain, JointTransforms]:
+    """The chain and the transforms of its links' joints (/tf, /tf_static), from one parse."""
     try:
-        return SerialChain.from_urdf(text, options.base_link, options.tip_link)
+        description = RobotDescription(text)
+        chain = SerialChain.from_spec(description.chain_spec(options.base_link, options.tip_link))
+        return chain, JointTransforms.of_links(description, chain.link_names)
     except KinematicsError as exc:
         raise RecordingError(f"the robot description ({source}) was refused: {exc}") from None
 
@@ -231,6 +242,10 @@ class _Output:
 
     def rows(self, topic: str, written: Written) -> None:
         write_rows(self.writer, self.added[topic], written.log_time_ns, written.rows)
+
+    def each(self, topic: str, messages: list[tuple[int, bytes]]) -> None:
+        for log_time_ns, raw in messages:
+            self.writer.write(self.added[topic], log_time_ns, raw)
 
     def close(self) -> None:
         self.writer.close()
@@ -423,23 +438,27 @@ def _run(
 ) -> BagResult:
     timings = {"read": 0.0, "decode": 0.0, "kinematics": 0.0, "write": 0.0}
     text, where = _description(reader, options)
-    chain = _chain(text, where, options)
+    chain, transforms = _chain(text, where, options)
     topic = _topic(options.joint_states)
     joint_state_ids = {c.id for c in _joint_state_connections(reader, topic)}
     ns = _topic(options.namespace).rstrip("/") if options.namespace else ""
     pose_topic, twist_topic = f"{ns}/ee_pose", f"{ns}/ee_twist"
-    ee = EndEffector(chain, options.twist_frame)
+    markers_topic = f"{ns}/kinematics_node/markers"
+    ee = EndEffector(chain, transforms, options.twist_frame)
     added = {pose_topic: POSE_TYPE, twist_topic: TWIST_TYPE, "/tf": TF_TYPE}
     if ee.static_children:
         added["/tf_static"] = TF_TYPE
+    if options.markers_rate_hz > 0:
+        added[markers_topic] = MARKERS_TYPE
     output = _Output(staging, reader, added)
+    markers = Markers(chain, output.store, options.singular_condition)
     table = None if table_path is None else _Table(table_path, chain)
     motion = JointMotion(chain.joint_names, chain.continuous.tolist())
     findings = Findings(chain, options.singular_condition, options.near_limit)
     written = dict.fromkeys(added, 0)
     total = int(getattr(reader, "message_count", 0) or 0)
     read = copied = 0
-    last_bin = -1
+    last_bin = last_marker_bin = -1
     static_done = False
     try:
         t0 = time.perf_counter()
@@ -480,6 +499,15 @@ def _run(
             for name, w in ((pose_topic, c.pose), (twist_topic, c.twist), ("/tf", c.tf)):
                 output.rows(name, w)
                 written[name] += len(w.log_time_ns)
+            if options.markers_rate_hz > 0:
+                rows = _sampled(m.log_time_ns, options.markers_rate_hz, last_marker_bin)
+                if rows.size:
+                    last_marker_bin = int(
+                        m.log_time_ns[rows[-1]] // int(1e9 / options.markers_rate_hz)
+                    )
+                drawn = markers.messages(m, c, rows)
+                output.each(markers_topic, drawn)
+                written[markers_topic] += len(drawn)
             t0 = time.perf_counter()
             timings["write"] += t0 - t3
             read += len(batch)

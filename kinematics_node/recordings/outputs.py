@@ -5,21 +5,25 @@ The same quantities the kinematics node publishes for the same joint_states (`ee
 `ee_twist`; `compute_ee_state`), computed for the whole batch at once: one batched FK/Jacobian
 pass, the quaternion by the same Shepperd's method (w ≥ 0), the twist J(q) q̇ in the node's
 `twist_frame`. /tf holds, for every joint of the chain that moves, the pose of its child link in
-its parent link, as robot_state_publisher gives it; /tf_static the fixed joints' (written once).
+its parent link, as robot_state_publisher gives it; /tf_static the fixed joints' (written once):
+both from `core.joint_transforms.JointTransforms`, the code the node's /tf uses. `Markers` gives
+the node's manipulability markers (`msg_adapters.markers`) at sampled rows.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
 from msg_adapters.cdr import pose_stamped_cdr, tf_message_cdr, twist_stamped_cdr
+from msg_adapters.markers import MARKER_ARRAY_TYPE, MarkerTypes, manipulability_markers
 
 from ..core import SerialChain, so3
-from ..core.analysis import singular_values
+from ..core.analysis import RED_CONDITION, singular_values, translational_ellipsoid
+from ..core.joint_transforms import JointTransforms
 from .joint_motion import Motion
 
 FloatArray = NDArray[np.float64]
@@ -29,6 +33,7 @@ Rows = NDArray[np.uint8]
 POSE_TYPE = "geometry_msgs/msg/PoseStamped"
 TWIST_TYPE = "geometry_msgs/msg/TwistStamped"
 TF_TYPE = "tf2_msgs/msg/TFMessage"
+MARKERS_TYPE = MARKER_ARRAY_TYPE
 
 
 @dataclass(frozen=True)
@@ -80,20 +85,31 @@ class EndEffector:
 
     Args:
         chain: the chain (base → tip) whose pose the node publishes.
+        transforms: the joints /tf and /tf_static hold (`JointTransforms.of_links` of the chain's
+            links); their inputs must be joints of the chain.
         twist_frame: "world" (default, as the node's): ω and the tip origin's velocity in base
             axes, frame_id the base link; "body": both in tip axes, frame_id the tip link.
     """
 
-    def __init__(self, chain: SerialChain, twist_frame: Literal["world", "body"] = "world"):
+    def __init__(
+        self,
+        chain: SerialChain,
+        transforms: JointTransforms,
+        twist_frame: Literal["world", "body"] = "world",
+    ):
         self.chain = chain
         self.twist_frame = twist_frame
-        moving = np.array(chain.moving_links, dtype=bool)
-        links = chain.link_names
+        self.transforms = transforms
+        missing = [n for n in transforms.inputs if n not in chain.joint_names]
+        if missing:
+            raise ValueError(f"the transforms need joints {missing}, which the chain does not have")
+        self._columns = [chain.joint_names.index(n) for n in transforms.inputs]
+        moving = transforms.moving
         self._moving = moving
-        self.tf_parents = tuple(links[i] for i in np.flatnonzero(moving))
-        self.tf_children = tuple(links[i + 1] for i in np.flatnonzero(moving))
-        self.static_parents = tuple(links[i] for i in np.flatnonzero(~moving))
-        self.static_children = tuple(links[i + 1] for i in np.flatnonzero(~moving))
+        self.tf_parents = tuple(np.array(transforms.parents)[moving].tolist())
+        self.tf_children = tuple(np.array(transforms.children)[moving].tolist())
+        self.static_parents = tuple(np.array(transforms.parents)[~moving].tolist())
+        self.static_children = tuple(np.array(transforms.children)[~moving].tolist())
 
     def messages(self, motion: Motion) -> Computed:
         """The messages and quantities of the rows of `motion`; twists only where q̇ is known."""
@@ -114,7 +130,7 @@ class EndEffector:
         return Computed(pose, twist, self._tf(motion), T, J, V_world, quat)
 
     def _tf(self, motion: Motion) -> Written:
-        t, quat = self.chain.parent_link_transforms(motion.q)
+        t, quat = self.transforms.transforms(motion.q[:, self._columns])
         rows = tf_message_cdr(
             motion.stamp_ns,
             self.tf_parents,
@@ -128,7 +144,7 @@ class EndEffector:
         """The fixed joints' /tf_static message (None when the chain has none)."""
         if not self.static_children:
             return None
-        t, quat = self.chain.parent_link_transforms(np.zeros((1, self.chain.dof)))
+        t, quat = self.transforms.transforms(np.zeros((1, len(self._columns))))
         rows = tf_message_cdr(
             np.array([stamp_ns]),
             self.static_parents,
@@ -147,3 +163,43 @@ def conditioning(log_time_ns: IntArray, J: FloatArray) -> Conditioning:
     with np.errstate(divide="ignore"):
         cond = np.where(s[:, -1] > 0, s[:, 0] / s[:, -1], np.inf)
     return Conditioning(log_time_ns, np.prod(linear, axis=-1), cond, s[:, -1])
+
+
+class Markers:
+    """The node's manipulability markers (`msg_adapters.markers`) of rows of a batch, serialised
+    with a rosbags typestore (`store.serialize_cdr`: ~10 messages a second of log time).
+
+    Args:
+        chain: the chain; frame_id the base link.
+        store: a rosbags typestore with visualization_msgs (ROS 2 Iron or later).
+        red_at: condition number drawn red (`core.analysis.condition_colour`).
+    """
+
+    def __init__(self, chain: SerialChain, store: Any, red_at: float = RED_CONDITION):
+        self.chain = chain
+        self.store = store
+        self.types = MarkerTypes.from_typestore(store)
+        self.red_at = red_at
+
+    def messages(
+        self, motion: Motion, computed: Computed, rows: IntArray
+    ) -> list[tuple[int, bytes]]:
+        """(log time [ns], CDR bytes) of the markers at `rows` of `motion` (and `computed`, its
+        messages); rows whose pose or Jacobian is not finite are skipped."""
+        out = []
+        for row in rows.tolist():
+            T, J = computed.T[row], computed.J[row]
+            if not (np.isfinite(T).all() and np.isfinite(J).all()):
+                continue
+            stamp = int(motion.stamp_ns[row])
+            msg = manipulability_markers(
+                self.types,
+                translational_ellipsoid(J, T[:3, 3]),
+                self.chain.base_link,
+                stamp // 1_000_000_000,
+                stamp % 1_000_000_000,
+                self.red_at,
+            )
+            raw = self.store.serialize_cdr(msg, MARKERS_TYPE)
+            out.append((int(motion.log_time_ns[row]), bytes(raw)))
+        return out

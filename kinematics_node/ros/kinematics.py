@@ -11,6 +11,12 @@ Topics (relative names, so namespaces and remaps apply):
                                                    the two below
   pub  ee_twist           geometry_msgs/TwistStamped
   pub  /diagnostics       diagnostic_msgs/DiagnosticArray (absolute, as aggregators expect)
+  pub  ~/markers          visualization_msgs/MarkerArray  the manipulability ellipsoid and its most
+                                                   singular direction, at markers_rate, only while
+                                                   subscribed (a timer; never in the pose path)
+  pub  /tf, /tf_static    tf2_msgs/TFMessage       with publish_tf: the description's links as
+                                                   robot_state_publisher gives them (/tf_static
+                                                   transient local, again for a new description)
 Services: compute_fk, compute_jacobian, compute_ik (kinematics_service/srv/...).
 
 Threads and processes. One thread runs every callback (`spin`: our `LeanExecutor`, one wait per
@@ -59,6 +65,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 
 from msg_adapters import MessageTypes, matrix_from_transform
+from msg_adapters.markers import MarkerTypes
+from msg_adapters.transforms import TFTypes
 
 from ..core.exceptions import InvalidInputError, KinematicsError
 from ..service.ik_pool import IKOutcome, IKPool, solve_at_once
@@ -78,6 +86,8 @@ from .qos import (
     JOINT_STATES_QOS,
     NO_PUBLISHER_EVENTS,
     NO_SUBSCRIPTION_EVENTS,
+    TF_QOS,
+    TF_STATIC_QOS,
 )
 from .spin import spin_until_shutdown
 
@@ -108,6 +118,14 @@ MESSAGE_INFO = hasattr(Subscription, "CallbackType")
 TF_MISSING = "TF frames need tf2_ros, which is not installed here (it comes with a full ROS 2)"
 
 
+def _message_classes(table: Any) -> tuple[Any, str]:
+    """(the rclpy classes of a `MessageClasses` table, "") or (None, why not)."""
+    try:
+        return table.from_rclpy(), ""
+    except (ImportError, AttributeError) as exc:
+        return None, f"{exc} (the message package is not installed)"
+
+
 class KinematicsNode(Node):
     """Parameters, publishers, subscriptions and services around one `KinematicsService`."""
 
@@ -123,12 +141,18 @@ class KinematicsNode(Node):
             self._tf_listener = TransformListener(self._tf_buffer, self)
         else:
             self.get_logger().info(f"{TF_MISSING}; IK targets in robot links still work")
+        tf_types = None
+        if values["publish_tf"]:
+            tf_types, why = _message_classes(TFTypes)
+            if tf_types is None:
+                self.get_logger().error(f"publish_tf: no /tf can be published: {why}")
         self._logic = KinematicsService(
             MessageTypes.from_rclpy(),
             values,  # a description that cannot be used is reported, not raised
             lookup_transform=lookup,
             clock=lambda: self.get_clock().now().nanoseconds * 1e-9,
             node_name=self.get_fully_qualified_name(),
+            tf_types=tf_types,
         )
         self._log_description_events()
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -147,6 +171,29 @@ class KinematicsNode(Node):
         self._pose_pub = self._publisher(PoseStamped, "ee_pose")
         self._twist_pub = self._publisher(TwistStamped, "ee_twist")
         self._diag_pub = self._publisher(DiagnosticArray, "/diagnostics")
+        self._tf_pub = self._tf_static_pub = None
+        if tf_types is not None:
+            self._tf_pub = self.create_publisher(
+                tf_types.TFMessage, "/tf", TF_QOS, event_callbacks=NO_PUBLISHER_EVENTS
+            )
+            self._tf_static_pub = self.create_publisher(
+                tf_types.TFMessage, "/tf_static", TF_STATIC_QOS
+            )
+            self._publish_static_tf()
+        self._marker_types = self._markers_pub = None
+        if float(values["markers_rate"]) > 0:
+            self._marker_types, why = _message_classes(MarkerTypes)
+            if self._marker_types is None:
+                self.get_logger().warning(f"no manipulability markers on ~/markers: {why}")
+            else:
+                self._markers_pub = self.create_publisher(
+                    self._marker_types.MarkerArray, "~/markers", 10
+                )
+                self.create_timer(
+                    1.0 / float(values["markers_rate"]),
+                    self._publish_markers,
+                    callback_group=group,
+                )
         on_joint_state: Any = self._on_joint_state
         if not MESSAGE_INFO:  # pragma: no cover - Humble
             on_joint_state = lambda msg: self._on_joint_state(msg, {})  # noqa: E731
@@ -201,6 +248,7 @@ class KinematicsNode(Node):
             self.get_logger().error(f"robot_description topic: internal error: {exc!r}")
         self._log_description_events()
         if self._logic.model is not model and self._logic.model is not None:
+            self._publish_static_tf()
             freeze_heap()
 
     def _on_joint_state(self, msg: JointState, info: dict[str, Any]) -> None:
@@ -214,6 +262,8 @@ class KinematicsNode(Node):
             self._pose_pub.publish(out.pose)
         if out.twist is not None:
             self._twist_pub.publish(out.twist)
+        if out.tf is not None and self._tf_pub is not None:
+            self._tf_pub.publish(out.tf)
         if out.problem is not None and out.severity >= Severity.WARN:
             self._warn_throttled(out.problem)
         if self._ik_answers:  # IK answers that waited for this turn
@@ -270,6 +320,23 @@ class KinematicsNode(Node):
                     kind="late IK answer",
                 )
 
+    def _publish_markers(self) -> None:
+        """At markers_rate: the markers of the last state, only while someone subscribes."""
+        pub, types = self._markers_pub, self._marker_types
+        if pub is None or types is None or pub.get_subscription_count() == 0:
+            return
+        msg = self._logic.markers(types)
+        if msg is not None:
+            pub.publish(msg)
+
+    def _publish_static_tf(self) -> None:
+        """/tf_static of the description in use (again when it changes), stamped now."""
+        if self._tf_static_pub is None:
+            return
+        msg = self._logic.static_tf(self.get_clock().now().to_msg())
+        if msg is not None:
+            self._tf_static_pub.publish(msg)
+
     def _publish_diagnostics(self) -> None:
         if self.get_parameter("publish_diagnostics").value:
             self._diag_pub.publish(self._logic.diagnostics(asdict(self._pool.stats())))
@@ -293,6 +360,7 @@ class KinematicsNode(Node):
             lambda: self._logic.configure(changes), self._log_description_events
         )
         if self._logic.model is not model and self._logic.model is not None:
+            self._publish_static_tf()
             freeze_heap()
         return answer
 

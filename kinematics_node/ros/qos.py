@@ -6,6 +6,8 @@ that talks to them should match).
   any 5 ms hiccup (another process's turn on a busy machine) dropped samples for good.
 * `DESCRIPTION_QOS`: robot_description as robot_state_publisher publishes it (transient local,
   reliable): a node that starts later still gets the last one.
+* `TF_QOS`, `TF_STATIC_QOS`: /tf and /tf_static as tf2_ros' broadcasters offer them (depth 100;
+  /tf_static transient local, depth 1, so a listener that starts later gets it).
 * `NO_PUBLISHER_EVENTS`, `NO_SUBSCRIPTION_EVENTS`: the entities that carry messages at up to 1 kHz
   go without rclpy's default QoS-event handlers: each adds two waitables that the executor sets
   up again on every turn (~10 µs a turn each, a turn per joint_states message and more;
@@ -32,6 +34,12 @@ JOINT_STATES_QOS = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 DESCRIPTION_QOS = QoSProfile(
+    depth=1,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    reliability=ReliabilityPolicy.RELIABLE,
+)
+TF_QOS = QoSProfile(depth=100)
+TF_STATIC_QOS = QoSProfile(
     depth=1,
     durability=DurabilityPolicy.TRANSIENT_LOCAL,
     reliability=ReliabilityPolicy.RELIABLE,

@@ -10,8 +10,9 @@ worker processes (`kinematics_node.service.ik_pool`) between `prepare_ik` and `f
 `compute_ik` does both and the solve in between, in the caller's thread (tests, tools).
 
 The pose path (`on_joint_state`) computes per message only what is published: one FK + world
-Jacobian pass, the twist, and the two messages. Conditioning (SVDs) is computed for diagnostics,
-at their rate.
+Jacobian pass, the twist, and the two messages (and, with publish_tf, the /tf of the joints the
+message names). Conditioning (SVDs) is computed for diagnostics and the manipulability markers
+(`markers`), at their rates, from the last state.
 
 Service callbacks follow rclpy's `(request, response) -> response` and never raise: any failure
 gives `success = False` and a `message` naming the problem.
@@ -46,12 +47,15 @@ from msg_adapters import (
     time_from_seconds,
     twist_stamped_from_core,
 )
+from msg_adapters.markers import MarkerTypes, manipulability_markers
+from msg_adapters.transforms import TFTypes, tf_message
 
 from ..core import IKOptions, SerialChain, se3
 from ..core._checks import check_transform
-from ..core.analysis import conditioning
+from ..core.analysis import conditioning, translational_ellipsoid
 from ..core.exceptions import InvalidInputError, KinematicsError, RobotDescriptionError
 from ..core.ik.solver import beyond_reach, duration_text
+from ..core.joint_transforms import JointTransforms
 from ..core.model import Frame
 from .description_file import read_description_file
 from .ee_state import (
@@ -116,6 +120,7 @@ class EEMessages:
     twist: Any | None = None
     problem: str | None = None
     severity: Severity = Severity.NOTE
+    tf: Any | None = None
 
 
 @dataclass(frozen=True)
@@ -235,8 +240,19 @@ class KinematicsService:
         lookup_transform: LookupTransform | None = None,
         clock: Callable[[], float] = time.time,
         node_name: str = "/kinematics_node",
+        tf_types: TFTypes | None = None,
     ) -> None:
+        """`tf_types`: the classes of /tf's messages; None: no /tf (publish_tf is then refused
+        by the node, which says why)."""
         self._types = types
+        self._tf_types = tf_types
+        self._tree_tf: JointTransforms | None = None
+        self._tf_inputs: list[int] = []  # tracker index of each input of _tree_tf
+        self._tf_rows: dict[
+            tuple[str, ...], tuple[list[int], tuple[str, ...], tuple[str, ...]]
+        ] = {}
+        self._last_stamp: Any = None  # the Time of the last posed joint_states
+        self.markers_published = 0
         self._lookup = lookup_transform
         self._clock = clock
         self._node_name = node_name
@@ -585,7 +601,10 @@ class KinematicsService:
         self._model = model
         self._chain_blobs.clear()
         self._last_state = None
+        self._last_stamp = None
         self._last_problem = None
+        self._tree_tf = None
+        self._tf_rows = {}
         if model is None:
             self._tracker = None
             self._chain_index = []
@@ -600,6 +619,12 @@ class KinematicsService:
         continuous = list(chain.continuous) + [False] * (len(names) - chain.dof)
         self._tracker = JointStateTracker(names, continuous, required=chain.joint_names)
         self._chain_index = list(range(chain.dof))
+        try:  # every joint of the tree, for /tf and /tf_static
+            self._tree_tf = JointTransforms(model.description)
+            self._tf_inputs = [names.index(n) for n in self._tree_tf.inputs]
+        except (KinematicsError, ValueError) as exc:
+            self._tree_tf = None
+            self._say("warn", f"/tf cannot be given for this description: {_short(exc)}")
 
     # ------------------------------------------------------------------ joint states
     def on_joint_state(self, msg: Any, received: float | None = None) -> EEMessages:
@@ -673,6 +698,7 @@ class KinematicsService:
         V = state.twist
         twist_ok = V is not None and bool(np.isfinite(V).all())
         self._last_state = state
+        self._last_stamp = msg.header.stamp
         self._last_problem = None
         problem, severity = None, Severity.NOTE
         if jumped:  # in diagnostics until the next problem or a good sample clears it
@@ -703,7 +729,81 @@ class KinematicsService:
             twist = twist_stamped_from_core(types, V, frame, msg.header.stamp)
         if not twist_ok:
             problem = "velocity unknown" if problem is None else f"{problem}; velocity unknown"
-        return EEMessages(pose=pose, twist=twist, problem=problem, severity=severity)
+        tf = None
+        if self._params["publish_tf"]:
+            tf = self.tf(names, msg.header.stamp)
+        return EEMessages(pose=pose, twist=twist, problem=problem, severity=severity, tf=tf)
+
+    # ------------------------------------------------------------------ /tf, markers
+    def tf(self, names: Sequence[str], stamp: Any) -> Any | None:
+        """/tf as robot_state_publisher gives it for a joint_states naming `names`: each moving
+        joint of the description driven by one of them (mimic joints by their leader), child
+        link in parent link, from the latest positions, stamped `stamp`; None without TF types,
+        a description, or such a joint."""
+        types, tree, tracker = self._tf_types, self._tree_tf, self._tracker
+        if types is None or tree is None or tracker is None:
+            return None
+        key = tuple(names)
+        rows = self._tf_rows.get(key)
+        if rows is None:
+            named = set(key)
+            inputs = tree.inputs
+            moving = np.flatnonzero(tree.moving)
+            column = tree.input_columns
+            chosen = [int(i) for i, c in zip(moving, column, strict=True) if inputs[c] in named]
+            rows = (
+                chosen,
+                tuple(tree.parents[i] for i in chosen),
+                tuple(tree.children[i] for i in chosen),
+            )
+            self._tf_rows[key] = rows
+        chosen, parents, children = rows
+        if not chosen:
+            return None
+        values = np.array([tracker.positions(self._tf_inputs)])
+        t, quat = tree.transforms(values)
+        t, quat = t[0, chosen], quat[0, chosen]
+        finite = np.isfinite(t).all(axis=1) & np.isfinite(quat).all(axis=1)
+        if not finite.all():  # a joint of another chain not received yet
+            keep = np.flatnonzero(finite).tolist()
+            parents = tuple(parents[i] for i in keep)
+            children = tuple(children[i] for i in keep)
+            t, quat = t[finite], quat[finite]
+        return tf_message(types, stamp, parents, children, t, quat)
+
+    def static_tf(self, stamp: Any) -> Any | None:
+        """/tf_static: every fixed joint of the description, stamped `stamp`; None without TF
+        types, a description, or a fixed joint."""
+        types, tree = self._tf_types, self._tree_tf
+        if types is None or tree is None or tree.moving.all():
+            return None
+        t, quat = tree.transforms(np.zeros((1, len(tree.inputs))))
+        fixed = ~tree.moving
+        return tf_message(
+            types,
+            stamp,
+            tuple(np.array(tree.parents)[fixed].tolist()),
+            tuple(np.array(tree.children)[fixed].tolist()),
+            t[0, fixed],
+            quat[0, fixed],
+        )
+
+    def markers(self, types: MarkerTypes) -> Any | None:
+        """~/markers (`msg_adapters.markers`) of the last posed joint_states: the translational
+        manipulability ellipsoid at the tool and its most singular direction, in the base link,
+        stamped like those joint_states; None before one (counted in `markers_published`)."""
+        model, state, stamp = self._model, self._last_state, self._last_stamp
+        if model is None or state is None or stamp is None:
+            return None
+        J = model.chain.jacobian(state.q, "world")
+        try:
+            ellipsoid = translational_ellipsoid(J, state.T_base_tip[:3, 3])
+        except ValueError:  # not finite: nothing drawn
+            return None
+        self.markers_published += 1
+        return manipulability_markers(
+            types, ellipsoid, model.chain.base_link, int(stamp.sec), int(stamp.nanosec)
+        )
 
     def _problem(self, text: str, severity: Severity) -> EEMessages:
         self._last_problem = (text, severity)
@@ -1125,6 +1225,7 @@ class KinematicsService:
                 f"the robot description from {source} was refused ({why}); still using "
                 f"{self._held.tree.robot_name!r} from {self._held.source}"
             )
+        values.append(("markers_published", str(self.markers_published)))
         values += self._ik.values()
         values += [(f"ik_pool_{k}", str(v)) for k, v in (pool or {}).items()]
         status = S(

@@ -130,6 +130,24 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
         maximum=1e3,
     ),
     ParameterSpec(
+        "markers_rate",
+        10.0,
+        "Rate [Hz] of the manipulability markers on ~/markers (visualization_msgs/MarkerArray: "
+        "the translational manipulability ellipsoid at the tool, green to red by condition "
+        "number, and its most singular direction), published only while someone subscribes; "
+        "0 = never (read at start-up).",
+        minimum=0.0,
+        maximum=100.0,
+    ),
+    ParameterSpec(
+        "publish_tf",
+        False,
+        "Publish every link of the robot description on /tf (each moving joint named by a "
+        "joint_states message, child link in parent link, stamped like it; mimic joints with "
+        "their leader) and its fixed joints on /tf_static (transient local), as "
+        "robot_state_publisher does: run one or the other (read at start-up).",
+    ),
+    ParameterSpec(
         "publish_diagnostics", True, "Publish diagnostic_msgs/DiagnosticArray on /diagnostics."
     ),
     ParameterSpec(
@@ -174,7 +192,9 @@ PARAMETERS: tuple[ParameterSpec, ...] = (
 SPECS: dict[str, ParameterSpec] = {spec.name: spec for spec in PARAMETERS}
 
 #: Parameters the node reads once at start-up; changing them at run time is refused.
-STARTUP_ONLY = frozenset({"diagnostics_period", "ik.workers", "executor"})
+STARTUP_ONLY = frozenset(
+    {"diagnostics_period", "ik.workers", "executor", "markers_rate", "publish_tf"}
+)
 
 
 def defaults() -> dict[str, Any]:

@@ -137,6 +137,47 @@ def test_tf_and_ee_pose_equal_pinocchios_fk(recording):
         )
 
 
+def test_markers_are_the_nodes_at_10_hz_and_show_the_svd_of_j(recording):
+    """The node's manipulability markers, decoded by mcap-ros2-support: one per 100 ms of log
+    time, stamped like the joint_states they come from, the ellipsoid the SVD of J_v there."""
+    from scipy.spatial.transform import Rotation
+
+    from kinematics_node.core import SerialChain
+
+    src, out = recording
+    chain = SerialChain.from_urdf(robot_path("panda"), None, TIP)
+    states = {
+        t: STORE.deserialize_cdr(raw, "sensor_msgs/msg/JointState")
+        for topic, t, raw in _messages(src)
+        if topic == "/joint_states"
+    }
+    markers = _decoded(out)["/kinematics_node/markers"]
+    first = min(states)
+    assert [t for t, _ in markers] == [
+        min(s for s in states if s // 10**8 == b) for b in sorted({s // 10**8 for s in states})
+    ]
+    assert len(markers) >= 3 and markers[0][0] == first
+    for log_time, msg in markers:
+        state = states[log_time]
+        T, J = chain.fk_jacobian(np.array(state.position), "world")
+        sphere, arrow = msg.markers
+        assert sphere.header.frame_id == chain.base_link
+        assert (sphere.header.stamp.sec, sphere.header.stamp.nanosec) == (
+            state.header.stamp.sec,
+            state.header.stamp.nanosec,
+        )
+        U, s, _ = np.linalg.svd(J[3:])
+        p, o = sphere.pose.position, sphere.pose.orientation
+        np.testing.assert_allclose([p.x, p.y, p.z], T[:3, 3], atol=1e-12)
+        R = Rotation.from_quat([o.x, o.y, o.z, o.w]).as_matrix()
+        np.testing.assert_allclose(R @ np.diag(s**2) @ R.T, J[3:] @ J[3:].T, atol=1e-12)
+        np.testing.assert_allclose(
+            [sphere.scale.x, sphere.scale.y, sphere.scale.z], 2 * s, rtol=1e-12
+        )
+        a, b = ([pt.x, pt.y, pt.z] for pt in arrow.points)
+        assert abs(np.subtract(b, a) @ U[:, 2]) == pytest.approx(s[0], rel=1e-9)
+
+
 def test_tf_static_is_latched_and_the_added_topics_are_typed(recording):
     _, out = recording
     with rosbag2.Reader(out) as reader:
@@ -144,6 +185,7 @@ def test_tf_static_is_latched_and_the_added_topics_are_typed(recording):
     assert kinds["/ee_pose"].msgtype == "geometry_msgs/msg/PoseStamped"
     assert kinds["/ee_twist"].msgtype == "geometry_msgs/msg/TwistStamped"
     assert kinds["/tf"].msgtype == kinds["/tf_static"].msgtype == "tf2_msgs/msg/TFMessage"
+    assert kinds["/kinematics_node/markers"].msgtype == "visualization_msgs/msg/MarkerArray"
     (qos,) = kinds["/tf_static"].ext.offered_qos_profiles
     assert qos.durability.name == "TRANSIENT_LOCAL"
     (copied,) = kinds["/robot_description"].ext.offered_qos_profiles
