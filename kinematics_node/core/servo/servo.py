@@ -28,10 +28,14 @@ the arm is and to notice an arm that does not follow):
    slows along its path and a pure rotation keeps its point (`_scale_task`). The held joint's
    speed toward its bound only falls, and the share brakes ahead (`_share_brake`) before the
    joints taking over reach a singularity of their own or a position bound, so that they slow
-   in proportion within their jerk limits. A pure rotation at 0.5 rad/s through joint 7's limit
-   (with Ruckig, the joints then stopping before joint 2's limit): the tool point within
-   0.017 mm on the Panda and 0.008 mm on the iiwa14 at 100 Hz, 500 Hz and 1 kHz (0.13-0.82 mm
-   before); arriving at another phase it can still leave 0.5-0.6 mm. Otherwise the result
+   in proportion within their jerk limits; nor does it grow past what the joints taking over
+   can follow along the bend of their own path (`_curvature_cap`), and where they lag, the
+   smoothing is told the rate at which their targets move. A pure rotation at 0.5 rad/s through
+   joint 7's limit (with Ruckig, the joints then stopping before joint 2's limit), arriving at
+   it 0.2-1.5 rad after the start: the tool point within 0.025 mm on the Panda and 0.065 mm on
+   the iiwa14 at 100 Hz, 500 Hz and 1 kHz (the start's null-space motion included; 9 s from
+   the home pose: 0.009/0.030/0.067 and 0.008/0.002/0.002 mm; before, 0.46-0.64 mm arriving
+   0.2-0.4 rad after the start). Otherwise the result
    is scaled into the velocity limits, the null-space motion giving way first, then the damped
    directions, then the whole.
 4. Ruckig moves the commanded state toward that velocity within the acceleration and jerk limits
@@ -124,6 +128,10 @@ _PERIODS = (1.0, 2.0, 4.0, 8.0, 16.0)  # where nothing the joints reach in one p
 _TAKE_OVER_TIME_S = 1.0  # at a joint limit the share grows from 0 to 1 in no less than this
 # (faster, the joints' take-over gathered more motion than they could slow in time: Panda
 # 0.29 mm with no bound, 0.13 with this)
+_CURVATURE_STEP = 1e-3  # [rad or m] the largest joint's step along the take-over path over
+# which its bend is measured (`Servo._curvature_cap`)
+_CURVATURE_SHARE = 0.5  # at a joint limit, the share of the command is kept where following the
+# bend of the take-over path needs at most this share of each joint's take-over acceleration
 _SETTLE_S = 1.0  # [s] after a twist command's timeout has ramped the twist to zero, the loop stays
 # closed at most this long for the arm to reach the reference (K = 10/s leaves e⁻¹⁰ of a gap)
 
@@ -376,6 +384,7 @@ class Servo:
         self._ramp_target: list[float] = [0.0] * 6
         self._last_jacobian: FloatArray | None = None  # the task Jacobian of the last period
         self._task_share = 1.0  # the share of the commanded twist of the last period
+        self._last_take_over: list[float] | None = None
         self._free_sigma: float | None = None  # the free joints' σ_min then (`_exact_motion`)
         self._exact = False  # the last period's joint velocities were reached exactly (`follow`)
         self._null_ease = 0.0  # share of the null-space speed allowed (eased in per command)
@@ -440,6 +449,7 @@ class Servo:
         self._winding_down = False
         self._last_jacobian = None
         self._task_share = 1.0
+        self._last_take_over = None
         self._exact = False
         self._ref_valid = False
         self._ramp_valid = False
@@ -1108,6 +1118,7 @@ class Servo:
         if "task_share" not in details:
             self._task_share = 1.0
             self._free_sigma = None
+            self._last_take_over = None
         return qd
 
     def _solve_at(self, Jt: FloatArray, x: FloatArray, details: dict[str, Any]) -> list[float]:
@@ -1465,6 +1476,17 @@ class Servo:
         exact = self._exact_motion(Jt, c, x - c, first, lo, hi, held)
         if exact is not None and exact[2]:
             details["lagged"] = True
+            # The smoothing heads for the lagged target with the rate at which the targets move
+            # (Ruckig's target acceleration), so that it catches up with them: toward a target
+            # at rest it lagged a moving target for good, and the tool point drifted off by
+            # 0.29 mm (Panda) and 0.64 mm (iiwa14) at 1 kHz from a lag where the limit was met.
+            last = self._last_take_over
+            if last is not None:
+                inv = 1.0 / self.config.period_s
+                details["target_acceleration"] = [
+                    (t - u) * inv for t, u in zip(exact[0], last, strict=True)
+                ]
+        self._last_take_over = None if exact is None else exact[0]
         if exact is not None:
             total_list, share, _ = exact
             if share != 1.0 and commanded is not None:  # past 1 (`_SHARE_OVERSHOOT`): ahead
@@ -1593,12 +1615,11 @@ class Servo:
                 # start, the tool point of a fast take-over drifted by J̇ q̇ dt: 0.26 mm in 0.4 s
                 # on the Panda)
                 half = 0.5 * dt
-                J_end = self._task_jacobian(
-                    [
-                        q + dt * (v + half * a)
-                        for q, v, a in zip(integ.q_list, integ.v_list, integ.a_list, strict=True)
-                    ]
-                )
+                q_end = [
+                    q + dt * (v + half * a)
+                    for q, v, a in zip(integ.q_list, integ.v_list, integ.a_list, strict=True)
+                ]
+                J_end = self._task_jacobian(q_end)
                 # The joints that take over must not run into a singularity of their own (the
                 # iiwa14's joints 1-6 without joint 7, σ_min 0.097 to 0.034 in 0.8 s of
                 # take-over): the share is bounded as the smallest singular value of the joints
@@ -1606,12 +1627,14 @@ class Servo:
                 # `_brake`'s at the edge of the workspace)
                 free = [not h for h in held]
                 eps = self.config.singular_value_threshold
-                sigma = (
-                    float(dls.svd(J_end[:, free])[1][-1]) if sum(free) >= J_end.shape[0] else 0.0
-                )
+                free_svd = dls.svd(J_end[:, free]) if sum(free) >= J_end.shape[0] else None
+                sigma = 0.0 if free_svd is None else float(free_svd[1][-1])
                 cap = (sigma - eps) / eps
                 cap = 0.0 if cap < 0.0 else 1.0 if cap > 1.0 else cap
                 cap = min(cap, self._task_share + dt / _TAKE_OVER_TIME_S, self._share_brake(sigma))
+                if free_svd is not None and sigma >= 2.0 * eps:
+                    bend = self._curvature_cap(q_end, free, command, *free_svd)
+                    cap = min(cap, max(bend, self._task_share))
                 self._free_sigma = sigma
                 problem = task_scaling.ShareProblem(J_end, command, correction)
                 if not problem.usable:
@@ -1629,6 +1652,46 @@ class Servo:
                 if found is not None:
                     return found[0].tolist(), found[1], periods != 1.0
         return None
+
+    def _curvature_cap(
+        self,
+        q: list[float],
+        free: list[bool],
+        command: FloatArray,
+        U: FloatArray,
+        sv: FloatArray,
+        Vt: FloatArray,
+    ) -> float:
+        """The largest share s at which the joints left free (`free`) can follow the bend of
+        their own path: at a constant share they move at q̇ = s g(q), g = J_free⁺ c the velocity
+        per unit share (c the `command`; U, sv, Vt: the SVD of J_free at q), and so accelerate
+        at q̈ = s² h, h = dg/dσ the change of g along the path they trace (σ the command done).
+        Each joint's s² |h| is kept within `_CURVATURE_SHARE` of its take-over acceleration,
+        the rest left for changing s. h by a finite difference: g again a step
+        `_CURVATURE_STEP` along g (one more Jacobian and SVD). Without it the share reached 1
+        where the Panda's joints 1-6 bend fastest (σ_min 0.11-0.12), asked for more than the
+        take-over acceleration, lagged, and the tool point left by 0.42-0.55 mm (500 Hz).
+        The caller never lets it push the share below the present one (the bend grows toward
+        the joints' singularity, where their own cap and `_share_brake` slow the share: forced
+        down faster than the joints could follow, the Panda lagged by 0.54-0.67 mm), and only
+        where their σ_min is at least twice the threshold."""
+        g = Vt.T.dot(U.T.dot(command) / sv)
+        scale = float(np.abs(g).max())
+        if scale == 0.0:
+            return math.inf
+        eps = _CURVATURE_STEP / scale
+        gk = iter(g.tolist())
+        ahead = [x + eps * next(gk) if f else x for x, f in zip(q, free, strict=True)]
+        J2 = self._task_jacobian(ahead)
+        U2, sv2, Vt2 = dls.svd(J2[:, free])
+        g2 = Vt2.T.dot(U2.T.dot(command) / sv2)
+        h = ((g2 - g) / eps).tolist()
+        tops = [t for t, f in zip(self._take_over_acceleration, free, strict=True) if f]
+        best = math.inf
+        for hk, top in zip(h, tops, strict=True):
+            if hk != 0.0:
+                best = min(best, math.sqrt(_CURVATURE_SHARE * top / abs(hk)))
+        return best
 
     def _share_brake(self, sigma: float) -> float:
         """The largest share of the command from which the joints taking over can still slow, in
