@@ -365,8 +365,14 @@ class KinematicsNode(Node):
         return answer
 
     def destroy_node(self) -> None:
-        self._pool.shutdown()  # answers every open job (into the mailbox)
-        self._ik_answers.close()
+        # Also called by rclpy's context at shutdown (Kilted's rclpy destroys every node it
+        # tracks) on a node whose __init__ raised, a refused parameter: tear down what was built.
+        pool = getattr(self, "_pool", None)
+        if pool is not None:
+            pool.shutdown()  # answers every open job (into the mailbox)
+        answers = getattr(self, "_ik_answers", None)
+        if answers is not None:
+            answers.close()
         super().destroy_node()
 
 
