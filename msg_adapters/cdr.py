@@ -206,7 +206,7 @@ def decode_joint_states(messages: Sequence[bytes]) -> list[JointStateGroup]:
 
 
 # ------------------------------------------------------------------------------------- writing
-class _Template:
+class CdrTemplate:
     """One little-endian message's bytes, with named places for its per-message fields.
 
     `rows(count)` gives `count` copies as a structured array whose fields (unaligned, at the
@@ -228,6 +228,28 @@ class _Template:
         raw = text.encode() + b"\0"
         self.uint32(len(raw))
         self.buf.extend(raw)
+
+    def int32(self, value: int) -> None:
+        self.align(4)
+        self.buf.extend(int(value).to_bytes(4, "little", signed=True))
+
+    def boolean(self, value: bool) -> None:
+        self.buf.extend(b"\x01" if value else b"\x00")
+
+    def empty_sequence(self) -> None:
+        """A sequence of no elements (its count, 0, and nothing after it)."""
+        self.uint32(0)
+
+    def constant_float64s(self, values: Sequence[float]) -> None:
+        """float64 fields that are the same in every message."""
+        self.align(8)
+        self.buf.extend(np.asarray(values, dtype="<f8").tobytes())
+
+    def float32s(self, field: str, count: int) -> None:
+        """Room for `count` consecutive float32 fields."""
+        self.align(4)
+        self.fields[field] = (np.dtype(("<f4", (count,))), len(self.buf))
+        self.buf.extend(bytes(4 * count))
 
     def stamp(self, field: str) -> None:
         """Room for a builtin_interfaces/Time (int32 sec, uint32 nanosec, written as int32)."""
@@ -254,7 +276,7 @@ class _Template:
         return np.frombuffer(bytearray(bytes(self.buf) * count), dtype=dtype)
 
 
-def _stamps(stamp_ns: IntArray) -> NDArray[np.int32]:
+def stamps(stamp_ns: IntArray) -> NDArray[np.int32]:
     """(N,) stamps [ns] → (N, 2) builtin_interfaces/Time fields (sec, nanosec as int32 bits)."""
     stamp = np.asarray(stamp_ns, dtype=np.int64)
     sec, nanosec = np.divmod(stamp, 1_000_000_000)
@@ -266,23 +288,23 @@ def _stamps(stamp_ns: IntArray) -> NDArray[np.int32]:
     return pair
 
 
-def _as_bytes(rows: NDArray[np.void]) -> NDArray[np.uint8]:
+def as_bytes(rows: NDArray[np.void]) -> NDArray[np.uint8]:
     return rows.view(np.uint8).reshape(rows.shape[0], rows.dtype.itemsize)
 
 
 def _stamped_vectors(
     stamp_ns: IntArray, frame_id: str, first: FloatArray, second: FloatArray
 ) -> NDArray[np.uint8]:
-    template = _Template()
+    template = CdrTemplate()
     template.stamp("stamp")
     template.string(frame_id)
     template.float64s("first", first.shape[-1])
     template.float64s("second", second.shape[-1])  # contiguous with the first: both 8-aligned
     rows = template.rows(len(stamp_ns))
-    rows["stamp"] = _stamps(stamp_ns)
+    rows["stamp"] = stamps(stamp_ns)
     rows["first"] = first
     rows["second"] = second
-    return _as_bytes(rows)
+    return as_bytes(rows)
 
 
 def pose_stamped_cdr(
@@ -312,7 +334,7 @@ def joint_state_cdr(
     """sensor_msgs/JointState, one row of bytes per message: (N,) stamps [ns], the joint names,
     positions (N, n) and, when given, velocities and efforts (N, n) (else empty sequences)."""
     n = len(names)
-    template = _Template()
+    template = CdrTemplate()
     template.stamp("stamp")
     template.string(frame_id)
     template.uint32(n)
@@ -325,11 +347,11 @@ def joint_state_cdr(
         if count:
             template.float64s(field, count)
     rows = template.rows(len(stamp_ns))
-    rows["stamp"] = _stamps(stamp_ns)
+    rows["stamp"] = stamps(stamp_ns)
     for field, values in fields:
         if values is not None:
             rows[field] = values
-    return _as_bytes(rows)
+    return as_bytes(rows)
 
 
 def tf_message_cdr(
@@ -344,7 +366,7 @@ def tf_message_cdr(
     Every transform of a message carries its stamp."""
     if len(parents) != len(children):
         raise InvalidInputError(f"{len(parents)} parent frames for {len(children)} child frames")
-    template = _Template()
+    template = CdrTemplate()
     template.uint32(len(children))
     for k, (parent, child) in enumerate(zip(parents, children, strict=True)):
         template.stamp(f"stamp{k}")
@@ -353,9 +375,9 @@ def tf_message_cdr(
         template.float64s(f"translation{k}", 3)
         template.float64s(f"rotation{k}", 4)
     rows = template.rows(len(stamp_ns))
-    stamps = _stamps(stamp_ns)
+    times = stamps(stamp_ns)
     for k in range(len(children)):
-        rows[f"stamp{k}"] = stamps
+        rows[f"stamp{k}"] = times
         rows[f"translation{k}"] = translation[:, k]
         rows[f"rotation{k}"] = rotation_xyzw[:, k]
-    return _as_bytes(rows)
+    return as_bytes(rows)

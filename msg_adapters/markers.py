@@ -22,10 +22,12 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from kinematics_node.core.analysis import RED_CONDITION, Ellipsoid, condition_colour
 from kinematics_node.core.so3 import quaternion_from_matrix
 
+from .cdr import CdrTemplate, as_bytes, stamps
 from .types import MessageClasses
 
 #: ROS 2 interface name of each `MarkerTypes` field.
@@ -52,6 +54,8 @@ MIN_SCALE = 1e-4
 MIN_ARROW = 0.05
 #: The ellipsoid's opacity (the arm stays visible through it).
 ELLIPSOID_ALPHA = 0.4
+#: visualization_msgs/Marker's constants (its definition's SPHERE, ARROW and ADD).
+_ARROW, _SPHERE, _ADD = 0, 2, 0
 
 
 @dataclass(frozen=True)
@@ -159,3 +163,79 @@ def _marker(
         mesh_file=types.MeshFile(filename="", data=np.zeros(0, dtype=np.uint8)),
         mesh_use_embedded_materials=False,
     )
+
+
+def manipulability_markers_cdr(
+    ellipsoids: list[Ellipsoid],
+    frame_id: str,
+    stamp_ns: NDArray[np.int64],
+    red_at: float = RED_CONDITION,
+) -> NDArray[np.uint8]:
+    """`manipulability_markers` of many ellipsoids, serialised (CDR, visualization_msgs of ROS 2
+    Jazzy and later: Marker with its texture and mesh_file fields), one row of bytes each, without
+    building a message object: the layout of the two markers is fixed, so one template row is
+    filled (`msg_adapters.cdr.CdrTemplate`). The same bytes as rosbags' serialiser gives for
+    `manipulability_markers` (tested); ~10 µs a message against ~0.3 ms.
+    """
+    n = len(ellipsoids)
+    centre = np.empty((n, 3))
+    quat = np.empty((n, 4))
+    scale = np.empty((n, 3))
+    colour = np.empty((n, 3))
+    length = np.empty(n)
+    weakest = np.empty((n, 3))
+    for k, e in enumerate(ellipsoids):
+        centre[k] = e.centre
+        quat[k] = quaternion_from_matrix(e.rotation)
+        scale[k] = np.maximum(2.0 * np.asarray(e.semi_axes, dtype=float), MIN_SCALE)
+        colour[k] = condition_colour(e.condition_number, red_at)
+        length[k] = max(float(e.semi_axes[0]), MIN_ARROW)
+        weakest[k] = e.weakest
+    tip = centre + length[:, None] * weakest
+    template = CdrTemplate()
+    template.uint32(2)  # markers
+    for marker in ("sphere", "arrow"):
+        template.stamp(f"{marker}_stamp")
+        template.string(frame_id)
+        template.string(NAMESPACE)
+        template.int32(0 if marker == "sphere" else 1)  # id
+        template.int32(_SPHERE if marker == "sphere" else _ARROW)  # type
+        template.int32(_ADD)  # action
+        if marker == "sphere":
+            template.float64s("sphere_pose", 7)
+        else:
+            template.constant_float64s([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+        template.float64s(f"{marker}_scale", 3)
+        template.float32s(f"{marker}_colour", 4)
+        template.int32(0)  # lifetime.sec
+        template.uint32(0)  # lifetime.nanosec
+        template.boolean(False)  # frame_locked
+        if marker == "sphere":
+            template.empty_sequence()  # points
+        else:
+            template.uint32(2)
+            template.float64s("arrow_points", 6)
+        template.empty_sequence()  # colors
+        template.string("")  # texture_resource
+        template.int32(0)  # texture.header.stamp.sec
+        template.uint32(0)  # texture.header.stamp.nanosec
+        template.string("")  # texture.header.frame_id
+        template.string("")  # texture.format
+        template.empty_sequence()  # texture.data
+        template.empty_sequence()  # uv_coordinates
+        template.string("")  # text
+        template.string("")  # mesh_resource
+        template.string("")  # mesh_file.filename
+        template.empty_sequence()  # mesh_file.data
+        template.boolean(False)  # mesh_use_embedded_materials
+    rows = template.rows(n)
+    t = stamps(stamp_ns)
+    rows["sphere_stamp"] = t
+    rows["arrow_stamp"] = t
+    rows["sphere_pose"] = np.concatenate((centre, quat), axis=1)
+    rows["sphere_scale"] = scale
+    rows["arrow_scale"] = np.column_stack((0.1 * length, 0.2 * length, 0.25 * length))
+    rows["sphere_colour"] = np.column_stack((colour, np.full(n, ELLIPSOID_ALPHA)))
+    rows["arrow_colour"] = np.column_stack((colour, np.ones(n)))
+    rows["arrow_points"] = np.concatenate((centre, tip), axis=1)
+    return as_bytes(rows)

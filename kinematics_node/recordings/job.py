@@ -243,10 +243,6 @@ class _Output:
     def rows(self, topic: str, written: Written) -> None:
         write_rows(self.writer, self.added[topic], written.log_time_ns, written.rows)
 
-    def each(self, topic: str, messages: list[tuple[int, bytes]]) -> None:
-        for log_time_ns, raw in messages:
-            self.writer.write(self.added[topic], log_time_ns, raw)
-
     def close(self) -> None:
         self.writer.close()
 
@@ -451,7 +447,7 @@ def _run(
     if options.markers_rate_hz > 0:
         added[markers_topic] = MARKERS_TYPE
     output = _Output(staging, reader, added)
-    markers = Markers(chain, output.store, options.singular_condition)
+    markers = Markers(chain, options.singular_condition)
     table = None if table_path is None else _Table(table_path, chain)
     motion = JointMotion(chain.joint_names, chain.continuous.tolist())
     findings = Findings(chain, options.singular_condition, options.near_limit)
@@ -506,8 +502,8 @@ def _run(
                         m.log_time_ns[rows[-1]] // int(1e9 / options.markers_rate_hz)
                     )
                 drawn = markers.messages(m, c, rows)
-                output.each(markers_topic, drawn)
-                written[markers_topic] += len(drawn)
+                output.rows(markers_topic, drawn)
+                written[markers_topic] += len(drawn.log_time_ns)
             t0 = time.perf_counter()
             timings["write"] += t0 - t3
             read += len(batch)

@@ -13,13 +13,13 @@ the node's manipulability markers (`msg_adapters.markers`) at sampled rows.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
 from msg_adapters.cdr import pose_stamped_cdr, tf_message_cdr, twist_stamped_cdr
-from msg_adapters.markers import MARKER_ARRAY_TYPE, MarkerTypes, manipulability_markers
+from msg_adapters.markers import MARKER_ARRAY_TYPE, manipulability_markers_cdr
 
 from ..core import SerialChain, so3
 from ..core.analysis import RED_CONDITION, singular_values, translational_ellipsoid
@@ -167,39 +167,26 @@ def conditioning(log_time_ns: IntArray, J: FloatArray) -> Conditioning:
 
 class Markers:
     """The node's manipulability markers (`msg_adapters.markers`) of rows of a batch, serialised
-    with a rosbags typestore (`store.serialize_cdr`: ~10 messages a second of log time).
+    as visualization_msgs of ROS 2 Jazzy (the output's typestore) in one batch.
 
     Args:
         chain: the chain; frame_id the base link.
-        store: a rosbags typestore with visualization_msgs (ROS 2 Iron or later).
         red_at: condition number drawn red (`core.analysis.condition_colour`).
     """
 
-    def __init__(self, chain: SerialChain, store: Any, red_at: float = RED_CONDITION):
+    def __init__(self, chain: SerialChain, red_at: float = RED_CONDITION):
         self.chain = chain
-        self.store = store
-        self.types = MarkerTypes.from_typestore(store)
         self.red_at = red_at
 
-    def messages(
-        self, motion: Motion, computed: Computed, rows: IntArray
-    ) -> list[tuple[int, bytes]]:
-        """(log time [ns], CDR bytes) of the markers at `rows` of `motion` (and `computed`, its
-        messages); rows whose pose or Jacobian is not finite are skipped."""
-        out = []
-        for row in rows.tolist():
-            T, J = computed.T[row], computed.J[row]
-            if not (np.isfinite(T).all() and np.isfinite(J).all()):
-                continue
-            stamp = int(motion.stamp_ns[row])
-            msg = manipulability_markers(
-                self.types,
-                translational_ellipsoid(J, T[:3, 3]),
-                self.chain.base_link,
-                stamp // 1_000_000_000,
-                stamp % 1_000_000_000,
-                self.red_at,
-            )
-            raw = self.store.serialize_cdr(msg, MARKERS_TYPE)
-            out.append((int(motion.log_time_ns[row]), bytes(raw)))
-        return out
+    def messages(self, motion: Motion, computed: Computed, rows: IntArray) -> Written:
+        """The markers at `rows` of `motion` (and `computed`, its messages), serialised in one
+        batch (`manipulability_markers_cdr`); rows whose pose or Jacobian is not finite are
+        skipped."""
+        T, J = computed.T[rows], computed.J[rows]
+        finite = np.isfinite(T).all(axis=(1, 2)) & np.isfinite(J).all(axis=(1, 2))
+        rows = rows[finite]
+        ellipsoids = [translational_ellipsoid(computed.J[r], computed.T[r, :3, 3]) for r in rows]
+        data = manipulability_markers_cdr(
+            ellipsoids, self.chain.base_link, motion.stamp_ns[rows], self.red_at
+        )
+        return Written(motion.log_time_ns[rows], data)

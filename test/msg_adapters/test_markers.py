@@ -87,3 +87,26 @@ def test_a_flat_ellipsoid_is_drawn_thin_and_red(store, types):
     assert (sphere.scale.x, sphere.scale.y, sphere.scale.z) == (2.0, 2.0, MIN_SCALE)
     assert (sphere.color.r, sphere.color.g) == (1.0, 0.0)
     assert abs(arrow.points[1].z) == pytest.approx(1.0)
+
+
+def test_batched_markers_are_rosbags_bytes_of_the_message_builder():
+    """`manipulability_markers_cdr` writes, byte for byte, what rosbags' serialiser writes for
+    `manipulability_markers` of the same ellipsoids (singular and flat ones included)."""
+    from kinematics_node.core.analysis import translational_ellipsoid
+    from msg_adapters.markers import manipulability_markers, manipulability_markers_cdr
+
+    rng = np.random.default_rng(21)
+    Js = [rng.normal(size=(6, 7)) for _ in range(6)]
+    Js[1][3:] = 0.0  # no linear motion at all
+    Js[2][5] = 0.0  # a flat ellipsoid
+    ellipsoids = [translational_ellipsoid(J, rng.normal(size=3)) for J in Js]
+    stamp = rng.integers(0, 2**31 - 1, size=6) * 10**9 + rng.integers(0, 10**9, size=6)
+    rows = manipulability_markers_cdr(ellipsoids, "panda_link0", stamp)
+    store = typesys.get_typestore(typesys.Stores.ROS2_JAZZY)
+    types = MarkerTypes.from_typestore(store)
+    for k, e in enumerate(ellipsoids):
+        msg = manipulability_markers(
+            types, e, "panda_link0", int(stamp[k] // 10**9), int(stamp[k] % 10**9)
+        )
+        want = store.serialize_cdr(msg, "visualization_msgs/msg/MarkerArray")
+        assert rows[k].tobytes() == bytes(want), k
