@@ -160,3 +160,13 @@ def all_finite(messages: list[Any]) -> bool:
         if not all(math.isfinite(x) for x in numbers):
             return False
     return True
+
+
+def servo_ready(statuses: list[Any], states: list[Any], twist_publisher: Any) -> bool:
+    """The live servo tests' start condition: the servo says IDLE on ~/status, joint_states
+    flow, and our twist publisher has matched the servo's subscription."""
+    return (
+        any(values(s).get("code_name") == "IDLE" for s in statuses)
+        and len(states) > 5
+        and twist_publisher.get_subscription_count() > 0
+    )

@@ -20,6 +20,7 @@ from geometry_msgs.msg import TwistStamped
 from live_node import DOMAIN_ID, UR5E, Client, wait_until
 from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
+from servo_node_testing import servo_ready, values
 
 from kinematics_node.core import SerialChain
 from kinematics_node.ros.env import local_ros_env
@@ -29,10 +30,6 @@ READY = [0.0, -1.57, 1.57, -1.57, -1.57, 0.0]
 CHAIN = {"robot_description_file": str(UR5E), "base_link": "base_link", "tip_link": "tool0"}
 #: what an `import ruckig` meets where Ruckig is not installed
 NO_RUCKIG = "raise ImportError(\"No module named 'ruckig' (hidden by the test)\")\n"
-
-
-def _values(status: Any) -> dict[str, str]:
-    return {kv.key: kv.value for kv in status.values}
 
 
 def _stamp(msg: Any) -> float:
@@ -80,11 +77,7 @@ def test_without_ruckig_the_arm_follows_a_twist_and_the_servo_says_what_is_missi
 
         try:
             wait_until(
-                lambda: (
-                    any(_values(s).get("code_name") == "IDLE" for s in statuses)
-                    and len(states) > 5
-                    and twist_pub.get_subscription_count() > 0
-                ),
+                lambda: servo_ready(statuses, states, twist_pub),
                 30.0,
                 "the servo ready (status IDLE), joint_states flowing and our twists matched",
             )
@@ -118,7 +111,7 @@ def test_without_ruckig_the_arm_follows_a_twist_and_the_servo_says_what_is_missi
         span = after[-1][0] - after[0][0]
         assert np.linalg.norm(moved) / span == pytest.approx(np.linalg.norm(v), rel=0.3), told
         # ~/status names the smoother; the log says once what is missing and how to install it
-        named = {_values(s).get("smoother") for s in statuses}
+        named = {values(s).get("smoother") for s in statuses}
         assert named == {"acceleration-limited (no Ruckig)"}, named
         servo_log = (directory / "servo.log").read_text(encoding="utf-8", errors="replace")
         assert servo_log.count("Ruckig is not installed") == 1, servo_log

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from kinematics_node.recordings.job import latched_qos
 from kinematics_node.sim.robots import robot_path
 
 typesys = __import__("pytest").importorskip("rosbags.typesys", reason="pip install rosbags")
@@ -35,32 +36,6 @@ def joint_state(stamp_ns: int, names: Sequence[str], pos, vel=()) -> Any:
         velocity=np.asarray(vel, dtype=np.float64),
         effort=np.zeros(0),
     )
-
-
-def latched() -> list[Any]:
-    from rosbags.interfaces import (
-        Qos,
-        QosDurability,
-        QosHistory,
-        QosLiveliness,
-        QosReliability,
-        QosTime,
-    )
-
-    never = QosTime(sec=2147483647, nsec=4294967295)
-    return [
-        Qos(
-            QosHistory.KEEP_LAST,
-            1,
-            QosReliability.RELIABLE,
-            QosDurability.TRANSIENT_LOCAL,
-            never,
-            never,
-            QosLiveliness.AUTOMATIC,
-            never,
-            False,
-        )
-    ]
 
 
 def arm_motion(
@@ -105,7 +80,7 @@ def write_recording(
                 "/robot_description",
                 "std_msgs/msg/String",
                 typestore=STORE,
-                offered_qos_profiles=latched(),
+                offered_qos_profiles=latched_qos(),
             )
             msg = T["std_msgs/msg/String"](data=text)
             w.write(c, EPOCH_NS - 10**9, STORE.serialize_cdr(msg, "std_msgs/msg/String"))

@@ -13,7 +13,15 @@ from pathlib import Path
 import numpy as np
 
 from kinematics_node.core import SerialChain, so3
-from kinematics_node.core.servo import Command, Servo, ServoLimits, ServoStatus
+from kinematics_node.core.servo import (
+    Command,
+    JointJogCommand,
+    PoseCommand,
+    Servo,
+    ServoLimits,
+    ServoStatus,
+    TwistCommand,
+)
 
 Script = Callable[[int, float], Sequence[Command]]
 
@@ -173,3 +181,33 @@ def joined(first: Trace, second: Trace) -> Trace:
         first.q_start,
         first.dt,
     )
+
+
+def random_script(chain: SerialChain, servo: Servo, seed: int) -> tuple[Callable, int]:
+    """(script, periods): twists, jogs, pose targets, nothing, NaN and pause in a random order,
+    each for 5-40 periods, from the servo's start."""
+    rng = np.random.default_rng(seed)
+    T0 = chain.fk(servo.positions)
+    plan = []
+    for _ in range(30):
+        kind = rng.choice(["twist", "jog", "pose", "nothing", "nan", "pause"])
+        plan.append((kind, rng.normal(size=6), rng.integers(5, 40)))
+    schedule = [p for p in plan for _ in range(p[2])]
+
+    def script(k, t):
+        kind, r, _ = schedule[min(k, len(schedule) - 1)]
+        if kind == "twist":
+            return [TwistCommand(tuple(r[:3]), tuple(0.3 * r[3:]), chain.tip_link, t)]
+        if kind == "jog":
+            return [JointJogCommand(list(chain.joint_names), list(r[: chain.dof] * 2), t)]
+        if kind == "pose":
+            goal = T0.copy()
+            goal[:3, 3] += 0.05 * r[:3]
+            return [PoseCommand(goal, chain.base_link, t)]
+        if kind == "nan":
+            return [TwistCommand((np.nan, 0, 0), (0, 0, 0), chain.base_link, t)]
+        if kind == "pause":
+            servo.pause() if r[0] > 0 else servo.resume()
+        return []
+
+    return script, len(schedule)

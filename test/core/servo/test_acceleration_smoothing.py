@@ -16,14 +16,13 @@ import math
 
 import numpy as np
 import pytest
-from servo_testing import limit_violations, robot, run
+from servo_testing import limit_violations, random_script, robot, run
 
 from kinematics_node.core.exceptions import InvalidInputError
 from kinematics_node.core.servo import (
     NO_RUCKIG_NOTE,
     JointJogCommand,
     MissingDependencyError,
-    PoseCommand,
     Servo,
     ServoConfig,
     ServoLimits,
@@ -257,42 +256,12 @@ def test_smoothing_ruckig_without_ruckig_is_refused_saying_how_to_install_it(no_
 
 
 # ---------------------------------------------------------------------------- the servo
-def _random_script(chain, servo, seed):
-    """Twists, jogs, pose targets, nothing, NaN and pause, each for 5-40 periods (the script of
-    test_servo_motion's random-script test)."""
-    rng = np.random.default_rng(seed)
-    T0 = chain.fk(servo.positions)
-    plan = []
-    for _ in range(30):
-        kind = rng.choice(["twist", "jog", "pose", "nothing", "nan", "pause"])
-        plan.append((kind, rng.normal(size=6), rng.integers(5, 40)))
-    schedule = [p for p in plan for _ in range(p[2])]
-
-    def script(k, t):
-        kind, r, _ = schedule[min(k, len(schedule) - 1)]
-        if kind == "twist":
-            return [TwistCommand(tuple(r[:3]), tuple(0.3 * r[3:]), chain.tip_link, t)]
-        if kind == "jog":
-            return [JointJogCommand(list(chain.joint_names), list(r[: chain.dof] * 2), t)]
-        if kind == "pose":
-            goal = T0.copy()
-            goal[:3, 3] += 0.05 * r[:3]
-            return [PoseCommand(goal, chain.base_link, t)]
-        if kind == "nan":
-            return [TwistCommand((np.nan, 0, 0), (0, 0, 0), chain.base_link, t)]
-        if kind == "pause":
-            servo.pause() if r[0] > 0 else servo.resume()
-        return []
-
-    return script, len(schedule)
-
-
 @pytest.mark.parametrize("name", list(HOMES))
 def test_without_ruckig_random_scripts_never_break_a_limit(no_ruckig, name):
     chain = robot(name)
     servo = Servo(chain, HOMES[name])
     assert servo.smoothing.name == "acceleration"
-    script, steps = _random_script(chain, servo, 1000 + len(name))
+    script, steps = random_script(chain, servo, 1000 + len(name))
     trace = run(servo, script, steps * servo.config.period_s)
     assert limit_violations(servo.limits, trace, jerk=False) == []
     assert np.abs(trace.v).max() > 0.1  # it did move

@@ -14,6 +14,7 @@ import pytest
 from servo_testing import (
     joined,
     limit_violations,
+    random_script,
     robot,
     rotation_angle,
     run,
@@ -432,31 +433,8 @@ def test_step_commands_never_break_a_limit(name):
 def test_random_scripts_of_any_command_never_break_a_limit(name):
     chain = robot(name)
     servo = _servo(name)
-    rng = np.random.default_rng(1000 + len(name))
-    T0 = chain.fk(HOMES[name])
-    plan = []
-    for _ in range(30):
-        kind = rng.choice(["twist", "jog", "pose", "nothing", "nan", "pause"])
-        plan.append((kind, rng.normal(size=6), rng.integers(5, 40)))
-    schedule = [p for p in plan for _ in range(p[2])]
-
-    def script(k, t):
-        kind, r, _ = schedule[min(k, len(schedule) - 1)]
-        if kind == "twist":
-            return [TwistCommand(tuple(r[:3]), tuple(0.3 * r[3:]), chain.tip_link, t)]
-        if kind == "jog":
-            return [JointJogCommand(list(chain.joint_names), list(r[: chain.dof] * 2), t)]
-        if kind == "pose":
-            goal = T0.copy()
-            goal[:3, 3] += 0.05 * r[:3]
-            return [PoseCommand(goal, chain.base_link, t)]
-        if kind == "nan":
-            return [TwistCommand((np.nan, 0, 0), (0, 0, 0), chain.base_link, t)]
-        if kind == "pause":
-            servo.pause() if r[0] > 0 else servo.resume()
-        return []
-
-    trace = run(servo, script, len(schedule) * servo.config.period_s)
+    script, periods = random_script(chain, servo, 1000 + len(name))
+    trace = run(servo, script, periods * servo.config.period_s)
     assert limit_violations(servo.limits, trace) == []
 
 
