@@ -2,7 +2,8 @@
 
 Every step moves each joint from q_k towards a reference q_ref(t_{k+1}) given by the active mode,
 
-    Δ_k     = clip(q_ref(t_{k+1}) − q_k, −q̇_max Δt, +q̇_max Δt)      (velocity limit)
+    Δ_k     = (q_ref(t_{k+1}) − q_k) / max(1, max_i |q_ref,i − q_k,i| / (q̇_max,i Δt))
+                                                      (velocity limit, every joint in proportion)
     q_{k+1} = clip(q_k + Δ_k, q_min, q_max)                           (position limit)
     q̇_{k+1} = (q_{k+1} − q_k) / Δt,
 
@@ -427,8 +428,16 @@ class ArmSimulator:
                 self.start_demo()
                 target = self.demo_position(t_next)
 
+        # Every joint moves toward the reference in proportion, as fast as the slowest allows:
+        # a reference out of one step's reach (a position command that came late, after a gap)
+        # is approached along the straight line in joint space, not joint by joint (which bent
+        # the tool's path by millimetres when the servo's stream of positions was held up).
         max_step = self.velocity_limit * self.dt
-        delta = np.clip(target - self._q, -max_step, max_step)
+        delta = target - self._q
+        with np.errstate(divide="ignore", invalid="ignore"):
+            reach = np.max(np.where(delta != 0.0, np.abs(delta) / max_step, 0.0))
+        if reach > 1.0:
+            delta = delta / reach
         q_next = np.clip(self._q + delta, self.lower, self.upper)
         v_max = self.velocity_limit
         self._qdot = np.clip((q_next - self._q) / self.dt, -v_max, v_max)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from kinematics_node.core import InvalidInputError
+from kinematics_node.core.model import middle_of_limits
 from kinematics_node.sim import robots
 from kinematics_node.sim.arm import MODES, ArmSimulator
 from msg_adapters.joint_commands import apply_position_msg
@@ -29,14 +30,27 @@ def test_a_feasible_position_is_reached_in_one_step_and_held(sim):
     assert np.allclose(sim.q, target) and not sim.qdot.any() and sim.mode == "position"
 
 
-def test_a_far_position_is_approached_at_the_velocity_limits(sim):
-    target = np.full(6, 1.0)
+def test_a_far_position_is_approached_along_a_line_the_slowest_joint_at_its_limit():
+    """A position out of one step's reach: every joint moves toward it in proportion (a straight
+    line in joint space, so a streamed path that arrives late is caught up along it, not joint by
+    joint), the joint that needs longest at its velocity limit, none over its own."""
+    chain = robots.load_robot("panda")  # velocity limits 2.175 and 2.61 rad/s
+    sim = ArmSimulator.from_chain(
+        chain, 0.002, q0=middle_of_limits(chain.lower, chain.upper), demo=False
+    )
+    start = sim.q.copy()
+    target = start + np.array([0.3, -0.1, 0.05, 0.2, 0.3, -0.3, 0.01])
     sim.command_position(target)
     q1 = sim.step().q
-    assert np.allclose(q1, np.minimum(target, sim.velocity_limit * sim.dt))
+    step = q1 - start
+    np.testing.assert_allclose(
+        step / np.linalg.norm(step), (target - start) / np.linalg.norm(target - start), atol=1e-12
+    )
+    used = np.abs(step) / (sim.velocity_limit * sim.dt)
+    assert used.max() == pytest.approx(1.0) and used.min() < 0.1
     for _ in range(300):
         sim.step()
-    assert np.allclose(sim.q, target)
+    np.testing.assert_allclose(sim.q, target)
 
 
 def test_a_position_outside_the_limits_is_clamped():
