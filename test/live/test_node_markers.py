@@ -163,7 +163,7 @@ def test_tf_from_the_node_is_every_link_at_the_joint_states(start_node, client):
     for k in range(3):
         q = rng.uniform(-1.5, 1.5, 7)
         finger = float(rng.uniform(0.0, 0.04))
-        stamp = 2 * 10**12 + k * 10**6
+        stamp = 2 * 10**12 + k * 10**9  # 1 s apart: each gets its /tf at the default tf_rate
         msg = JointState()
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 10**9)
         msg.name = [*arm, "panda_finger_joint1"]
