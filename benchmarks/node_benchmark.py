@@ -7,7 +7,10 @@ Every process is real rclpy over Fast DDS on loopback, in a ROS_DOMAIN_ID of the
 * the system under test: a bare echo node (subscribes JointState, publishes PoseStamped with the
   same stamp; rclpy's SingleThreadedExecutor: the floor a node on rclpy's stock executor pays),
   the same echo on our LeanExecutor (what the executor alone is worth), or the built
-  `kinematics_node` with a 6-joint (UR5e) or 7-joint (iiwa14) arm;
+  `kinematics_node` with a 6-joint (UR5e) or 7-joint (iiwa14) arm, and the UR5e with its
+  visualisation on (issue 33): a ~/markers subscriber (markers_rate 10 Hz), publish_tf (at its
+  default tf_rate, 20 Hz, with a /tf subscriber as a TF listener is), both, and publish_tf on
+  every joint_states message (tf_rate 0);
 * a publisher process sending joint_states at a fixed rate, each stamped with its send time
   (CLOCK_REALTIME, shared by all processes), so every answer is matched to its sample;
 * a receiver process recording the arrival time of every ee_pose / ee_twist (on our
@@ -20,7 +23,9 @@ Every process is real rclpy over Fast DDS on loopback, in a ROS_DOMAIN_ID of the
 Reported per phase: the fraction of samples answered on ee_pose and ee_twist, latency (arrival −
 stamp) median and p99, CPU of the node process [% of one core] and its resident memory, and for
 IK the answers per second, late answers (> timeout + 20 ms, queueing included), reachable targets
-not solved and unreachable ones reported solved. Ratios are ours / echo's (lower is better).
+not solved and unreachable ones reported solved, and for the visualisation phases the markers
+received per second and the /tf messages per second (with tf_rate 0: the fraction of
+joint_states whose /tf arrived), beside the plain UR5e phase. Ratios are ours / echo's (lower is better).
 Last, a table of issue 10's targets for the phases run, each with its figure and whether it is met
 (`target_checks`).
 Run it on a quiet machine: every figure here is shared-CPU sensitive.
@@ -60,6 +65,12 @@ ARMS = {
 }
 CLK_TCK = os.sysconf("SC_CLK_TCK")
 WARM_UP_S = 1.0  # samples of a phase's first second are sent but not counted
+PLAIN = "ours ur5e (6 joints), 1 kHz"
+MARKERS = "ours ur5e, 1 kHz + a ~/markers subscriber"
+TF = "ours ur5e, 1 kHz + publish_tf"
+BOTH = "ours ur5e, 1 kHz + ~/markers and publish_tf"
+EVERY = "ours ur5e, 1 kHz + publish_tf on every message (tf_rate 0)"
+MARKERS_RATE = 10.0  # the node's default markers_rate [Hz]
 
 
 # ============================================================================ child roles
@@ -181,11 +192,14 @@ def role_publisher(names: list[str], rate: float, seconds: float, out: str) -> N
     rclpy.shutdown()
 
 
-def role_receiver(out: str, expect_twist: bool) -> None:
-    """Records (stamp, arrival) of every ee_pose and ee_twist until SIGINT; writes them.
+def role_receiver(out: str, expect_twist: bool, markers: bool = False, tf: bool = False) -> None:
+    """Records (stamp, arrival) of every ee_pose and ee_twist until SIGINT; writes them. With
+    `markers`, subscribes to the node's ~/markers (so that it builds them) and counts them; with
+    `tf`, subscribes to /tf and keeps each message's stamp.
 
     Writes `<out>.ready` once it has matched the system's publishers (ee_pose, and ee_twist when
-    `expect_twist`): the joint_states start only then, not on a timer that discovery may outlast.
+    `expect_twist`, and those of markers and tf): the joint_states start only then, not on a timer
+    that discovery may outlast.
 
     SIGINT only sets a flag here: with rclpy's own handler, the signal shut the context down from
     rclpy's thread while this one still had a live node, and the process crashed (SIGSEGV,
@@ -201,6 +215,7 @@ def role_receiver(out: str, expect_twist: bool) -> None:
 
     node = rclpy.create_node("bench_receiver")
     got: dict[str, list[tuple[int, int, int]]] = {"pose": [], "twist": []}
+    extra: dict[str, list[int]] = {"markers": [], "tf": []}
 
     def recorder(key: str):  # noqa: ANN202
         bucket = got[key]
@@ -223,6 +238,23 @@ def role_receiver(out: str, expect_twist: bool) -> None:
                 TwistStamped, "ee_twist", recorder("twist"), QoSProfile(depth=1000)
             )
         )
+    if markers:
+        from visualization_msgs.msg import MarkerArray
+
+        def on_markers(msg: Any) -> None:
+            extra["markers"].append(time.time_ns())
+
+        subs.append(
+            node.create_subscription(MarkerArray, "/kinematics_node/markers", on_markers, 10)
+        )
+    if tf:
+        from tf2_msgs.msg import TFMessage
+
+        def on_tf(msg: Any) -> None:
+            s = msg.transforms[0].header.stamp if msg.transforms else None
+            extra["tf"].append(s.sec * 1_000_000_000 + s.nanosec if s is not None else 0)
+
+        subs.append(node.create_subscription(TFMessage, "/tf", on_tf, QoSProfile(depth=1000)))
     executor = LeanExecutor()  # about half the CPU of rclpy's per message (module docstring)
     executor.add_node(node)
     _no_collections()  # millions of arrival records: no pauses to scan them
@@ -233,7 +265,7 @@ def role_receiver(out: str, expect_twist: bool) -> None:
         if not ready and all(sub.get_publisher_count() > 0 for sub in subs):
             Path(out + ".ready").touch()  # matched: the phase may start
             ready = True
-    Path(out).write_text(json.dumps({**got, "worst_stall": stalls.worst}))
+    Path(out).write_text(json.dumps({**got, **extra, "worst_stall": stalls.worst}))
     executor.shutdown()
     node.destroy_node()
     rclpy.shutdown()
@@ -394,7 +426,15 @@ def _percentile(values: list[float], q: float) -> float:
 class System:
     """The node under test, in its own process."""
 
-    def __init__(self, kind: str, arm: str, env: dict[str, str], directory: Path) -> None:
+    def __init__(
+        self,
+        kind: str,
+        arm: str,
+        env: dict[str, str],
+        directory: Path,
+        node_params: dict[str, Any] | None = None,
+    ) -> None:
+        """`node_params`: more parameters of our node (publish_tf)."""
         self.kind, self.arm = kind, arm
         self.log: Path | None = None  # our node's output (the echoes' goes to the terminal)
         if kind in ("echo", "echo-lean"):  # (their role names)
@@ -413,6 +453,7 @@ class System:
                             "ros__parameters": {
                                 "robot_description": path.read_text(encoding="utf-8"),
                                 "tip_link": tip,
+                                **(node_params or {}),
                             }
                         }
                     }
@@ -455,6 +496,9 @@ def run_phase(
     directory: Path,
     ik_clients: int = 0,
     slow_ik: float = 0.0,
+    markers: bool = False,
+    tf: bool = False,
+    tf_rate: float = 20.0,
 ) -> dict[str, Any]:
     names_of = {"ur5e": 6, "iiwa14": 7}
     from kinematics_node.core import SerialChain
@@ -469,6 +513,7 @@ def run_phase(
     ready = Path(str(recv_out) + ".ready")
     ready.unlink(missing_ok=True)
     twist = [] if system.kind.startswith("echo") else ["--expect-twist"]
+    twist += ["--markers"] * markers + ["--tf"] * tf
     receiver = _child(["--role", "receiver", "--out", str(recv_out), *twist], env)
     extra: list[subprocess.Popen] = []
     if ik_clients:  # waits 1 s after discovery, then calls for `seconds - 2`
@@ -557,6 +602,20 @@ def run_phase(
         "rss_mb": rss,
         "receiver_worst_stall_ms": float(got.get("worst_stall", math.nan)) * 1e3,
     }
+    if markers:  # the markers that arrived while joint_states flowed (after the warm-up)
+        last = published["stamps"][-1] if published["stamps"] else 0
+        arrived = [t for t in got["markers"] if first <= t <= last]
+        result["markers_per_s"] = len(arrived) / ((last - first) * 1e-9) if last > first else 0.0
+    if tf:  # (stamped like their joint_states: the send times)
+        last = published["stamps"][-1] if published["stamps"] else 0
+        tf_stamps = set(got["tf"])
+        result["tf_rate"] = tf_rate
+        result["tf_per_s"] = (
+            sum(1 for st in tf_stamps if first <= st <= last) / ((last - first) * 1e-9)
+            if last > first
+            else 0.0
+        )
+        result["tf_answered"] = sum(1 for st in counted if st in tf_stamps) / sent if sent else 0.0
     window = None
     if slow_ik:
         s = json.loads(slow_out.read_text())
@@ -636,6 +695,8 @@ def main() -> None:
     parser.add_argument("--timeout", type=float, default=0.05, help=argparse.SUPPRESS)
     parser.add_argument("--out", help=argparse.SUPPRESS)
     parser.add_argument("--expect-twist", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--markers", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--tf", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--seconds", type=float, default=10.0, help="length of each phase [s]")
     parser.add_argument(
         "--soak",
@@ -656,7 +717,7 @@ def main() -> None:
     if args.role == "publisher":
         return role_publisher(args.names.split(","), args.rate, args.seconds, args.out)
     if args.role == "receiver":
-        return role_receiver(args.out, args.expect_twist)
+        return role_receiver(args.out, args.expect_twist, args.markers, args.tf)
     if args.role == "ik_clients":
         return role_ik_clients(args.arm, args.seconds, args.clients, args.timeout, args.out)
     if args.role == "slow_ik":
@@ -676,6 +737,11 @@ def main() -> None:
         ("the echo on our LeanExecutor, 1 kHz", "echo-lean", "ur5e", 1000.0, {}),
         ("ours ur5e (6 joints), 1 kHz", "ours", "ur5e", 1000.0, {}),
         ("ours iiwa14 (7 joints), 1 kHz", "ours", "iiwa14", 1000.0, {}),
+        # issue 33: the visualisation on, beside the plain UR5e phase above
+        (MARKERS, "ours", "ur5e", 1000.0, {"markers": True}),
+        (TF, "ours", "ur5e", 1000.0, {"tf": True}),
+        (BOTH, "ours", "ur5e", 1000.0, {"markers": True, "tf": True}),
+        (EVERY, "ours", "ur5e", 1000.0, {"tf": True, "tf_rate": 0.0}),
         ("echo, 500 Hz", "echo", "ur5e", 500.0, {}),
         ("ours ur5e, 500 Hz + 4 IK clients", "ours", "ur5e", 500.0, {"ik_clients": 4}),
         ("ours ur5e, 1 kHz + one 2 s IK call", "ours", "ur5e", 1000.0, {"slow_ik": 2.0}),
@@ -686,7 +752,10 @@ def main() -> None:
             if args.only not in label:
                 continue
             for attempt in (1, 2):  # a harness process that crashes gets one more chance
-                system = System(kind, arm, env, directory)
+                node_params = None
+                if extra.get("tf"):
+                    node_params = {"publish_tf": True, "tf_rate": extra.get("tf_rate", 20.0)}
+                system = System(kind, arm, env, directory, node_params)
                 try:
                     results[label] = run_phase(system, rate, args.seconds, env, directory, **extra)
                     break
@@ -783,6 +852,19 @@ def target_checks(results: dict[str, dict[str, Any]]) -> list[tuple[str, str, bo
             check(f"{label}: CPU ≤ 2× the echo's", f"{cpu:.2f}×", cpu <= 2.0)
         p99 = r["pose_latency_p99_ms"]
         check(f"{label}: p99 ≤ 10 ms", f"{p99:.2f} ms", p99 <= 10.0)
+        if "markers_per_s" in r:  # issue 33: markers at markers_rate, the pose path unharmed
+            per_s = r["markers_per_s"]
+            check(
+                f"{label}: markers at ≥ 90 % of {MARKERS_RATE:g} Hz",
+                f"{per_s:.1f}/s",
+                per_s >= 0.9 * MARKERS_RATE,
+            )
+        if "tf_answered" in r and r["tf_rate"] <= 0:
+            tf = r["tf_answered"]
+            check(f"{label}: /tf for ≥ 99 % of joint_states", f"{100 * tf:.1f} %", tf >= 0.99)
+        elif "tf_answered" in r:
+            per_s, rate = r["tf_per_s"], r["tf_rate"]
+            check(f"{label}: /tf at ≥ 90 % of {rate:g} Hz", f"{per_s:.1f}/s", per_s >= 0.9 * rate)
         if "ik_calls" in r:
             check(
                 f"{label}: every IK answer ≤ timeout + 20 ms",
@@ -815,6 +897,27 @@ def report(results: dict[str, dict[str, Any]]) -> None:
             f"{r['pose_latency_median_ms']:.2f} / {r['pose_latency_p99_ms']:.2f} | "
             f"{r['cpu_percent']:.0f} | {r['rss_mb']:.0f} |"
         )
+    names = {PLAIN: "plain", MARKERS: "+ ~/markers subscriber", TF: "+ publish_tf"}
+    names[BOTH] = "+ ~/markers and publish_tf"
+    names[EVERY] = "+ publish_tf on every message (tf_rate 0)"
+    visual = [label for label in names if label in results]
+    if len(visual) > 1 or (visual and visual[0] != PLAIN):
+        print()
+        print(
+            "| UR5e at 1 kHz (issue 33) | answered | latency median / p99 [ms] | CPU [% core] | "
+            "markers [/s] | /tf [/s] |"
+        )
+        print("|---|---|---|---|---|---|")
+        for label in visual:
+            r = results[label]
+            answered = min(r["pose_answered"], r["twist_answered"])
+            markers = f"{r['markers_per_s']:.1f}" if "markers_per_s" in r else "—"
+            tf = f"{r['tf_per_s']:.1f}" if "tf_per_s" in r else "—"
+            print(
+                f"| {names[label]} | "
+                f"{100 * answered:.1f} % | {r['pose_latency_median_ms']:.2f} / "
+                f"{r['pose_latency_p99_ms']:.2f} | {r['cpu_percent']:.0f} | {markers} | {tf} |"
+            )
     echo = _echoes(results)
     print()
     for label, r in results.items():

@@ -7,8 +7,9 @@ from share/kinematics_service/launch (CMakeLists.txt installs launch/ whole, thi
 which is not on sys.path (nor is the working directory of `ros2 launch` that folder).
 
 Their common arguments (`arguments`): robot, description_file, xacro_args, base_link, tip_link,
-rate, rviz. Their common nodes (`robot_nodes`): robot_state_publisher (TF and the
-robot_description topic, from the file's XML, xacro expanded), sim_arm (joint_states of every
+rate, rviz, state_publisher. Their common nodes (`robot_nodes`): robot_state_publisher (TF and the
+robot_description topic, from the file's XML, xacro expanded; with state_publisher:=kinematics_node
+none, and the kinematics node publishes /tf and /tf_static itself: publish_tf), sim_arm (joint_states of every
 moving joint without <mimic>, which robot_state_publisher needs: a Panda's finger too), the kinematics node on the chosen chain
 (config/kinematics.yaml, then the bundled file and the chain), and RViz on request; all with
 the package's Fast DDS profile (`kinematics_node.ros.env.fastdds_profile_env`).
@@ -37,7 +38,7 @@ PACKAGE = "kinematics_service"
 
 def arguments():
     """The launch arguments both launch files declare (robot, description_file, xacro_args,
-    base_link, tip_link, rate, rviz)."""
+    base_link, tip_link, rate, rviz, state_publisher)."""
     return [
         DeclareLaunchArgument(
             "robot",
@@ -62,7 +63,29 @@ def arguments():
         ),
         DeclareLaunchArgument("rate", default_value="100.0", description="sim rate [Hz]"),
         DeclareLaunchArgument("rviz", default_value="false", description="start RViz"),
+        DeclareLaunchArgument(
+            "state_publisher",
+            default_value="robot_state_publisher",
+            description="who publishes the robot's /tf and /tf_static: robot_state_publisher, "
+            "or kinematics_node (its publish_tf; for a ROS 2 without robot_state_publisher; "
+            "nothing then publishes the robot_description topic, which RViz's robot model reads)",
+        ),
     ]
+
+
+#: The values of the state_publisher argument (the first is the default).
+STATE_PUBLISHERS = ("robot_state_publisher", "kinematics_node")
+
+
+def state_publisher(context):
+    """The state_publisher argument: "robot_state_publisher" or "kinematics_node"; raises
+    RuntimeError naming the argument and its values for anything else."""
+    chosen = LaunchConfiguration("state_publisher").perform(context)
+    if chosen not in STATE_PUBLISHERS:
+        raise RuntimeError(
+            f"state_publisher must be {' or '.join(STATE_PUBLISHERS)}, got {chosen!r}"
+        )
+    return chosen
 
 
 def chosen_robot(context, share):
@@ -139,20 +162,24 @@ def dds_env(share):
     return fastdds_profile_env(os.path.join(share, "config", "fastdds_profile.xml"))
 
 
-def robot_nodes(share, robot, sim_parameters, env):
-    """robot_state_publisher, sim_arm (the robot and the rate, then `sim_parameters`), the
-    kinematics node, and RViz where the rviz argument is true, all in the environment `env`."""
+def robot_nodes(share, robot, sim_parameters, env, publisher=STATE_PUBLISHERS[0]):
+    """robot_state_publisher (where `publisher`, the state_publisher argument, names it), sim_arm
+    (the robot and the rate, then `sim_parameters`), the kinematics node (publishing /tf itself
+    where `publisher` is "kinematics_node"), and RViz where the rviz argument is true, all in the
+    environment `env`."""
     robot_description = ParameterValue(robot["xml"], value_type=str)
     given = {"robot": robot["robot"]} if robot["robot"] else description_parameters(robot)
+    ours = publisher == "kinematics_node"
+    state = Node(
+        package="robot_state_publisher",
+        executable="robot_state_publisher",
+        name="robot_state_publisher",
+        parameters=[{"robot_description": robot_description}],
+        output="screen",
+        additional_env=env,
+    )
     return [
-        Node(
-            package="robot_state_publisher",
-            executable="robot_state_publisher",
-            name="robot_state_publisher",
-            parameters=[{"robot_description": robot_description}],
-            output="screen",
-            additional_env=env,
-        ),
+        *([] if ours else [state]),
         Node(
             package=PACKAGE,
             executable="sim_arm",
@@ -167,7 +194,7 @@ def robot_nodes(share, robot, sim_parameters, env):
             name="kinematics_node",
             parameters=[
                 os.path.join(share, "config", "kinematics.yaml"),
-                chain_parameters(robot),
+                {**chain_parameters(robot), **({"publish_tf": True} if ours else {})},
             ],
             output="screen",
             additional_env=env,

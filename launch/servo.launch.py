@@ -37,6 +37,8 @@ Arguments:
         CAP_SYS_NICE, no rtprio limit) both nodes say so in their log and run as before.
     rate: sim_arm's integration and joint_states rate [Hz] (default 100.0).
     rviz: "true" starts RViz with config/sim_arm.rviz.
+    state_publisher: robot_state_publisher (default) or kinematics_node (publish_tf: the
+        kinematics node publishes /tf and /tf_static, and robot_state_publisher is not started).
 """
 
 import importlib.util  # noqa: I001  (ruff would sort `launch` as first-party: the repo has a launch/ folder)
@@ -135,7 +137,8 @@ def _nodes(context, *args, **kwargs):
         output="screen",
         additional_env=env,
     )
-    return [*bundled_robot.robot_nodes(share, robot, sim, env), servo]
+    publisher = bundled_robot.state_publisher(context)
+    return [*bundled_robot.robot_nodes(share, robot, sim, env, publisher), servo]
 
 
 def generate_launch_description():

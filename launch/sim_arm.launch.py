@@ -1,9 +1,10 @@
 """A simulated arm (bundled, or your own description) + robot_state_publisher + the kinematics
-node (+ RViz on request).
+node (+ RViz on request); or the kinematics node publishing /tf in robot_state_publisher's place.
 
     ros2 launch kinematics_service sim_arm.launch.py                 # the UR5e
     ros2 launch kinematics_service sim_arm.launch.py robot:=panda rviz:=true
     ros2 launch kinematics_service sim_arm.launch.py description_file:=my_arm.urdf.xacro
+    ros2 launch kinematics_service sim_arm.launch.py state_publisher:=kinematics_node
 
 Arguments:
     robot: bundled robot, a file config/robots/<robot>.urdf of this package
@@ -14,6 +15,9 @@ Arguments:
         (kinematics_node.sim.robots.default_chain_links), e.g. panda_link0 -> panda_hand_tcp.
     rate: sim_arm integration and joint_states rate [Hz] (default 100.0).
     rviz: "true" starts RViz with config/sim_arm.rviz (fixed frame = base_link).
+    state_publisher: who publishes /tf and /tf_static: robot_state_publisher (default), or
+        kinematics_node (its publish_tf parameter; robot_state_publisher is then not started, and
+        nothing publishes the robot_description topic that RViz's robot model reads).
 
 The arm moves in sim_arm's demo motion. The nodes and arguments are bundled_robot.py's, which
 servo.launch.py shares.
@@ -40,7 +44,8 @@ def _nodes(context, *args, **kwargs):
     share = get_package_share_directory(bundled_robot.PACKAGE)
     robot = bundled_robot.chosen_robot(context, share)
     # every moving joint without <mimic> (what robot_state_publisher needs), in the demo motion
-    return bundled_robot.robot_nodes(share, robot, {}, bundled_robot.dds_env(share))
+    publisher = bundled_robot.state_publisher(context)
+    return bundled_robot.robot_nodes(share, robot, {}, bundled_robot.dds_env(share), publisher)
 
 
 def generate_launch_description():

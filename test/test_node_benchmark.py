@@ -86,3 +86,31 @@ def test_figures_exactly_at_their_targets_meet_them():
     results["soak"]["growth_percent"] = -10.0
     verdicts = _verdicts(results)
     assert all(verdicts.values()), [t for t, met in verdicts.items() if not met]
+
+
+VISUAL = {
+    bench.MARKERS: POSES | {"rate_hz": 1000.0, "markers_per_s": 10.0},
+    bench.TF: POSES | {"rate_hz": 1000.0, "tf_rate": 20.0, "tf_per_s": 20.0, "tf_answered": 0.02},
+    bench.EVERY: POSES | {"rate_hz": 1000.0, "tf_rate": 0.0, "tf_per_s": 1e3, "tf_answered": 1.0},
+}
+
+
+@pytest.mark.parametrize(
+    ("label", "field", "value", "target"),
+    [
+        (bench.MARKERS, "markers_per_s", 8.9, "markers at ≥ 90 % of 10 Hz"),
+        (bench.TF, "tf_per_s", 17.9, "/tf at ≥ 90 % of 20 Hz"),
+        (bench.EVERY, "tf_answered", 0.989, "/tf for ≥ 99 % of joint_states"),
+        (bench.EVERY, "pose_answered", 0.98, "≥ 99 % answered"),
+    ],
+)
+def test_the_visualisation_phases_are_held_to_their_rates_and_to_issue_10s(
+    label, field, value, target
+):
+    """Issue 33's phases: markers at their rate, /tf at tf_rate (with tf_rate 0: for every
+    joint_states message), and the pose targets of every phase of ours."""
+    results = {"echo, 1 kHz": RESULTS["echo, 1 kHz"]} | copy.deepcopy(VISUAL)
+    assert all(_verdicts(results).values())
+    results[label][field] = value
+    failed = [t for t, met in _verdicts(results).items() if not met]
+    assert failed == [f"{label}: {target}"], failed

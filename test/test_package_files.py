@@ -207,3 +207,21 @@ def test_parameter_file_matches_the_declared_parameters():
     for name, value in flat.items():  # ROS refuses an int for a double parameter
         assert type(value) is type(SPECS[name].default), name
         assert value == SPECS[name].default, name
+
+
+@pytest.mark.parametrize("message", ["TFMessage", "TF2Error"])
+def test_the_tf2_msgs_built_for_ros_from_pypi_is_ros2s(message):
+    """tools/interfaces/tf2_msgs (built where no wheel has tf2_msgs) defines its messages as
+    ROS 2 does, field for field and constant for constant: rosbags' Jazzy definitions, so the
+    type hash the node announces on /tf is the real one (test/live/test_node_markers.py checks
+    the hash on the wire)."""
+    typesys = pytest.importorskip("rosbags.typesys", reason="rosbags has ROS 2's definitions")
+    name = f"tf2_msgs/msg/{message}"
+    text = (ROOT / "tools" / "interfaces" / "tf2_msgs" / "msg" / f"{message}.msg").read_text(
+        encoding="utf-8"
+    )
+    ours = typesys.get_types_from_msg(text, name)[name]
+    real = typesys.get_typestore(typesys.Stores.ROS2_JAZZY).fielddefs[name]
+    assert ours == real
+    cmake = (ROOT / "tools" / "interfaces" / "tf2_msgs" / "CMakeLists.txt").read_text()
+    assert f'"msg/{message}.msg"' in cmake

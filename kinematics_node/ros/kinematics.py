@@ -15,8 +15,9 @@ Topics (relative names, so namespaces and remaps apply):
                                                    singular direction, at markers_rate, only while
                                                    subscribed (a timer; never in the pose path)
   pub  /tf, /tf_static    tf2_msgs/TFMessage       with publish_tf: the description's links as
-                                                   robot_state_publisher gives them (/tf_static
-                                                   transient local, again for a new description)
+                                                   robot_state_publisher gives them (/tf at most
+                                                   tf_rate by the stamps; /tf_static transient
+                                                   local, again for a new description)
 Services: compute_fk, compute_jacobian, compute_ik (kinematics_service/srv/...).
 
 Threads and processes. One thread runs every callback (`spin`: our `LeanExecutor`, one wait per

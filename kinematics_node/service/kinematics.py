@@ -252,6 +252,8 @@ class KinematicsService:
             tuple[str, ...], tuple[list[int], tuple[str, ...], tuple[str, ...]]
         ] = {}
         self._last_stamp: Any = None  # the Time of the last posed joint_states
+        # /tf at most at tf_rate: each joint_states name's time [ns] of its last /tf (`_tf_due`)
+        self._tf_published: dict[str, int] = {}
         self.markers_published = 0
         self._lookup = lookup_transform
         self._clock = clock
@@ -605,6 +607,7 @@ class KinematicsService:
         self._last_problem = None
         self._tree_tf = None
         self._tf_rows = {}
+        self._tf_published = {}
         if model is None:
             self._tracker = None
             self._chain_index = []
@@ -656,14 +659,8 @@ class KinematicsService:
             stale_before, jumps_before = tracker.stale_samples, tracker.jumps_back
             episodes_before = tracker.arrival_episodes
             now = self._clock()  # when the joints' values were received (their ages' origin)
-            changed = tracker.update(
-                names,
-                positions,
-                velocities,
-                stamp,
-                time.monotonic() if received is None else received,
-                now,
-            )
+            arrival = time.monotonic() if received is None else received
+            changed = tracker.update(names, positions, velocities, stamp, arrival, now)
         except (KinematicsError, TypeError, ValueError, AttributeError, OverflowError) as exc:
             return self._problem(f"joint_states sample rejected: {_short(exc)}", Severity.ERROR)
         if not changed:
@@ -731,10 +728,33 @@ class KinematicsService:
             problem = "velocity unknown" if problem is None else f"{problem}; velocity unknown"
         tf = None
         if self._params["publish_tf"]:
-            tf = self.tf(names, msg.header.stamp)
+            if jumped:  # a new timeline: every joint's /tf is due again
+                self._tf_published.clear()
+            if self._tf_due(names, msg.header.stamp, arrival):
+                tf = self.tf(names, msg.header.stamp)
         return EEMessages(pose=pose, twist=twist, problem=problem, severity=severity, tf=tf)
 
     # ------------------------------------------------------------------ /tf, markers
+    def _tf_due(self, names: Sequence[str], stamp: Any, arrival: float) -> bool:
+        """Whether a joint_states naming `names` gets its /tf, at most tf_rate, by
+        robot_state_publisher's rule (its publish_frequency): when the least recently published
+        of the joints it names was published at least 1/tf_rate before this message, by the
+        messages' stamps (their arrival times where unstamped, as the velocity estimate falls
+        back to them); then all of them count as published now. tf_rate 0: every message."""
+        rate = float(self._params["tf_rate"])
+        if rate <= 0:
+            return True
+        t = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+        if t == 0:
+            t = int(arrival * 1e9)
+        published = self._tf_published
+        least = min((published.get(name, -(2**63)) for name in names), default=-(2**63))
+        if t - least < round(1e9 / rate):
+            return False
+        for name in names:
+            published[name] = t
+        return True
+
     def tf(self, names: Sequence[str], stamp: Any) -> Any | None:
         """/tf as robot_state_publisher gives it for a joint_states naming `names`: each moving
         joint of the description driven by one of them (mimic joints by their leader), child

@@ -377,3 +377,49 @@ def test_own_xacro_description_and_its_arguments_reach_every_node(monkeypatch, t
     (rsp_params,) = rsp.kwargs["parameters"]
     xml = rsp_params["robot_description"].parts[0]
     assert '<robot name="mine"' in xml and "xacro:" not in xml  # expanded for the publisher
+
+
+@pytest.mark.parametrize("filename", ["sim_arm.launch.py", "servo.launch.py"])
+def test_state_publisher_chooses_robot_state_publisher_or_the_kinematics_nodes_tf(
+    monkeypatch, filename
+):
+    """state_publisher: robot_state_publisher by default (the nodes as before: no publish_tf);
+    kinematics_node starts no robot_state_publisher and gives the kinematics node publish_tf,
+    a parameter it declares and accepts. Nothing else changes."""
+    module = _load(monkeypatch, filename)
+    monkeypatch.setattr(module, "get_package_share_directory", lambda package: str(ROOT))
+    arguments = _arguments(module)
+    assert arguments["state_publisher"] == "robot_state_publisher"
+    before = module._nodes({**arguments, "robot": "panda"})
+    assert [n.kwargs["executable"] for n in before].count("robot_state_publisher") == 1
+    assert "publish_tf" not in _kinematics_parameters(before)
+    ours = module._nodes({**arguments, "robot": "panda", "state_publisher": "kinematics_node"})
+    assert "robot_state_publisher" not in [n.kwargs["executable"] for n in ours]
+    params = _kinematics_parameters(ours)
+    assert params == {**_kinematics_parameters(before), "publish_tf": True}
+    _check_declared(params)
+    rest = [n.kwargs for n in before if n.kwargs["executable"] != "robot_state_publisher"]
+    assert [n.kwargs["executable"] for n in ours] == [n["executable"] for n in rest]
+    for node, kwargs in zip(ours, rest, strict=True):
+        if kwargs["executable"] != "kinematics_node":  # sim_arm (the finger too), servo, RViz
+            assert _comparable(node.kwargs) == _comparable(kwargs)
+
+
+def _comparable(kwargs: dict[str, Any]) -> dict[str, Any]:
+    """A node's arguments with its condition (IfCondition(LaunchConfiguration(name))) as the
+    name it reads, so that two launches' nodes compare by value."""
+    condition = kwargs.get("condition")
+    if condition is None:
+        return kwargs
+    (configuration,) = condition.parts
+    return {**kwargs, "condition": (type(condition), configuration.parts)}
+
+
+@pytest.mark.parametrize("given", ["rsp", "node", "", "Kinematics_Node"])
+def test_a_bad_state_publisher_is_refused_naming_the_choices(monkeypatch, given):
+    module = _load(monkeypatch, "sim_arm.launch.py")
+    monkeypatch.setattr(module, "get_package_share_directory", lambda package: str(ROOT))
+    with pytest.raises(
+        RuntimeError, match="state_publisher must be robot_state_publisher or kinematics_node"
+    ):
+        module._nodes({**_arguments(module), "state_publisher": given})

@@ -69,4 +69,4 @@ def test_launch_file_builds_a_launch_description():
     description = module.generate_launch_description()
     assert isinstance(description, launch.LaunchDescription)
     names = {getattr(e, "name", None) for e in description.entities}
-    assert {"robot", "rviz", "base_link", "tip_link", "rate"} <= names
+    assert {"robot", "rviz", "base_link", "tip_link", "rate", "state_publisher"} <= names

@@ -1,10 +1,12 @@
 """KinematicsService's /tf, /tf_static (publish_tf) and manipulability markers, on real message
 classes (rosbags) and read back after CDR: the links chained from /tf and /tf_static equal
 Pinocchio's FK of every link of the Panda with its fingers; a joint_states message gives the /tf
-of the joints it names (mimic followers with their leader), as robot_state_publisher does; the
-markers show the SVD of J at the last joint_states."""
+of the joints it names (mimic followers with their leader), at most tf_rate by the stamps, as
+robot_state_publisher does; the markers show the SVD of J at the last joint_states."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
@@ -114,3 +116,51 @@ def test_markers_show_the_last_joint_states(ros, panda_path):
 def test_markers_rate_is_validated(ros, bad):
     with pytest.raises(InvalidInputError, match="markers_rate"):
         KinematicsService(ros.types, {"markers_rate": bad})
+
+
+def _stream(svc, ros, q, seconds_ms: int, start=(10, 0)):
+    """1 kHz joint_states of the arm for `seconds_ms` ms; the stamps [ms after start] of those
+    that got a /tf."""
+    sec, nanosec = start
+    out = []
+    for k in range(seconds_ms):
+        stamp = (sec + (nanosec + k * 10**6) // 10**9, (nanosec + k * 10**6) % 10**9)
+        if svc.on_joint_state(js(ros, ARM, q + 1e-4 * k, t=stamp)).tf is not None:
+            out.append(k)
+    return out
+
+
+@pytest.mark.parametrize(("rate", "expected"), [(None, 20), (100.0, 100), (7.0, 7), (0.0, 1000)])
+def test_tf_at_most_tf_rate_by_the_stamps_as_robot_state_publisher(ros, panda_path, rate, expected):
+    """1 s of 1 kHz joint_states: /tf for the first and then each one stamped at least
+    1/tf_rate after the last that got one (robot_state_publisher's publish_frequency, 20 Hz by
+    default); tf_rate 0: every one."""
+    params = {"publish_tf": True} | ({} if rate is None else {"tf_rate": rate})
+    svc = _service(ros, panda_path, **params)
+    published = _stream(svc, ros, np.zeros(7), 1000)
+    assert len(published) == expected
+    assert published[0] == 0
+    gap = 1000 / (rate or 20.0) if rate != 0.0 else 1
+    assert all(b - a == math.ceil(gap) for a, b in zip(published, published[1:], strict=False))
+
+
+def test_tf_rate_counts_per_joint_and_starts_afresh_when_the_stamps_jump_back(ros, panda_path):
+    """The fingers, named by joint_states of their own, get their /tf although the arm's was
+    just published (the rule is per joint, as robot_state_publisher's); a stream whose stamps
+    jump back (a bag restarted) gets its /tf at once."""
+    svc = _service(ros, panda_path, publish_tf=True)
+    assert _stream(svc, ros, np.zeros(7), 10, start=(20, 0)) == [0]
+    finger = js(ros, ["panda_finger_joint1"], [0.01], t=(20, 10**7))
+    assert svc.on_joint_state(finger).tf is not None  # its own joint: due
+    finger = js(ros, ["panda_finger_joint1"], [0.02], t=(20, 2 * 10**7))
+    assert svc.on_joint_state(finger).tf is None  # 10 ms later: not yet
+    assert _stream(svc, ros, np.zeros(7), 10, start=(5, 0)) == [0]  # 15 s back: anew
+
+
+@pytest.mark.parametrize(
+    ("bad", "why"),
+    [(-1.0, "must be >= 0"), (float("nan"), "must be finite"), (float("inf"), "must be finite")],
+)
+def test_tf_rate_is_validated(ros, bad, why):
+    with pytest.raises(InvalidInputError, match=f"'tf_rate' {why}"):
+        KinematicsService(ros.types, {"tf_rate": bad})
