@@ -187,3 +187,91 @@ def test_tf_from_the_node_is_every_link_at_the_joint_states(start_node, client):
                 given = dict(zip(msg.name, msg.position, strict=True))
                 core = chain.fk(np.array([given[name] for name in chain.joint_names]))
                 np.testing.assert_allclose(T, core, atol=1e-12)
+
+
+def _robot_state_publisher() -> list[str] | None:
+    """argv of the installed robot_state_publisher (a full ROS 2), or None."""
+    try:
+        from ament_index_python.packages import PackageNotFoundError, get_package_prefix
+    except ImportError:
+        return None
+    try:
+        prefix = get_package_prefix("robot_state_publisher")
+    except PackageNotFoundError:
+        return None
+    exe = os.path.join(prefix, "lib", "robot_state_publisher", "robot_state_publisher")
+    return [exe] if os.access(exe, os.X_OK) else None
+
+
+def test_the_nodes_tf_is_robot_state_publishers(start_node, client, tmp_path):
+    """Where robot_state_publisher is installed (a full ROS 2; not on PyPI): both are given the
+    same description and joint_states, and every transform of ours equals its (its /tf and
+    /tf_static remapped beside ours), to 1e-9 (its URDF parsing rounds through KDL)."""
+    argv = _robot_state_publisher()
+    if argv is None:
+        pytest.skip("robot_state_publisher is not installed here (a full ROS 2 has it)")
+    import subprocess
+
+    import tf2_msgs.msg as tf2
+    import yaml
+    from kin_testing import erd_path
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    from kinematics_node.ros.env import local_ros_env
+
+    rosbags = pytest.importorskip("rosbags.typesys", reason="rosbags decodes the bytes (.[test])")
+    store = rosbags.get_typestore(rosbags.Stores.ROS2_JAZZY)
+    panda = erd_path("panda_description/urdf/panda.urdf")
+    params = tmp_path / "rsp.yaml"
+    description = panda.read_text()
+    params.write_text(
+        yaml.safe_dump({"/**": {"ros__parameters": {"robot_description": description}}})
+    )
+    rsp = subprocess.Popen(
+        [
+            *argv,
+            "--ros-args",
+            "--params-file",
+            str(params),
+            "-r",
+            "/tf:=/rsp/tf",
+            "-r",
+            "/tf_static:=/rsp/tf_static",
+        ],
+        env=local_ros_env(),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        start_node(robot_description=description, tip_link="panda_hand", publish_tf=True)
+        latched = QoSProfile(
+            depth=100,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+            reliability=ReliabilityPolicy.RELIABLE,
+        )
+        got: dict[str, list[bytes]] = {
+            t: [] for t in ("/tf", "/tf_static", "/rsp/tf", "/rsp/tf_static")
+        }
+        for topic, received in got.items():
+            qos = latched if topic.endswith("static") else 1000
+            client.node.create_subscription(tf2.TFMessage, topic, received.append, qos, raw=True)
+        wait_until(lambda: got["/tf_static"] and got["/rsp/tf_static"], 15, "both /tf_static")
+        pub = client.publisher(JointState, "joint_states")
+        wait_until(lambda: pub.get_subscription_count() >= 2, 20, "both joint_states subscriptions")
+        msg = JointState()
+        msg.header.stamp.sec = 3000
+        msg.name = [*(f"panda_joint{i}" for i in range(1, 8)), "panda_finger_joint1"]
+        msg.position = [0.3, -0.7, 0.2, -2.1, 0.4, 1.6, 0.5, 0.02]
+        pub.publish(msg)
+        wait_until(lambda: got["/tf"] and got["/rsp/tf"], 15, "both /tf")
+        ours = _transforms(got["/tf"][-1], store) | _transforms(got["/tf_static"][-1], store)
+        theirs = _transforms(got["/rsp/tf"][-1], store) | _transforms(
+            got["/rsp/tf_static"][-1], store
+        )
+        assert set(ours) == set(theirs)
+        for child, (parent, T, _) in ours.items():
+            assert theirs[child][0] == parent
+            np.testing.assert_allclose(T, theirs[child][1], atol=1e-9, err_msg=child)
+    finally:
+        rsp.terminate()
+        rsp.wait(timeout=10)
