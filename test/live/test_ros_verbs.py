@@ -138,16 +138,12 @@ def test_jacobian_prints_the_core_s_matrix_in_ros_row_order(node):
     """Rows linear x, y, z then angular x, y, z (the srv's order; the core's is (ω, v)), equal to
     SerialChain.jacobian to 1e-9 in each convention; the text says the row order and prints the
     same numbers."""
-    frames = ("world", "space", "body")
-    # independent calls, run at once (each process starts rclpy: ~1 s)
-    runs = {
-        frame: (
-            _start("jacobian", "--q", Q_TEXT, "--frame", frame, "--json"),
-            _start("jacobian", "--q", Q_TEXT, "--frame", frame),
-        )
-        for frame in frames
-    }
-    for frame, (as_json, text) in runs.items():
+    # Two processes at a time (each starts rclpy: ~1 s): six at once, on Kilted's Fast DDS 3, met
+    # "Failed init_port ... open_and_lock_file failed" on its shared-memory ports in a CI dry run,
+    # and one of them never reached the node within 30 s
+    for frame in ("world", "space", "body"):
+        as_json = _start("jacobian", "--q", Q_TEXT, "--frame", frame, "--json")
+        text = _start("jacobian", "--q", Q_TEXT, "--frame", frame)
         answer = _json(as_json)
         J = CHAIN.jacobian(Q, frame)  # rows (ω, v)
         J_ros = np.vstack([J[3:], J[:3]])
