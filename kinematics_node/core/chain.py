@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import se3, so3
+from . import se3
 from ._checks import as_float_array, check_finite, check_transform
 from ._kernel import Kernel
 from .exceptions import InvalidInputError, RobotDescriptionError, UnknownNameError
@@ -92,47 +92,6 @@ def _check_spec_numbers(spec: ChainSpec) -> None:
             raise RobotDescriptionError(
                 f"joint {j.name!r} has lower limit {j.lower} > upper limit {j.upper}"
             )
-
-
-def _link_steps(
-    link_joint: Sequence[int],
-    link_offset: Sequence[FloatArray],
-    A: FloatArray,
-    prismatic: Sequence[bool],
-) -> tuple[FloatArray, FloatArray]:
-    """Constants of each link's pose in the link before it (`parent_link_poses`,
-    `parent_link_transforms`): T₀, T₁, T₂ (L − 1, 3, 4, 4), with T = T₀ + sin θ T₁ + (1 − cos θ) T₂
-    (prismatic: T₀ + θ T₁; fixed: T₀), and the quaternions a, b (L − 1, 2, 4), (x, y, z, w), of
-    its rotation cos(θ/2) a + sin(θ/2) b (fixed or prismatic: a)."""
-    from .rotations import quaternion_multiply
-
-    K = np.zeros((4, 4))
-    K[0, 1], K[1, 0] = -1.0, 1.0  # hat(z): d/dθ of the rotation about z at 0
-    E = np.zeros((4, 4))
-    E[2, 3] = 1.0  # d/dθ of the slide along z
-    z = np.array([0.0, 0.0, 1.0, 0.0])  # the pure quaternion of the z axis
-    terms = np.zeros((len(link_joint) - 1, 3, 4, 4))
-    quats = np.zeros((len(link_joint) - 1, 2, 4))
-    for i in range(len(link_joint) - 1):
-        parent_inv = se3.inverse(link_offset[i])
-        child = link_offset[i + 1]
-        k = link_joint[i + 1]
-        if k == link_joint[i]:
-            terms[i, 0] = parent_inv @ child
-            quats[i, 0] = so3.quaternion_from_matrix(terms[i, 0, :3, :3])
-            continue
-        left = parent_inv @ A[k]
-        terms[i, 0] = left @ child
-        q_left = so3.quaternion_from_matrix(left[:3, :3])
-        q_child = so3.quaternion_from_matrix(child[:3, :3])
-        quats[i, 0] = quaternion_multiply(q_left, q_child)
-        if prismatic[k]:
-            terms[i, 1] = left @ E @ child
-        else:
-            terms[i, 1] = left @ K @ child
-            terms[i, 2] = left @ K @ K @ child
-            quats[i, 1] = quaternion_multiply(quaternion_multiply(q_left, z), q_child)
-    return terms, quats
 
 
 def _leaders(spec: ChainSpec) -> tuple[int, ...]:
@@ -267,8 +226,6 @@ class SerialChain:
     _mimic_index: tuple[tuple[int, float, float], ...] | None = field(compare=False)
     _link_joint: tuple[int, ...] = field(compare=False)
     _link_offset: FloatArray = field(compare=False)
-    _step_terms: FloatArray = field(compare=False)
-    _step_quaternions: FloatArray = field(compare=False)
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -326,7 +283,6 @@ class SerialChain:
         for _name, T_home, k in spec.links:
             link_joint.append(k)
             link_offset.append(T_home if k < 0 else se3.inverse(H[k]) @ T_home)
-        steps, step_quaternions = _link_steps(link_joint, link_offset, A, kernel.prismatic)
         return cls(
             base_link=spec.base_link,
             tip_link=spec.tip_link,
@@ -355,8 +311,6 @@ class SerialChain:
             _mimic_index=mimic_index,
             _link_joint=tuple(link_joint),
             _link_offset=readonly(np.array(link_offset)),
-            _step_terms=readonly(steps),
-            _step_quaternions=readonly(step_quaternions),
         )
 
     @classmethod
@@ -587,68 +541,6 @@ class SerialChain:
         if link not in self.link_names:
             raise UnknownNameError("link", link, self.link_names)
         return self.link_poses(q)[..., self.link_names.index(link), :, :]
-
-    @property
-    def moving_links(self) -> tuple[bool, ...]:
-        """For each link after the first of `link_names`: whether a moving joint lies between it
-        and the link before it (its pose there depends on q: /tf), or not (fixed: /tf_static)."""
-        joint = self._link_joint
-        return tuple(joint[i + 1] != joint[i] for i in range(len(joint) - 1))
-
-    def parent_link_poses(self, q: ArrayLike) -> FloatArray:
-        """Pose of each link of `link_names` after the first in the link before it, as /tf gives
-        it (the transform parent → child of the joint between them): (n,) → (L − 1, 4, 4),
-        (..., n) → (..., L − 1, 4, 4).
-
-        A moving joint k between parent p and child c turns (or slides) about its frame's z axis:
-        T_p_c = P⁻¹ A_k Rz(θ_k) C, with P, C the links' poses in the frames of the joints before
-        them and A_k the kernel's step between joint frames; with Rodrigues' formula for the unit
-        z, Rz(θ) = I + sin θ K + (1 − cos θ) K², that is T_p_c = T₀ + sin θ T₁ + (1 − cos θ) T₂
-        with three constant matrices per link (prismatic: T₀ + θ T₁), kept in `_step_terms`.
-        """
-        arr = self.check_q(q)
-        theta = self._internal_batch(arr.reshape(-1, self.dof))
-        terms = self._step_terms
-        joint = np.array(self._link_joint[1:])
-        moving = joint != np.array(self._link_joint[:-1])
-        N = theta.shape[0]
-        out = np.broadcast_to(terms[:, 0], (N, *terms[:, 0].shape)).copy()
-        if moving.any():
-            th = theta[:, joint[moving]][:, :, None, None]
-            prismatic = np.array(self._kernel.prismatic)[joint[moving]][None, :, None, None]
-            first = np.where(prismatic, th, np.sin(th))
-            second = np.where(prismatic, 0.0, 1.0 - np.cos(th))
-            out[:, moving] += first * terms[moving, 1] + second * terms[moving, 2]
-        return out.reshape(arr.shape[:-1] + out.shape[1:])
-
-    def parent_link_transforms(self, q: ArrayLike) -> tuple[FloatArray, FloatArray]:
-        """`parent_link_poses` as /tf carries them: translations (..., L − 1, 3) [m] and unit
-        quaternions (x, y, z, w) with w ≥ 0 (..., L − 1, 4), without forming the matrices.
-
-        The rotation of T_p_c = P⁻¹ A_k Rz(θ) C is q_L ⊗ (sin(θ/2) z + cos(θ/2)) ⊗ q_C =
-        cos(θ/2) a + sin(θ/2) b, a = q_L ⊗ q_C and b = q_L ⊗ z ⊗ q_C (z the pure quaternion of
-        the z axis; a ⊥ b, so the sum is a unit quaternion); its translation that of
-        `parent_link_poses`. ~10x faster than matrices and Shepperd's method (a recording's /tf).
-        """
-        arr = self.check_q(q)
-        theta = self._internal_batch(arr.reshape(-1, self.dof))
-        terms, quats = self._step_terms[:, :, :3, 3], self._step_quaternions
-        joint = np.array(self._link_joint[1:])
-        moving = joint != np.array(self._link_joint[:-1])
-        N = theta.shape[0]
-        t = np.broadcast_to(terms[:, 0], (N, *terms[:, 0].shape)).copy()
-        quat = np.broadcast_to(quats[:, 0], (N, *quats[:, 0].shape)).copy()
-        if moving.any():
-            th = theta[:, joint[moving]][:, :, None]
-            prismatic = np.array(self._kernel.prismatic)[joint[moving]][None, :, None]
-            first = np.where(prismatic, th, np.sin(th))
-            second = np.where(prismatic, 0.0, 1.0 - np.cos(th))
-            t[:, moving] += first * terms[moving, 1] + second * terms[moving, 2]
-            half = np.where(prismatic, 0.0, 0.5 * th)
-            quat[:, moving] = np.cos(half) * quats[moving, 0] + np.sin(half) * quats[moving, 1]
-        quat = np.where(quat[..., 3:] < 0.0, -quat, quat)
-        lead = arr.shape[:-1]
-        return t.reshape(lead + t.shape[1:]), quat.reshape(lead + quat.shape[1:])
 
     # ------------------------------------------------------------------ velocity and statics
     def twist(self, q: ArrayLike, qdot: ArrayLike, frame: Frame = "world") -> FloatArray:

@@ -1,6 +1,6 @@
 """core.joint_transforms: the parent -> child transform of every joint of a real description
 with a gripper (example-robot-data's Panda, fingers and a mimic joint), against Pinocchio's
-forward kinematics of every link; the chain's links against SerialChain.parent_link_transforms."""
+forward kinematics of every link; the chain's links against the chain's own link poses."""
 
 from __future__ import annotations
 
@@ -61,19 +61,24 @@ def test_every_joint_of_the_panda_with_its_fingers_matches_pinocchio(panda_text)
 
 
 def test_the_chains_links_agree_with_the_chain(panda_path):
-    """Over a chain's links (what a recording writes), the same transforms as the chain's own
-    kernel (`SerialChain.parent_link_transforms`), to rounding."""
+    """Over a chain's links (what a recording writes), each link's pose in the one before it is
+    the chain's own FK of the two, T_base_parent⁻¹ T_base_child, to rounding; the fixed ones do
+    not move with q."""
+    from kinematics_node.core.so3 import quaternion_from_matrix
+
     description = RobotDescription(str(panda_path))
     chain = SerialChain.from_urdf(panda_path, tip_link="panda_hand")
     tf = JointTransforms.of_links(description, chain.link_names)
     assert tf.children == chain.link_names[1:]
-    assert tuple(tf.moving) == chain.moving_links
     assert tf.inputs == chain.joint_names
     q = np.random.default_rng(2).uniform(chain.lower, chain.upper, size=(50, chain.dof))
     t, quat = tf.transforms(q)
-    t_chain, quat_chain = chain.parent_link_transforms(q)
-    np.testing.assert_allclose(t, t_chain, atol=1e-14)
-    np.testing.assert_allclose(quat, quat_chain, atol=1e-14)
+    T = chain.link_poses(q)
+    rel = np.linalg.inv(T[:, :-1]) @ T[:, 1:]
+    np.testing.assert_allclose(t, rel[..., :3, 3], atol=1e-12)
+    np.testing.assert_allclose(quat, quaternion_from_matrix(rel[..., :3, :3]), atol=1e-12)
+    spread = np.ptp(rel, axis=0).max(axis=(-1, -2))
+    assert (spread[~tf.moving] < 1e-12).all() and (spread[tf.moving] > 1e-3).all()
 
 
 def test_refusals_name_the_problem(panda_path):
