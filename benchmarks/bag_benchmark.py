@@ -47,7 +47,7 @@ print(json.dumps({"rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss /
 BAG = """
 import json, sys
 from pathlib import Path
-from kinematics_node.recordings.job import BagOptions, process_recording
+from kinematics_node.jobs.recordings.job import BagOptions, process_recording
 result = process_recording(Path(sys.argv[1]), Path(sys.argv[2]), BagOptions(tip_link="panda_hand_tcp"))
 import resource
 rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
@@ -62,7 +62,7 @@ def make_recording(path: Path, seconds: float) -> int:
     from rosbags.typesys import Stores, get_typestore
 
     from kinematics_node.core import SerialChain
-    from kinematics_node.recordings.mcap_batches import write_rows
+    from kinematics_node.jobs.recordings.mcap_batches import write_rows
     from kinematics_node.sim.robots import robot_path
 
     store = get_typestore(Stores.ROS2_JAZZY)

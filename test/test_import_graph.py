@@ -4,7 +4,7 @@ in the last tests, which import for real in a fresh interpreter).
 Every import counts: at module level, inside functions, and under ``if TYPE_CHECKING``. The graph
 has no circle, and imports only run down the layers of DESIGN.md (`LAYERS`, lowest first):
 kinematics_node.core (imports nothing of ours) → msg_adapters → kinematics_node.service →
-kinematics_node.recordings → kinematics_node.sim → kinematics_node.ros → kinematics_node.cli.
+kinematics_node.jobs → kinematics_node.sim → kinematics_node.ros → kinematics_node.cli.
 Every module of kinematics_node sits in one of its six folders. ROS packages: never in core,
 msg_adapters, service, recordings or sim; in cli only inside functions (the command line starts
 without ROS). Nothing outside core/chain.py touches a private member of `SerialChain`, and no
@@ -28,7 +28,7 @@ LAYERS = (
     "kinematics_node.core",
     "msg_adapters",
     "kinematics_node.service",
-    "kinematics_node.recordings",
+    "kinematics_node.jobs",
     "kinematics_node.sim",
     "kinematics_node.ros",
     "kinematics_node.cli",
@@ -38,7 +38,7 @@ WITHOUT_ROS_ANYWHERE = (
     "kinematics_node.core",
     "msg_adapters",
     "kinematics_node.service",
-    "kinematics_node.recordings",
+    "kinematics_node.jobs",
     "kinematics_node.sim",
 )
 #: Layers that import ROS packages only inside functions (never when the module is imported).

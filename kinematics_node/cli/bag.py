@@ -2,9 +2,9 @@
 
 Each recording (a rosbag2 directory; a folder of them counts as each) becomes a new recording in
 MCAP storage with everything copied and ee_pose, ee_twist, /tf and /tf_static added
-(`kinematics_node.recordings`). One recording: OUT is the output recording. Several: OUT is a
+(`kinematics_node.jobs.recordings`). One recording: OUT is the output recording. Several: OUT is a
 folder, each output named after its input, and the recordings run on the local cores, one
-process each, or with --scheduler on a Dask cluster (`recordings.tasks`; so does one recording).
+process each, or with --scheduler on a Dask cluster (`jobs.tasks`; so does one recording).
 
 Needs rosbags (`pip install 'kinematics_service[bags]'`); matplotlib for --plot; tqdm draws the
 progress bar when installed and stderr is a terminal.
@@ -177,7 +177,7 @@ def run(args: argparse.Namespace) -> int:
         import rosbags  # noqa: F401
     except ImportError:
         raise BagError(f"kinematics bag needs rosbags: {INSTALL}") from None
-    from ..recordings.job import BagOptions, recordings_in
+    from ..jobs.recordings.job import BagOptions, recordings_in
 
     for value, name in (
         (args.singular_condition, "--singular-condition"),
@@ -244,7 +244,7 @@ def _progress(label: str) -> tuple[Callable[[int, int], None] | None, Callable[[
 
 
 def _one(source: Path, out: Path, options: Any, plot: str | None) -> int:
-    from ..recordings.job import process_recording
+    from ..jobs.recordings.job import process_recording
 
     update, close = _progress(source.name)
     try:
@@ -253,7 +253,7 @@ def _one(source: Path, out: Path, options: Any, plot: str | None) -> int:
         close()
     print(result.report())
     if plot:
-        from ..recordings.picture import draw
+        from ..jobs.recordings.picture import draw
 
         draw(result, Path(plot))
         print(f"picture: {plot}")
@@ -262,7 +262,7 @@ def _one(source: Path, out: Path, options: Any, plot: str | None) -> int:
 
 def _task(job: tuple[Path, Path, Any]) -> str:
     """One recording, in a process or on a Dask worker of its own: its report."""
-    from ..recordings.job import process_recording
+    from ..jobs.recordings.job import process_recording
 
     source, out, options = job
     return process_recording(source, out, options).report()
@@ -288,7 +288,7 @@ def _on_cluster(
     work: list[tuple[Path, Path, Any]], scheduler: str | None, jobs: int | None = None
 ) -> int:
     """Each (recording, output, options) as a task: on the local cores, or on Dask."""
-    from ..recordings.tasks import run_tasks
+    from ..jobs.tasks import run_tasks
 
     failed = 0
     for outcome in run_tasks(_task, work, scheduler=scheduler, processes=jobs):

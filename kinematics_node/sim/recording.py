@@ -17,8 +17,8 @@ import numpy as np
 from msg_adapters.cdr import joint_state_cdr
 
 from ..core import InvalidInputError
-from ..recordings.job import latched_qos
-from ..recordings.mcap_batches import write_rows
+from ..jobs.recordings.job import latched_qos
+from ..jobs.recordings.mcap_batches import write_rows
 from .arm import ArmSimulator
 from .robots import robot_path
 

@@ -21,9 +21,9 @@ from numpy.typing import NDArray
 from msg_adapters.cdr import pose_stamped_cdr, tf_message_cdr, twist_stamped_cdr
 from msg_adapters.markers import MARKER_ARRAY_TYPE, manipulability_markers_cdr
 
-from ..core import SerialChain, so3
-from ..core.analysis import RED_CONDITION, singular_values, translational_ellipsoid
-from ..core.joint_transforms import JointTransforms
+from ...core import SerialChain, so3
+from ...core.analysis import RED_CONDITION, singular_values, translational_ellipsoid
+from ...core.joint_transforms import JointTransforms
 from .joint_motion import Motion
 
 FloatArray = NDArray[np.float64]

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from kinematics_node.recordings.job import latched_qos
+from kinematics_node.jobs.recordings.job import latched_qos
 from kinematics_node.sim.robots import robot_path
 
 typesys = __import__("pytest").importorskip("rosbags.typesys", reason="pip install rosbags")

@@ -1,4 +1,4 @@
-"""`recordings.tasks.run_tasks` on the local cores and on real Dask clusters: a LocalCluster of
+"""`jobs.tasks.run_tasks` on the local cores and on real Dask clusters: a LocalCluster of
 worker processes, and a scheduler and a worker started as the commands users start
 (`dask scheduler`, `dask worker`); `kinematics bag --scheduler` gives, byte for byte, what it
 gives on the local cores; a worker that dies mid-task has its task run again; an unreachable
@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 from recording_testing import write_recording
 
-from kinematics_node.recordings.tasks import TaskError, run_tasks
+from kinematics_node.jobs.tasks import TaskError, run_tasks
 
 distributed = pytest.importorskip("distributed", reason="pip install 'kinematics_service[dask]'")
 HERE = Path(__file__).resolve().parent

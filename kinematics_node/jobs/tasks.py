@@ -7,8 +7,8 @@ same; Dask's scheduler reruns the tasks of a worker that dies. No queue, socket 
 own: the local way is `concurrent.futures`, the other `distributed.Client.map` and `as_completed`.
 
 Dask is an optional extra (`pip install 'kinematics_service[dask]'`), needed only with a
-scheduler's address. (Shared with the workspace maps to come; it sits with the recordings, its
-first user, until then.)
+scheduler's address. Both offline jobs use it: many recordings (`jobs.recordings`) and the chunks
+of a workspace map (`jobs.maps`).
 """
 
 from __future__ import annotations

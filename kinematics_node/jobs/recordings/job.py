@@ -31,9 +31,9 @@ from numpy.typing import NDArray
 
 from msg_adapters.cdr import decode_joint_states, decode_string
 
-from ..core import KinematicsError, SerialChain
-from ..core.joint_transforms import JointTransforms
-from ..core.urdf import RobotDescription
+from ...core import KinematicsError, SerialChain
+from ...core.joint_transforms import JointTransforms
+from ...core.urdf import RobotDescription
 from .joint_motion import Counts, JointMotion, Motion
 from .mcap_batches import write_rows
 from .outputs import (

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from kinematics_node.recordings.joint_motion import JointMotion
+from kinematics_node.jobs.recordings.joint_motion import JointMotion
 from kinematics_node.service.ee_state import JointStateTracker
 from msg_adapters.cdr import decode_joint_states
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import SerialChain
+from ...core import SerialChain
 from .joint_motion import Counts, Motion
 from .outputs import Computed, Conditioning
 

@@ -14,7 +14,7 @@ import pytest
 from kin_testing import PinocchioOracle
 from recording_testing import STORE, rosbag2, write_recording
 
-from kinematics_node.recordings.job import BagOptions, RecordingError, process_recording
+from kinematics_node.jobs.recordings.job import BagOptions, RecordingError, process_recording
 from kinematics_node.sim.robots import robot_path
 
 TIP = "panda_hand_tcp"
@@ -193,7 +193,7 @@ def test_tf_static_is_latched_and_the_added_topics_are_typed(recording):
 
 
 def test_the_same_recording_in_batches_of_any_size_gives_the_same_output(tmp_path, monkeypatch):
-    from kinematics_node.recordings import job
+    from kinematics_node.jobs.recordings import job
 
     src = write_recording(tmp_path / "in", count=250)
     process_recording(src, tmp_path / "whole", OPTIONS)

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from kinematics_node.recordings.mcap_batches import CHUNK_BYTES, write_rows
+from kinematics_node.jobs.recordings.mcap_batches import CHUNK_BYTES, write_rows
 
 rosbag2 = pytest.importorskip("rosbags.rosbag2", reason="pip install rosbags")
 typesys = pytest.importorskip("rosbags.typesys", reason="pip install rosbags")
