@@ -44,10 +44,20 @@ Layout (one concept per module):
 * `solution_set`: the result types, whole-turn equivalents within the limits, duplicates, ranking.
 * `detection`: detection (with confirmation) and the per-chain cache, and why a chain has none.
 * `held`: the swept values of a 7R arm's held joint.
-* `api`: the entry points `solve_all`, `solve_all_batch`, `nearest`, `nearest_batch`.
+* `api`: the entry points `solve_all`, `solve_all_batch`, `nearest`, `nearest_batch`,
+  `branches_within_limits`.
 """
 
-from .api import Nearest, NearestBatch, nearest, nearest_batch, solve_all, solve_all_batch
+from .api import (
+    Branches,
+    Nearest,
+    NearestBatch,
+    branches_within_limits,
+    nearest,
+    nearest_batch,
+    solve_all,
+    solve_all_batch,
+)
 from .detection import (
     ExportedFamily,
     export_family,
@@ -64,6 +74,7 @@ __all__ = [
     "ANGLE_TOLERANCE",
     "DEFAULT_HELD_SAMPLES",
     "DISTANCE_TOLERANCE",
+    "Branches",
     "ExportedFamily",
     "Nearest",
     "NearestBatch",
@@ -78,6 +89,7 @@ __all__ = [
     "nearest_batch",
     "pose_errors",
     "no_closed_form_reason",
+    "branches_within_limits",
     "solve_all",
     "solve_all_batch",
 ]

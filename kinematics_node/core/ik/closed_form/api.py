@@ -1,5 +1,6 @@
-"""Entry points of the closed form: every solution (`solve_all`, `solve_all_batch`) and the
-nearest ones for `ik` / `ik_batch` (`nearest`, `nearest_batch`).
+"""Entry points of the closed form: every solution (`solve_all`, `solve_all_batch`), the
+nearest ones for `ik` / `ik_batch` (`nearest`, `nearest_batch`), and the distinct branches within
+the limits for reachability maps (`branches_within_limits`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from ..result import check_seed
 from .chain_solver import (
     NEAREST_REFINE_ABOVE,
     REFINE_BELOW,
+    SOLVE_CHUNK,
     ChainSolver,
     fk_check,
     fk_errors,
@@ -29,11 +31,12 @@ from .chain_solver import (
     solve_single,
 )
 from .detection import require_solver, solver_of
-from .geometry import INV_TWO_PI, BoolArray, FloatArray, Stages, pose_errors_list
+from .geometry import INV_TWO_PI, BoolArray, FloatArray, IntArray, Stages, pose_errors_list
 from .held import DEFAULT_HELD_SAMPLES, held_order_one, held_values_of
 from .solution_set import (
     ClosedFormBatchResult,
     ClosedFormResult,
+    duplicate_branches,
     empty_reason,
     rank_array,
     rank_candidates,
@@ -486,3 +489,86 @@ def nearest_batch(
     t = own[first]
     q[t], found[t], pos[t], ori[t] = Qc[first], True, ep[first], er[first]
     return NearestBatch(q, found, pos, ori)
+
+
+@dataclass(frozen=True)
+class Branches:
+    """The distinct solutions of N targets within the limits, one configuration per branch: rows
+    `q` (S, n), the target of each `target` (S,) in order, and their position [m] and rotation
+    [rad] errors. Whole-turn equivalents of a branch count once (the one nearest the middle of the
+    limits stands for them); a 7R arm's branches at different held values count apart."""
+
+    q: FloatArray
+    target: IntArray
+    position_error: FloatArray
+    orientation_error: FloatArray
+
+
+def branches_within_limits(
+    chain: KinematicChain,
+    T_targets: ArrayLike,
+    held: ArrayLike | None = None,
+    tolerance: float = 1e-9,
+) -> Branches:
+    """Which of N targets (N, 4, 4) are reachable within the limits, and by which branches.
+
+    What a reachability map asks: `solve_all_batch` without the whole-turn equivalents (an arm
+    with ±2π limits has ~230 of them per target where 8 branches differ), so its cost stays that
+    of the ≤ 8 (16: general 6R) branches of each lane. Each branch with an equivalent within the
+    limits is checked by forward kinematics (near misses refined) and kept when it reproduces the
+    target to `tolerance` [m, rad]. `held` as in `solve_all_batch` (default: 36 values across the
+    held joint's limits). Works in passes of about `SOLVE_CHUNK` lanes.
+
+    Raises:
+        NoClosedFormError, InvalidInputError: as `solve_all_batch`.
+    """
+    solver = require_solver(chain)
+    tol = _check_tolerance(tolerance)
+    T = chain.check_target(T_targets, "T_targets")
+    if T.ndim != 3:
+        raise InvalidInputError(f"T_targets must have shape (N, 4, 4), got {T.shape}")
+    T = _orthonormal(T)
+    N = T.shape[0]
+    seeds = check_seed(chain, None, "q_seeds", N)
+    held_arr = held_values_of(solver, held, N)
+    K = 1 if held_arr is None else held_arr.shape[-1]
+    step = max(1, SOLVE_CHUNK // K)
+    parts = []
+    for i in range(0, N, step):
+        h = held_arr[i : i + step] if held_arr is not None and held_arr.ndim == 2 else held_arr
+        parts.append(_branches_once(solver, T[i : i + step], seeds[i : i + step], h, tol, i))
+    if not parts:
+        n = chain.dof
+        return Branches(np.empty((0, n)), np.empty(0, np.int64), np.empty(0), np.empty(0))
+    return Branches(*(np.concatenate(column) for column in zip(*parts, strict=True)))
+
+
+def _branches_once(
+    solver: ChainSolver,
+    T: FloatArray,
+    seeds: FloatArray,
+    held: FloatArray | None,
+    tol: float,
+    first: int,
+) -> tuple[FloatArray, IntArray, FloatArray, FloatArray]:
+    """`branches_within_limits` of one pass; targets numbered from `first`."""
+    Q, ok, owner_lane, _, _ = solve_branches(solver, T, seeds, held)
+    n = Q.shape[-1]
+    ok = ok & ~duplicate_branches(Q, ok)  # the same branch twice in a lane (mod 2π)
+    Qf = Q.reshape(-1, n)
+    owner = np.repeat(owner_lane, Q.shape[1])
+    # each branch's whole-turn equivalent within the limits nearest the middle (`nearest_batch`)
+    S = seeds[owner]
+    lo = np.where(np.isfinite(solver.lower_arr), solver.lower_arr, S - math.pi)
+    hi = np.where(np.isfinite(solver.upper_arr), solver.upper_arr, S + math.pi)
+    k_lo = np.ceil((lo - 1e-10 - Qf) * INV_TWO_PI)
+    k_hi = np.floor((hi + 1e-10 - Qf) * INV_TWO_PI)
+    k = np.clip(np.round((S - Qf) * INV_TWO_PI), k_lo, k_hi)
+    cand = np.flatnonzero(ok.reshape(-1) & (k_lo <= k_hi).all(axis=1))
+    Qc = np.clip(Qf[cand] + TWO_PI * k[cand], lo[cand], hi[cand])
+    own = owner[cand]
+    Qc, ep, er = fk_check(
+        solver, Qc, T[own], lambda A: np.clip(A, solver.lower_arr, solver.upper_arr)
+    )
+    acc = (ep <= tol) & (er <= tol)
+    return Qc[acc], own[acc] + first, ep[acc], er[acc]
