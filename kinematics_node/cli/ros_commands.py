@@ -16,6 +16,7 @@ at run time (as `ros2 param` does: the tip of a description with a gripper).
     kinematics ros jog [--topic /servo/delta_twist_cmds] [--frame F] [--speed 0.05] [--turn 0.3]
                        [--rate 50] [--status /servo/status] [--keys-from-stdin] [--wait 10]
     kinematics ros param list|get|set NODE [NAME [VALUE]] [--wait 10]
+    kinematics ros reach-markers MAP [--topic /reachability_map] [--frame BASE] [--once]
 
 This module holds the arguments and imports no ROS: main.py adds the `ros` command with
 `add_parser` and runs it with `run`; ROS is imported by `run`, through `ros.client`, only when the
@@ -35,7 +36,7 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 from ..ros.client import RosClient, RosClientError, missing_ros
-from . import ros_services, ros_topics
+from . import ros_markers, ros_services, ros_topics
 from .jog import HELP, Jog
 
 _EXAMPLES = """examples:
@@ -52,6 +53,7 @@ _EXAMPLES = """examples:
   kinematics ros jog --frame tool0 --speed 0.02     # along the tool's own axes
   kinematics ros param set kinematics_node tip_link tool0   # as `ros2 param set` (YAML values)
   kinematics ros param list kinematics_node
+  kinematics ros reach-markers ur5e.h5              # the map's cubes for RViz, until Ctrl-C
 
 Start the node first (kinematics_node --help; for jog, the servo: servo --help). The commands wait
 up to --wait seconds for it and use this shell's ROS_DOMAIN_ID and ROS_AUTOMATIC_DISCOVERY_RANGE,
@@ -260,12 +262,41 @@ def add_parser(commands: Any) -> None:
         "reads it:\ntrue, 3, 0.5, [1, 2], text. A value the node refuses: exit status 1 with "
         "its reason.",
     )
+    markers = which.add_parser(
+        "reach-markers",
+        help="publish a reachability map's cubes (MarkerArray), transient local, for RViz",
+        description="Publish a reachability map (kinematics reach --out) as a visualization_msgs/"
+        "MarkerArray:\none cube per voxel with D > 0, coloured by D, offered transient local so "
+        "that RViz\nstarted later gets it too. Stays up until Ctrl-C, or with --once until a "
+        "subscriber has it.",
+        epilog=_EXAMPLES,
+    )
+    markers.add_argument("map", metavar="MAP", help="the map file")
+    markers.add_argument(
+        "--topic", default="/reachability_map", help="topic (default: %(default)s)"
+    )
+    markers.add_argument("--frame", metavar="FRAME", help="frame_id (default: the map's base link)")
+    markers.add_argument(
+        "--once", action="store_true", help="exit once a subscriber has the map (waits --wait)"
+    )
     for action in (listing, getting, setting):
         action.add_argument("node", metavar="NODE", help="the node's name, e.g. kinematics_node")
     for action in (getting, setting):
         action.add_argument("name", metavar="NAME", help="the parameter")
     setting.add_argument("value", metavar="VALUE", help="its new value (YAML)")
-    for command in (pose, twist, fk, jacobian, ik, diagnostics, jog, listing, getting, setting):
+    for command in (
+        pose,
+        twist,
+        fk,
+        jacobian,
+        ik,
+        diagnostics,
+        jog,
+        listing,
+        getting,
+        setting,
+        markers,
+    ):
         command.add_argument(
             "--wait",
             type=_seconds,
@@ -292,6 +323,7 @@ def run(args: argparse.Namespace, emit: Callable[[str], None] = print) -> int:
         "ik": (ros_services.ik, ("kinematics_service.srv",)),
         "jog": (_jog, ("geometry_msgs.msg", "diagnostic_msgs.msg")),
         "param": (_param, ("rcl_interfaces.srv",)),
+        "reach-markers": (ros_markers.reach_markers, ("visualization_msgs.msg",)),
     }[args.ros_command]
     if args.ros_command == "jog" and not (args.keys_from_stdin or _stdin_is_a_terminal()):
         # before ROS starts and before the banner: without a terminal there are no keys to jog
