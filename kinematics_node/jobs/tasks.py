@@ -68,10 +68,17 @@ def _local(
 ) -> Iterator[Outcome[Item]]:
     with ProcessPoolExecutor(max_workers=max(1, min(processes, len(items)))) as pool:
         futures = {pool.submit(function, item): item for item in items}
-        for future in as_completed(futures):
-            item = futures[future]
-            error = future.exception()
-            yield Outcome(item, None if error else future.result(), error)
+        try:
+            for future in as_completed(futures):
+                item = futures[future]
+                error = future.exception()
+                yield Outcome(item, None if error else future.result(), error)
+        except BaseException:
+            # Ctrl-C, or the caller stopped early: the tasks not yet started never start (the
+            # pool's exit would otherwise run every one of them first); the running ones finish
+            # and their processes end before this returns (they hold the caller's files open)
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
 
 
 def _dask(

@@ -17,7 +17,7 @@ import functools
 import hashlib
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -158,6 +158,7 @@ def build_map(
     force: bool = False,
     progress: Callable[[int, int], None] | None = None,
     task: Callable[[ChunkTask], ChunkResult] = solve_chunk,
+    connect_timeout_s: float = 10.0,
 ) -> MapRun:
     """The reachability map of `robot` into `out` (.h5, with a .npz beside it; or .npz alone).
 
@@ -172,6 +173,7 @@ def build_map(
         force: start again over an existing file, whatever it holds.
         progress: called with (chunks done, chunks in all) as each chunk is in.
         task: the function each chunk runs (module-level, picklable; `solve_chunk`).
+        connect_timeout_s: how long to try the scheduler [s].
 
     Raises:
         InvalidInputError: resolution, counts or method refused by the core.
@@ -183,6 +185,8 @@ def build_map(
     path = Path(out)
     if path.suffix.lower() not in (".h5", ".hdf5", ".npz"):
         raise MapFileError(f"--out {path}: the map file must end in .h5 or .npz")
+    if not path.parent.is_dir():
+        raise MapFileError(f"--out {path}: the folder {path.parent} does not exist")
     if isinstance(chunk_voxels, bool) or not isinstance(chunk_voxels, int) or chunk_voxels < 1:
         raise MapFileError(f"chunk_voxels must be a whole number ≥ 1, got {chunk_voxels!r}")
     h5 = path.suffix.lower() != ".npz"
@@ -211,7 +215,15 @@ def build_map(
         n = len(chunk_ranges(len(centres), chunk_voxels))
         try:
             reach_map = _in_memory(
-                robot, header, centres, rotations, scheduler, processes, progress, task
+                robot,
+                header,
+                centres,
+                rotations,
+                scheduler,
+                processes,
+                progress,
+                task,
+                connect_timeout_s,
             )
         except KeyboardInterrupt:
             raise MapInterrupted(0, n, path) from None
@@ -230,7 +242,7 @@ def build_map(
         if progress is not None:
             progress(kept, total)
         try:
-            for result in _results(task, todo, scheduler, processes):
+            for result in _results(task, todo, scheduler, processes, connect_timeout_s):
                 writer.write_chunk(
                     result.chunk,
                     result.reached,
@@ -253,12 +265,18 @@ def _results(
     todo: list[ChunkTask],
     scheduler: str | None,
     processes: int | None,
-):
+    connect_timeout_s: float,
+) -> Iterator[ChunkResult]:
     """Each chunk's result as it finishes; a chunk whose task failed stops the map with its
     error (the chunks in so far are kept)."""
     if not todo:
         return
-    for outcome in run_tasks(task, todo, scheduler=scheduler, processes=processes):
+    outcomes = run_tasks(
+        task, todo, scheduler=scheduler, processes=processes, connect_timeout_s=connect_timeout_s
+    )
+    for outcome in outcomes:
+        if isinstance(outcome.error, KeyboardInterrupt):  # Ctrl-C reached a worker first
+            raise KeyboardInterrupt
         if outcome.error is not None:
             why = " ".join(str(outcome.error).split()) or type(outcome.error).__name__
             raise MapFileError(f"chunk {outcome.item.chunk} failed: {why}")
@@ -274,6 +292,7 @@ def _in_memory(
     processes: int | None,
     progress: Callable[[int, int], None] | None,
     task: Callable[[ChunkTask], ChunkResult],
+    connect_timeout_s: float,
 ) -> ReachMap:
     M, K = len(centres), len(rotations)
     reached = np.zeros((M, K), dtype=bool)
@@ -286,7 +305,7 @@ def _in_memory(
     ]
     methods = set()
     done = 0
-    for result in _results(task, todo, scheduler, processes):
+    for result in _results(task, todo, scheduler, processes, connect_timeout_s):
         a, b = chunks[result.chunk]
         reached[a:b], solutions[a:b], manip[a:b] = (
             result.reached,
