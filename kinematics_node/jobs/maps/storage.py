@@ -383,9 +383,16 @@ def _from_arrays(arrays: dict[str, Any], path: Path) -> ReachMap:
 def write_npz(path: Path, reach_map: ReachMap, header: MapHeader) -> None:
     """The map as `.npz`: our arrays, Reuleaux's rows and the header (JSON), written to a
     temporary file first and renamed, so a file at `path` is always whole."""
-    spheres, poses = reuleaux_rows(
-        reach_map.centres, quaternions(reach_map.rotations), reach_map.reached
-    )
+    quats = quaternions(reach_map.rotations)
+    poses = np.empty((int(np.count_nonzero(reach_map.reached)), 10), dtype=np.float32)
+    parts, row = [], 0
+    for a in range(0, len(reach_map.centres), ASSEMBLY_VOXELS):  # few temporaries at a time
+        block = slice(a, a + ASSEMBLY_VOXELS)
+        s, p = reuleaux_rows(reach_map.centres[block], quats, reach_map.reached[block])
+        parts.append(s)
+        poses[row : row + len(p)] = p
+        row += len(p)
+    spheres = np.concatenate(parts) if parts else np.zeros((0, 4))
     meta = {"format": FORMAT, **asdict(header), "method": reach_map.method}
     tmp = path.with_name(path.name + ".part.npz")
     try:
@@ -396,7 +403,7 @@ def write_npz(path: Path, reach_map: ReachMap, header: MapHeader) -> None:
                 centres=reach_map.centres,
                 indices=np.rint(reach_map.centres / reach_map.resolution).astype(np.int64),
                 rotations=reach_map.rotations,
-                quaternions=quaternions(reach_map.rotations),
+                quaternions=quats,
                 reached=reach_map.reached,
                 solutions=reach_map.solutions.astype(np.int32),
                 manipulability=reach_map.manipulability,
