@@ -178,3 +178,19 @@ def test_an_unreachable_scheduler_is_one_line_and_keeps_nothing_half_made(tmp_pa
         build_map(ur5e(), out, scheduler=f"tcp://127.0.0.1:{port}", connect_timeout_s=1.0, **SMALL)
     with h5py.File(out, "r") as f:  # made, nothing counted: the same command resumes it
         assert f["KinematicsService/chunk_done"][...].sum() == 0
+
+
+def test_pose_rows_pair_with_their_spheres_exactly_at_any_resolution():
+    """Reuleaux's reader matches a pose row (float32, read as double) to its sphere by exact
+    equality: at 5 cm most centres are not float32 numbers, so the spheres' must be widened."""
+    from kinematics_node.jobs.maps.storage import quaternions, reuleaux_rows
+
+    rng = np.random.default_rng(7)
+    centres = rng.integers(-20, 21, size=(300, 3)) * 0.05
+    rotations = np.asarray(approach_rotations(6))
+    reached = rng.random((300, 6)) < 0.4
+    spheres, poses = reuleaux_rows(centres, quaternions(rotations), reached)
+    assert not np.array_equal(centres.astype(np.float32).astype(np.float64), centres)
+    keys = {tuple(r) for r in spheres[:, :3]}
+    assert {tuple(r) for r in poses[:, :3].astype(np.float64)} <= keys
+    assert len(keys) == len(spheres) == reached.any(axis=1).sum()
