@@ -35,7 +35,9 @@ setup(
         "demo": ["matplotlib>=3.5"],
         # `kinematics bag` and `record-demo`: rosbag2 recordings without ROS; tqdm's progress bar
         "bags": ["rosbags>=0.10", "tqdm>=4"],
-        # many recordings (and, next, workspace maps) on a Dask cluster: kinematics bag --scheduler
+        # `kinematics reach`'s HDF5 maps (Reuleaux's layout; .npz needs nothing) and progress bar
+        "maps": ["h5py>=3", "tqdm>=4"],
+        # many recordings and workspace maps on a Dask cluster: kinematics bag/reach --scheduler
         "dask": ["dask[distributed]>=2024.1"],
         # Jerk limits of kinematics_node.core.servo (optional: without it the servo smooths within
         # the position, velocity and acceleration limits, with no jerk limit)
@@ -53,6 +55,7 @@ setup(
             "tqdm>=4",  # the recordings' progress bar (extra "bags")
             "mcap-ros2-support>=0.5",  # decodes recordings independently of rosbags
             "dask[distributed]>=2024.1",  # a real local cluster and dask scheduler/worker commands
+            "h5py>=3",  # kinematics reach's maps, read back (extra "maps")
         ],
         # Peers for the side-by-side benchmarks; KDL comes from Debian (apt install python3-pykdl).
         "bench": [

@@ -27,6 +27,7 @@ ROSDEP_KEY = {
     "yaml": "python3-yaml",
     "matplotlib": "python3-matplotlib",
     "tqdm": "python3-tqdm",
+    "h5py": "python3-h5py",
 }
 
 

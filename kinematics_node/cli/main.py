@@ -33,7 +33,7 @@ from ..core import KinematicsError, SerialChain
 from ..core.exceptions import RobotDescriptionError, UnknownNameError
 from ..core.ik.options import IKOptions
 from ..core.model import mimic_rule
-from . import bag, place, ros_commands
+from . import bag, place, reach, ros_commands
 
 _MAX_SHOWN = 40  # characters of user input echoed in an error message
 _MAX_STEPS = 1_000_000  # demo: joint states simulated at most
@@ -824,6 +824,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bag.add_parser(sub)  # `kinematics bag`: rosbags is imported only when it runs
     bag.add_record_demo_parser(sub)
+    reach.add_parser(sub)  # `kinematics reach`: the map job is imported only when it runs
     place.add_parser(sub)  # `kinematics place`: base placement from a reachability map
     ros_commands.add_parser(sub)  # `kinematics ros ...`: ROS is imported only when it runs
     return parser
@@ -933,6 +934,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return bag.run(args)
         if args.command == "record-demo":
             return bag.run_record_demo(args)
+        if args.command == "reach":
+            return reach.run(args)
         if args.command == "place":
             return place.run(args, load_chain, dump_json)
         # overflow in extreme but finite inputs shows in the results (checked finite), not as

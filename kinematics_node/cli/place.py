@@ -80,38 +80,17 @@ def _whole(text: str) -> int:
 
 
 def read_map(path: str | Path) -> ReachMap:
-    """The map at `path` (the map job's reader)."""
+    """The map at `path` (`.h5` or `.npz` of `kinematics reach`)."""
+    from ..jobs.maps.storage import MapFileError
+    from ..jobs.maps.storage import read_map as read_stored
+
     p = Path(path)
     if not p.exists():
         raise PlaceError(f"no map at {str(path)!r} (make one with kinematics reach)")
     try:
-        from ..jobs.maps.storage import read_map as read_stored
-    except ImportError:  # until the map job's storage is merged: its .npz fields
-        return _read_npz(p)
-    return read_stored(p)  # type: ignore[no-any-return]
-
-
-def _read_npz(path: Path) -> ReachMap:
-    import numpy as np
-
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            return ReachMap(
-                robot=str(data["robot"]),
-                base_link=str(data["base_link"]),
-                tip_link=str(data["tip_link"]),
-                resolution=float(data["resolution"]),
-                directions=int(data["directions"]),
-                rolls=int(data["rolls"]),
-                centres=data["centres"],
-                rotations=data["rotations"],
-                reached=data["reached"].astype(bool),
-                solutions=data["solutions"],
-                manipulability=data["manipulability"],
-                method=str(data["method"]),
-            )
-    except (OSError, ValueError, KeyError) as exc:
-        raise PlaceError(f"{path} is not a reachability map: {exc}") from None
+        return read_stored(p)
+    except MapFileError as exc:
+        raise PlaceError(str(exc)) from None
 
 
 def _chain(

@@ -14,6 +14,8 @@ of a workspace map (`jobs.maps`).
 from __future__ import annotations
 
 import os
+import threading
+import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -66,12 +68,35 @@ def run_tasks(
 def _local(
     function: Callable[[Item], Any], items: Sequence[Item], processes: int
 ) -> Iterator[Outcome[Item]]:
-    with ProcessPoolExecutor(max_workers=max(1, min(processes, len(items)))) as pool:
+    with ProcessPoolExecutor(
+        max_workers=max(1, min(processes, len(items))),
+        initializer=_exit_with_parent,
+        initargs=(os.getpid(),),
+    ) as pool:
         futures = {pool.submit(function, item): item for item in items}
-        for future in as_completed(futures):
-            item = futures[future]
-            error = future.exception()
-            yield Outcome(item, None if error else future.result(), error)
+        try:
+            for future in as_completed(futures):
+                item = futures[future]
+                error = future.exception()
+                yield Outcome(item, None if error else future.result(), error)
+        except BaseException:
+            # Ctrl-C, or the caller stopped early: the tasks not yet started never start (the
+            # pool's exit would otherwise run every one of them first); the running ones finish
+            # and their processes end before this returns (they hold the caller's files open)
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
+
+
+def _exit_with_parent(parent: int) -> None:
+    """In each local worker: end when the process that started it is gone (killed hard, it
+    cannot tell its pool to stop, and the workers would wait for tasks forever)."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
 
 
 def _dask(

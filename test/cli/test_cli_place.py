@@ -7,14 +7,13 @@ from __future__ import annotations
 import json
 import math
 import sys
-from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "jobs" / "maps"))
-from map_testing import small_map  # noqa: E402
+from map_testing import save_npz, small_map  # noqa: E402
 
 from kinematics_node.cli.main import main  # noqa: E402
 from kinematics_node.core.rotations import quaternion_from_matrix  # noqa: E402
@@ -26,7 +25,7 @@ from kinematics_node.sim.robots import load_robot  # noqa: E402
 def files(tmp_path: Path) -> tuple[Path, Path]:
     m = small_map()
     map_path = tmp_path / "ur5e.npz"
-    np.savez(map_path, **{k: np.asarray(v) for k, v in asdict(m).items()})
+    save_npz(m, map_path)
     chain = load_robot("ur5e")
     B = floor_pose(0.4, 0.2, math.radians(30.0))
     rng = np.random.default_rng(2)

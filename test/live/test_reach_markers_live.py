@@ -8,7 +8,6 @@ from __future__ import annotations
 import signal
 import subprocess
 import sys
-from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +16,7 @@ from live_node import DOMAIN_ID, Client, wait_until
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "jobs" / "maps"))
-from map_testing import small_map  # noqa: E402
+from map_testing import save_npz, small_map  # noqa: E402
 
 from kinematics_node.ros.env import local_ros_env  # noqa: E402
 from msg_adapters.reach_markers import index_colours  # noqa: E402
@@ -31,7 +30,7 @@ LATCHED = QoSProfile(
 @pytest.fixture
 def map_file(tmp_path: Path) -> Path:
     path = tmp_path / "ur5e.npz"
-    np.savez(path, **{k: np.asarray(v) for k, v in asdict(small_map()).items()})
+    save_npz(small_map(), path)
     return path
 
 

@@ -34,3 +34,22 @@ def small_map(
         reach.manipulability,
         reach.method,
     )
+
+
+def save_npz(reach_map: ReachMap, path) -> None:
+    """`reach_map` as the map job's `.npz` (`storage.write_npz`), for tests that read it back."""
+    from kinematics_node.jobs.maps.storage import MapHeader, write_npz
+
+    header = MapHeader(
+        reach_map.robot,
+        reach_map.base_link,
+        reach_map.tip_link,
+        "",
+        reach_map.resolution,
+        reach_map.directions,
+        reach_map.rolls,
+        reach_map.method,
+        1e-9,
+        2048,
+    )
+    write_npz(path, reach_map, header)
