@@ -121,6 +121,15 @@ def add_parser(commands: Any) -> None:
     reach.add_argument(
         "--force", action="store_true", help="start again over an existing MAP made otherwise"
     )
+    reach.add_argument(
+        "--plot", metavar="FILE", help="a picture: slices through the map coloured by D"
+    )
+    reach.add_argument(
+        "--markers",
+        metavar="FILE",
+        help="an MCAP file with the map as a MarkerArray (cubes coloured by D) for Foxglove and "
+        "RViz (needs 'kinematics_service[bags]')",
+    )
 
 
 def _robot(args: argparse.Namespace) -> Any:
@@ -190,6 +199,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if args.scheduler and args.processes:
         raise ReachError("--processes is for the local cores: give it without --scheduler")
+    _check_outputs(args)
     robot = _robot(args)
     update, close = _progress()
     try:
@@ -211,7 +221,42 @@ def run(args: argparse.Namespace) -> int:
     finally:
         close()  # the bar goes before the lines that follow
     print(summary(run_))
+    if args.plot:
+        from ..jobs.maps.picture import draw_map
+
+        draw_map(run_.reach_map, args.plot)
+        print(f"picture written to {args.plot}")
+    if args.markers:
+        from ..jobs.maps.markers import write_map_markers
+
+        write_map_markers(run_.reach_map, args.markers)
+        print(f"markers (/reachability_map) written to {args.markers}")
     return 0
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """--plot and --markers refused before the map is made, not after (matplotlib or rosbags
+    missing, a folder that does not exist, markers over an existing file)."""
+    if args.plot:
+        from ..sim.demo import check_matplotlib, check_picture_path
+
+        try:
+            check_matplotlib()
+            check_picture_path(args.plot)
+        except ValueError as exc:
+            raise ReachError(str(exc).replace("--out", "--plot")) from None
+    if args.markers:
+        markers = Path(args.markers)
+        try:
+            import rosbags  # noqa: F401
+        except ImportError:
+            raise ReachError(
+                "--markers needs rosbags: pip install 'kinematics_service[bags]'"
+            ) from None
+        if markers.exists():
+            raise ReachError(f"--markers: {markers} exists: give a new file name")
+        if not markers.parent.is_dir():
+            raise ReachError(f"--markers: {markers.parent} is not a folder")
 
 
 def summary(run: Any) -> str:

@@ -47,6 +47,29 @@ def test_a_map_and_its_summary(whole):
     assert done.stderr == ""  # no progress bar off a terminal
 
 
+def test_the_picture_and_the_markers_of_the_map_it_made(tmp_path):
+    pytest.importorskip("matplotlib", reason="pip install 'kinematics_service[demo]'")
+    reader = pytest.importorskip("mcap_ros2.reader", reason="mcap-ros2-support (test extra)")
+    out, png, mcap = tmp_path / "m.npz", tmp_path / "m.png", tmp_path / "markers.mcap"
+    done = _run(
+        ["--robot", "ur5e", *CLI_SMALL, "--processes", "1", "--out", str(out)]
+        + ["--plot", str(png), "--markers", str(mcap)]
+    )
+    assert done.returncode == 0, done.stderr
+    assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
+    m = read_map(out)
+    (msg,) = [d.ros_msg for d in reader.read_ros2_messages(str(mcap))]
+    (cubes,) = msg.markers
+    assert len(cubes.points) == int((m.index > 0).sum())
+    assert cubes.header.frame_id == m.base_link
+    # refused before any map is made: markers over an existing file
+    again = _run(
+        ["--robot", "ur5e", *CLI_SMALL, "--out", str(tmp_path / "n.npz")] + ["--markers", str(mcap)]
+    )
+    assert again.returncode == 1 and "exists" in again.stderr and "Traceback" not in again.stderr
+    assert not (tmp_path / "n.npz").exists()
+
+
 # The CLI's own process stops itself after its second chunk is written: a real signal, at a
 # known point.
 STOP_AFTER_TWO = """
