@@ -128,7 +128,9 @@ def _noting_stop_signals(on_stop: Callable[[], object] | None = None) -> Iterato
     first one. SIGINT still raises `KeyboardInterrupt`, as Python's default does, except during
     the cleanup: a second SIGINT (Ctrl-C pressed twice) does not cut the node's destruction
     short, which would end the process with a traceback. The previous handlers come back on
-    exit."""
+    exit; with `on_stop` (a process that ends: the watchdog bounds it) after a stop signal, both
+    are ignored instead, since Python's own SIGINT handler gives way to the default action while
+    the interpreter finishes, and a second Ctrl-C then killed the process (-2) after a clean stop."""
     stop = _StopSignals()
 
     def note(signum: int, frame: FrameType | None) -> None:
@@ -142,5 +144,6 @@ def _noting_stop_signals(on_stop: Callable[[], object] | None = None) -> Iterato
     try:
         yield stop
     finally:
+        ending = on_stop is not None and bool(stop.signals)
         for s, handler in previous.items():
-            signal.signal(s, handler)
+            signal.signal(s, signal.SIG_IGN if ending else handler)
