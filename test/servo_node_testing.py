@@ -170,3 +170,17 @@ def servo_ready(statuses: list[Any], states: list[Any], twist_publisher: Any) ->
         and len(states) > 5
         and twist_publisher.get_subscription_count() > 0
     )
+
+
+def velocity(t: np.ndarray, p: np.ndarray, width: float = 0.15) -> np.ndarray:
+    """The tool's velocity [m/s]: the median of straight-line fits over windows of `width` [s].
+    A process held up on a loaded machine stops the arm for as long (the servo makes up at most
+    MAX_CATCH_UP periods, so as not to throw the arm forward): that costs one or two windows,
+    not the whole judgement."""
+    fits = []
+    for a in np.arange(t[0], t[-1] - 0.5 * width, width):
+        inside = (t >= a) & (t < a + width)
+        if inside.sum() >= 3:
+            fits.append(np.polyfit(t[inside] - a, p[inside], 1)[0])
+    assert len(fits) >= 3, f"{len(t)} positions over {t[-1] - t[0]:.3f} s"
+    return np.median(fits, axis=0)

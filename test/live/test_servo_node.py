@@ -28,6 +28,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from live_node import DOMAIN_ID, UR5E, Client, wait_until
 from rclpy.qos import QoSProfile
+from servo_node_testing import velocity
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import SetBool, Trigger
 
@@ -136,20 +137,6 @@ class Rig:
 
     def status_since(self, count: int) -> list[Any]:
         return list(self.statuses)[count:]
-
-
-def velocity(t: np.ndarray, p: np.ndarray, width: float = 0.15) -> np.ndarray:
-    """The tool's velocity [m/s]: the median of straight-line fits over windows of `width` [s].
-    A process held up on a loaded machine stops the arm for as long (the servo makes up at most
-    MAX_CATCH_UP periods, so as not to throw the arm forward): that costs one or two windows,
-    not the whole judgement."""
-    fits = []
-    for a in np.arange(t[0], t[-1] - 0.5 * width, width):
-        inside = (t >= a) & (t < a + width)
-        if inside.sum() >= 3:
-            fits.append(np.polyfit(t[inside] - a, p[inside], 1)[0])
-    assert len(fits) >= 3, f"{len(t)} ee_pose over {t[-1] - t[0]:.3f} s"
-    return np.median(fits, axis=0)
 
 
 def stamp(msg: Any) -> float:
