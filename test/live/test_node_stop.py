@@ -96,7 +96,8 @@ def test_sigint_at_any_moment_stops_each_node_with_status_0():
                     proc.kill()
                     proc.wait()
         logs = [
-            "\n".join(log_tail(directory, plans[i][0], 500)) for i, (_, directory) in enumerate(runs)
+            "\n".join(log_tail(directory, plans[i][0], 500))
+            for i, (_, directory) in enumerate(runs)
         ]
     outcomes = [ended.get(i, (None, float("nan"))) for i in range(len(plans))]
     told = "\n".join(
