@@ -170,3 +170,47 @@ def servo_ready(statuses: list[Any], states: list[Any], twist_publisher: Any) ->
         and len(states) > 5
         and twist_publisher.get_subscription_count() > 0
     )
+
+
+def velocity(t: np.ndarray, p: np.ndarray, width: float = 0.15) -> np.ndarray:
+    """The tool's velocity [m/s]: the median of straight-line fits over windows of `width` [s].
+    A process held up on a loaded machine stops the arm for as long (the servo makes up at most
+    MAX_CATCH_UP periods, so as not to throw the arm forward): that costs one or two windows,
+    not the whole judgement."""
+    fits = []
+    for a in np.arange(t[0], t[-1] - 0.5 * width, width):
+        inside = (t >= a) & (t < a + width)
+        if inside.sum() >= 3:
+            fits.append(np.polyfit(t[inside] - a, p[inside], 1)[0])
+    assert len(fits) >= 3, f"{len(t)} positions over {t[-1] - t[0]:.3f} s"
+    return np.median(fits, axis=0)
+
+
+def servo_held_up(
+    arrivals: list[float], statuses: list[Any], start: float, end: float, period_s: float
+) -> str | None:
+    """Why the servo could not serve a stream of commands sent from `start` to `end` [s, the
+    arrival times' clock], by its own ~/status: commands that reached it stale or not at all
+    while they were sent (TIMEOUT_STOP, COMMAND_STALE: it stops the arm, then ramps up again),
+    or more than a tenth of the stream's periods that its late cycles could not make up
+    (`lost_periods`: at most MAX_CATCH_UP a cycle, so that the arm is never thrown forward; it
+    falls behind). None when it served them: then its speed can be judged."""
+    pairs = list(zip(arrivals, statuses, strict=False))
+
+    def lost_before(when: float) -> int:
+        last = [s for t, s in pairs if t < when]
+        return int(values(last[-1]).get("lost_periods", 0)) if last else 0
+
+    said = [values(s).get("code_name") for t, s in pairs if start <= t < end]
+    # (from its first following code on: until then it may still report an earlier stop)
+    following = [i for i, c in enumerate(said) if c in ("OK", "NEAR_SINGULARITY", "AT_JOINT_LIMIT")]
+    said = said[following[0] :] if following else said
+    stopped = sorted({c for c in said if c in ("TIMEOUT_STOP", "COMMAND_STALE")})
+    lost = lost_before(end + 0.05) - lost_before(start)
+    periods = (end - start) / period_s
+    if stopped or lost > 0.1 * periods:
+        return (
+            f"by its ~/status: {stopped or 'no stop'} after it began to follow, {lost} of "
+            f"{periods:.0f} periods lost"
+        )
+    return None

@@ -90,7 +90,7 @@ from .qos import (
     TF_QOS,
     TF_STATIC_QOS,
 )
-from .spin import spin_until_shutdown
+from .spin import STOP_DEADLINE_S, spin_until_shutdown
 
 try:  # not on PyPI: present on a full ROS 2 installation
     from tf2_ros import Buffer, TransformListener
@@ -389,7 +389,11 @@ def main(args: list[str] | None = None) -> int:
     """Entry point of the `kinematics_node` executable: 0 after SIGINT/SIGTERM, 2 when a
     start-up parameter is invalid (one line on stderr saying which); see `spin`."""
     return spin_until_shutdown(
-        KinematicsNode, "kinematics_node", (InvalidInputError, ParameterException), args
+        KinematicsNode,
+        "kinematics_node",
+        (InvalidInputError, ParameterException),
+        args,
+        STOP_DEADLINE_S,
     )
 
 

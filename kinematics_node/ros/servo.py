@@ -78,7 +78,7 @@ from .node_setup import (
 )
 from .qos import DESCRIPTION_QOS, JOINT_STATES_QOS, NO_PUBLISHER_EVENTS, NO_SUBSCRIPTION_EVENTS
 from .realtime import apply_thread_priority
-from .spin import spin_until_shutdown
+from .spin import STOP_DEADLINE_S, spin_until_shutdown
 
 try:  # not on PyPI: present on a full ROS 2 installation
     from control_msgs.msg import JointJog
@@ -260,7 +260,9 @@ class ServoNode(Node):
 def main(args: list[str] | None = None) -> int:
     """Entry point of the `servo` executable: 0 after SIGINT/SIGTERM, 2 when a start-up
     parameter is invalid (one line on stderr saying which); see `spin`."""
-    return spin_until_shutdown(ServoNode, "servo", (InvalidInputError, ParameterException), args)
+    return spin_until_shutdown(
+        ServoNode, "servo", (InvalidInputError, ParameterException), args, STOP_DEADLINE_S
+    )
 
 
 if __name__ == "__main__":

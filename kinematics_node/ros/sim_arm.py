@@ -54,7 +54,7 @@ from kinematics_node.ros.executables import SIM_ARM_PARAMETERS
 from kinematics_node.ros.node_log import log_lines
 from kinematics_node.ros.node_setup import check_parameter_names
 from kinematics_node.ros.realtime import apply_thread_priority
-from kinematics_node.ros.spin import spin_until_shutdown
+from kinematics_node.ros.spin import STOP_DEADLINE_S, spin_until_shutdown
 from kinematics_node.service.description_file import read_description_file
 from kinematics_node.service.servo_parameters import CONTROLLER_TOPICS
 from kinematics_node.sim.arm import ArmSimulator
@@ -202,7 +202,9 @@ def _command_joints(text: str, simulated: tuple[str, ...]) -> tuple[str, ...] | 
 def main(args: list[str] | None = None) -> int:
     """Entry point of the `sim_arm` executable: 0 after SIGINT/SIGTERM, 2 when a start-up
     parameter is invalid (one line on stderr saying which); see `spin`."""
-    return spin_until_shutdown(SimArmNode, "sim_arm", (KinematicsError, ParameterException), args)
+    return spin_until_shutdown(
+        SimArmNode, "sim_arm", (KinematicsError, ParameterException), args, STOP_DEADLINE_S
+    )
 
 
 if __name__ == "__main__":

@@ -16,14 +16,29 @@ surfaces (the shutdown runs on rclpy's thread), and pybind11 can turn the `Keybo
 itself into a `RuntimeError` when it lands inside an argument conversion. So the stop signals are
 also noted by a Python handler of ours, which rclpy's handler calls after its own; any error after
 a noted signal is part of stopping. An error with no signal and the context valid is re-raised.
+
+A stop that hangs (`stop_deadline_s`, the executables' `STOP_DEADLINE_S`): the first noted stop
+signal arms a watchdog that does not need the main thread nor Python's lock (noting it does: the
+main thread returns to Python at every timer tick, out of rclpy's wait). At the deadline,
+faulthandler writes the Python stack of every thread to stderr (the node's log), under a line
+"Timeout (0:00:05)!"; half a second later SIGALRM, left at its default action, ends the process:
+its status is -14 (killed by SIGALRM; 142 in a shell), never 0, so that a supervisor can keep
+trusting 0 as a clean stop, and it comes before the supervisor's own SIGKILL (launch's SIGTERM
+follows its SIGINT after 5 s, `processes.stop_nodes` kills after 10 s), which leaves nothing to
+read. The alarm stays armed until the process is gone, so a hang after Python has finished (a
+library's destructor at exit) is ended too, without stacks (faulthandler stops with Python).
+Why: once in CI, the servo did not exit within 10 s of SIGINT and was killed, its log ending at
+"servo ready"; that could not say where it hung.
 """
 
 from __future__ import annotations
 
+import faulthandler
 import signal
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass, field
 from types import FrameType
 
 import rclpy
@@ -33,6 +48,11 @@ from rclpy.node import Node
 from .executor import make_executor
 
 BAD_PARAMETER = 2
+#: [s] from the first SIGINT or SIGTERM to the dump of every thread's stack, for the executables
+#: (module docstring); a clean stop takes 0.2-1.7 s on a loaded 2-core machine
+STOP_DEADLINE_S = 5.0
+#: [s] from the dump to SIGALRM
+_DUMP_TO_ALARM_S = 0.5
 
 
 def spin_until_shutdown(
@@ -40,11 +60,17 @@ def spin_until_shutdown(
     name: str,
     refused: tuple[type[Exception], ...],
     args: list[str] | None = None,
+    stop_deadline_s: float | None = None,
 ) -> int:
     """Run `make_node()` until shutdown; `refused` are the exceptions by which the node's
-    constructor rejects its parameters. Returns the exit status (module docstring)."""
-    with _noting_stop_signals() as stop_signals:
-        return _spin(make_node, name, refused, args, stop_signals)
+    constructor rejects its parameters. Returns the exit status (module docstring).
+
+    `stop_deadline_s`: a process's stop that takes longer after its first SIGINT or SIGTERM
+    dumps its threads' stacks and ends with SIGALRM (module docstring); the watchdog stays armed
+    after this returns (the process is ending). None: no watchdog (a caller that goes on)."""
+    on_stop = None if stop_deadline_s is None else (lambda: arm_stop_watchdog(stop_deadline_s))
+    with _noting_stop_signals(on_stop) as stop:
+        return _spin(make_node, name, refused, args, stop)
 
 
 def _spin(
@@ -52,7 +78,7 @@ def _spin(
     name: str,
     refused: tuple[type[Exception], ...],
     args: list[str] | None,
-    stop_signals: list[int],
+    stop: _StopSignals,
 ) -> int:
     context = rclpy.get_default_context()
     node = None
@@ -70,30 +96,54 @@ def _spin(
         print(f"{name}: {exc}", file=sys.stderr)
         return BAD_PARAMETER
     except Exception:
-        if context.ok() and not stop_signals:
+        if context.ok() and not stop.signals:
             raise
         # stopped by a signal while an rclpy call was in flight (module docstring)
     finally:
+        stop.cleaning_up = True  # a signal from now on does not interrupt the cleanup
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
     return 0
 
 
+def arm_stop_watchdog(deadline_s: float) -> None:
+    """In `deadline_s` [s], every thread's Python stack to stderr; SIGALRM (its default action:
+    the process ends) half a second later (module docstring). Neither needs the main thread or
+    Python's lock: faulthandler's own thread dumps, the kernel delivers the alarm."""
+    faulthandler.dump_traceback_later(deadline_s, exit=False, file=sys.stderr)
+    signal.signal(signal.SIGALRM, signal.SIG_DFL)
+    signal.setitimer(signal.ITIMER_REAL, deadline_s + _DUMP_TO_ALARM_S)
+
+
+@dataclass
+class _StopSignals:
+    signals: list[int] = field(default_factory=list)  # the stop signals received, in order
+    cleaning_up: bool = False  # the node is being destroyed: a signal only counts
+
+
 @contextmanager
-def _noting_stop_signals() -> Iterator[list[int]]:
-    """Python handlers for SIGINT and SIGTERM that record the signal (SIGINT still raises
-    `KeyboardInterrupt`, as Python's default does); the previous handlers come back on exit."""
-    noted: list[int] = []
+def _noting_stop_signals(on_stop: Callable[[], object] | None = None) -> Iterator[_StopSignals]:
+    """Python handlers for SIGINT and SIGTERM that record the signal and call `on_stop` at the
+    first one. SIGINT still raises `KeyboardInterrupt`, as Python's default does, except during
+    the cleanup: a second SIGINT (Ctrl-C pressed twice) does not cut the node's destruction
+    short, which would end the process with a traceback. The previous handlers come back on
+    exit; with `on_stop` (a process that ends: the watchdog bounds it) after a stop signal, both
+    are ignored instead, since Python's own SIGINT handler gives way to the default action while
+    the interpreter finishes, and a second Ctrl-C then killed the process (-2) after a clean stop."""
+    stop = _StopSignals()
 
     def note(signum: int, frame: FrameType | None) -> None:
-        noted.append(signum)
-        if signum == signal.SIGINT:
+        stop.signals.append(signum)
+        if on_stop is not None and len(stop.signals) == 1:
+            on_stop()
+        if signum == signal.SIGINT and not stop.cleaning_up:
             raise KeyboardInterrupt
 
     previous = {s: signal.signal(s, note) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
-        yield noted
+        yield stop
     finally:
+        ending = on_stop is not None and bool(stop.signals)
         for s, handler in previous.items():
-            signal.signal(s, handler)
+            signal.signal(s, signal.SIG_IGN if ending else handler)

@@ -8,7 +8,10 @@ arrives. Here each test does that shutdown itself at a chosen moment, so the rac
 
 from __future__ import annotations
 
+import re
 import signal
+import subprocess
+import sys
 import time
 
 import live_node  # noqa: F401  (skips this module where the built node cannot run)
@@ -103,3 +106,72 @@ def test_sigint_to_this_process_ends_the_spin_with_status_0():
         return node
 
     assert spin_until_shutdown(make, "test_node", ()) == 0
+
+
+def test_a_second_sigint_does_not_cut_the_cleanup_short():
+    destroyed = []
+
+    class Twice(Node):
+        def __init__(self) -> None:
+            super().__init__("ros_main_twice")
+            self.create_timer(0.05, lambda: signal.raise_signal(signal.SIGINT))
+
+        def destroy_node(self) -> None:
+            signal.raise_signal(signal.SIGINT)  # Ctrl-C pressed again while the node goes
+            super().destroy_node()
+            destroyed.append(True)
+
+    assert spin_until_shutdown(Twice, "test_node", ()) == 0  # before: KeyboardInterrupt
+    assert destroyed
+
+
+#: A node process whose destruction hangs holding Python's lock (a C call through ctypes.PyDLL
+#: keeps it), as a deadlock inside an rclpy or DDS call would: run by the next test.
+HANGING_STOP = """
+import ctypes, sys
+from rclpy.node import Node
+from kinematics_node.ros.spin import spin_until_shutdown
+
+class Hangs(Node):
+    def __init__(self):
+        super().__init__("hangs_on_stop")
+        self.create_timer(0.05, lambda: print("spinning", flush=True))
+
+    def destroy_node(self):
+        ctypes.PyDLL(None).sleep(60)
+
+sys.exit(spin_until_shutdown(Hangs, "hangs_on_stop", (), None, float(sys.argv[1])))
+"""
+
+
+def test_a_stop_that_hangs_dumps_every_stack_and_ends_with_sigalrm(tmp_path):
+    from live_node import DOMAIN_ID
+
+    from kinematics_node.ros.env import local_ros_env
+
+    deadline = 1.0
+    log = tmp_path / "hangs.log"
+    with log.open("wb") as out:
+        proc = subprocess.Popen(
+            [sys.executable, "-c", HANGING_STOP, str(deadline)],
+            stdout=subprocess.PIPE,
+            stderr=out,
+            env=local_ros_env(DOMAIN_ID),
+        )
+    try:
+        assert proc.stdout is not None and proc.stdout.readline() == b"spinning\n", log.read_text()
+        proc.send_signal(signal.SIGINT)
+        sent = time.monotonic()
+        code = proc.wait(deadline + 9.0)  # before the change: still asleep in destroy_node
+        took = time.monotonic() - sent
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    text = log.read_text(errors="replace")
+    # not 0, which says a clean stop; within the deadline and the half second to the alarm
+    assert code == -signal.SIGALRM, (code, text)
+    assert deadline <= took < deadline + 3.0, (took, text)
+    # where it hung, from faulthandler's thread (the main thread held Python's lock)
+    assert "Timeout (0:00:01)!" in text, text
+    assert re.search(r"line \d+ in destroy_node\n.*line \d+ in _spin", text, re.S), text
