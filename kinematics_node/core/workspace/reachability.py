@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..analysis import manipulability
+from ..analysis import manipulability_det
 from ..exceptions import InvalidInputError
 from ..ik.closed_form import branches_within_limits
 from ..ik.options import IKOptions
@@ -140,7 +140,7 @@ def reach_voxels(
             Q, owner = _numeric(chain, T[part], tolerance, restarts, seed + start)
         if not owner.size:
             continue
-        w = manipulability(chain.jacobian(Q))
+        w = manipulability_det(chain.jacobian(Q, "space"))  # the same in every frame
         owner = owner + start
         np.add.at(count, owner, 1)
         # the best solution of each target: sort by (target, w) and take each target's last
