@@ -99,3 +99,13 @@ def test_panda_at_the_default_sweep_finds_the_configuration_it_came_from():
     got = branches_within_limits(chain, chain.fk(q))
     # with the held joint swept over 36 values, a reachable target has branches at many of them
     assert set(got.target.tolist()) == set(range(20))
+
+
+def test_wrist_singular_targets_count_each_branch_once():
+    # At a wrist singularity (wrist 2 at 0) branches of different formulas coincide: counted
+    # once, as ik_all_batch's set has them once modulo 2π. (Not so at a straight elbow: the
+    # elbow-up and elbow-down branches stay 8e-8 rad apart there, √ε, and count twice in both.)
+    chain = load_robot("ur5e")
+    q = random_q(chain, np.random.default_rng(13), 20)
+    q[:, 4] = 0.0
+    assert _check_same_branches(chain, chain.fk(q)) >= 20

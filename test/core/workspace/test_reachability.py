@@ -251,9 +251,11 @@ def test_the_issue_checks_on_a_coarse_ur5e_map():
 
 
 def test_the_issue_checks_on_a_coarse_panda_map():
-    f = _bench().run("panda", 0.3, 12, 200, 30, 50_000, 36, 2, verbose=False)
+    # reach_voxels' default sweep of the held joint (36 values): the numeric IK solves 1 of 200
+    # poses counted unreachable (with 8 values: 6, with 3: 24)
+    f = _bench().run("panda", 0.3, 12, 200, 30, 50_000, None, 2, verbose=False)
     assert f.worst_position <= 1e-9 and f.worst_rotation <= 1e-9 and f.outside_limits == 0
-    assert f.numeric_found <= 1  # 0.5 % of 200
+    assert f.numeric_found <= 2
 
 
 @pytest.mark.parametrize(
