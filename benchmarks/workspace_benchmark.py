@@ -6,11 +6,13 @@ the anchors' published figures, in one run.
 
 For each map (bundled robot : resolution [m]): `VoxelGrid.around` and `approach_rotations`, then
 `reach_voxels` over the grid in chunks of `--chunk` voxels, one after the other in this process
-(one core: the map job runs such chunks on several cores or a Dask cluster), keeping per voxel
+(one core: the map job runs such chunks on several cores or a Dask cluster; timed in CPU
+seconds of this process, which a shared machine's other work does not inflate as it does the
+wall-clock time, printed beside), keeping per voxel
 only what a map file keeps (D, best manipulability, solution count), so memory stays at a chunk's.
 `--voxels N` times a random N of the grid's voxels instead and extrapolates to the whole grid
 (said so in the table). Reported: voxels, IK problems (voxels x orientations), seconds, IK problems
-per second, and the share reached.
+per second, and the mean reachability index D (for FK sampling: the share of voxels hit).
 
 `--ab MAP` times that map again with the manipulability of every solution taken as before
 (`analysis.manipulability`: an SVD of each Jacobian) instead of `analysis.manipulability_det`,
@@ -32,7 +34,10 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # one core: no BLAS threads (before numpy is imported)
+
+import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -60,12 +65,14 @@ class Timing:
     voxels: int
     problems: int
     seconds: float
+    cpu: float
     reached: float
     extrapolated: bool = False
 
     @property
     def rate(self) -> float:
-        return self.problems / self.seconds
+        """IK problems per CPU second (one core's rate, whatever else the machine runs)."""
+        return self.problems / self.cpu
 
 
 def time_map(
@@ -88,18 +95,24 @@ def time_map(
     index = np.empty(len(centres))
     best = np.empty(len(centres))
     count = np.empty(len(centres), dtype=np.int64)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     for i in range(0, len(centres), chunk):
         part = reach_voxels(chain, centres[i : i + chunk], R)
         index[i : i + chunk] = part.index
         best[i : i + chunk] = part.best_manipulability
         count[i : i + chunk] = part.solution_count
-    seconds = time.perf_counter() - start
+    seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
     reached = float(index.mean() / 100.0)
     scale = len(grid) / len(centres)
     name = f"{robot} {resolution * 100:g} cm x {directions}{label}"
     return Timing(
-        name, len(grid), len(grid) * len(R), seconds * scale, reached, extrapolated=scale > 1
+        name,
+        len(grid),
+        len(grid) * len(R),
+        seconds * scale,
+        cpu * scale,
+        reached,
+        extrapolated=scale > 1,
     )
 
 
@@ -112,34 +125,39 @@ def time_fk_sampling(robot: str, resolution: float, samples: int, seed: int) -> 
     upper = np.where(np.isfinite(chain.upper), chain.upper, np.pi)
     lo = grid.indices.min(axis=0)
     shape = grid.indices.max(axis=0) - lo + 1
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     hits = np.zeros(tuple(shape), dtype=np.int64)
     for i in range(0, samples, 100_000):
         q = rng.uniform(lower, upper, size=(min(100_000, samples - i), chain.dof))
         k = np.floor(chain.fk(q)[:, :3, 3] / resolution + 0.5).astype(np.int64) - lo
         np.add.at(hits, tuple(k.T), 1)
-    seconds = time.perf_counter() - start
+    seconds, cpu = time.perf_counter() - start, time.process_time() - cpu
     hit = hits[tuple((grid.indices - lo).T)] > 0
     name = f"{robot} {resolution * 100:g} cm, FK sampling ({samples:,} configurations)"
-    return Timing(name, len(grid), samples, seconds, float(hit.mean()))
+    return Timing(name, len(grid), samples, seconds, cpu, float(hit.mean()))
 
 
 def _svd_manipulability(J: np.ndarray) -> np.ndarray:
     return manipulability(J)
 
 
+def _duration(seconds: float) -> str:
+    return f"{seconds:.1f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
+
+
 def table(rows: list[Timing], reference: Timing | None) -> str:
     lines = [
-        "| map (one core) | voxels | IK problems | time | IK problems/s | reached | vs first |",
-        "|---|---|---|---|---|---|---|",
+        "| map (one core) | voxels | IK problems | CPU time | wall | IK problems/s (CPU) | "
+        "mean D (FK: voxels hit) | vs first (CPU) |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for t in rows:
-        when = f"{t.seconds:.1f} s" if t.seconds < 120 else f"{t.seconds / 60:.1f} min"
+        cpu, wall = _duration(t.cpu), _duration(t.seconds)
         if t.extrapolated:
-            when += " (extrapolated)"
-        ratio = "" if reference is None else f"{t.seconds / reference.seconds:.2f}x"
+            cpu += " (extrapolated)"
+        ratio = "" if reference is None else f"{t.cpu / reference.cpu:.2f}x"
         lines.append(
-            f"| {t.name} | {t.voxels:,} | {t.problems:,} | {when} | {t.rate:,.0f} | "
+            f"| {t.name} | {t.voxels:,} | {t.problems:,} | {cpu} | {wall} | {t.rate:,.0f} | "
             f"{100 * t.reached:.1f} % | {ratio} |"
         )
     return "\n".join(lines)
