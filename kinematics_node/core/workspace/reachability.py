@@ -13,8 +13,9 @@ For voxel centres c (M, 3) and tool orientations R (K, 3, 3), every target [R_k,
   gives the same answer in any process.
 
 Per target: whether it is reached, the number of distinct solutions found, and the best
-manipulability among them (Yoshikawa's √det(J Jᵀ) of the world Jacobian: for a 6-joint arm
-|det J|, the same in every frame) with that solution. Per voxel, Reuleaux's reachability index
+manipulability among them (Yoshikawa's √det(J Jᵀ), for a 6-joint arm |det J|: the same in every
+frame, as det Ad = 1, so it is taken of the space Jacobian, from a determinant rather than an SVD:
+`analysis.manipulability_det`) with that solution. Per voxel, Reuleaux's reachability index
 D = 100 · reached / K, the best manipulability and the number of solutions.
 """
 
