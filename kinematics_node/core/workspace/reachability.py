@@ -13,8 +13,9 @@ For voxel centres c (M, 3) and tool orientations R (K, 3, 3), every target [R_k,
   gives the same answer in any process.
 
 Per target: whether it is reached, the number of distinct solutions found, and the best
-manipulability among them (Yoshikawa's √det(J Jᵀ) of the world Jacobian: for a 6-joint arm
-|det J|, the same in every frame) with that solution. Per voxel, Reuleaux's reachability index
+manipulability among them (Yoshikawa's √det(J Jᵀ), for a 6-joint arm |det J|: the same in every
+frame, as det Ad = 1, so it is taken of the space Jacobian, from a determinant rather than an SVD:
+`analysis.manipulability_det`) with that solution. Per voxel, Reuleaux's reachability index
 D = 100 · reached / K, the best manipulability and the number of solutions.
 """
 
@@ -26,7 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..analysis import manipulability
+from ..analysis import manipulability_det
 from ..exceptions import InvalidInputError
 from ..ik.closed_form import branches_within_limits
 from ..ik.options import IKOptions
@@ -140,7 +141,7 @@ def reach_voxels(
             Q, owner = _numeric(chain, T[part], tolerance, restarts, seed + start)
         if not owner.size:
             continue
-        w = manipulability(chain.jacobian(Q))
+        w = manipulability_det(chain.jacobian(Q, "space"))  # the same in every frame
         owner = owner + start
         np.add.at(count, owner, 1)
         # the best solution of each target: sort by (target, w) and take each target's last
