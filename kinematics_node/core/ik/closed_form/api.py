@@ -463,21 +463,7 @@ def nearest_batch(
     if solver.held is not None and held is None:
         held = q_seeds[:, solver.held : solver.held + 1]
     Q, ok, owner_lane, _, _ = solve_branches(solver, T_targets, q_seeds, held)
-    Qf = Q.reshape(-1, n)
-    owner = np.repeat(owner_lane, Q.shape[1])
-    # The whole-turn equivalent within the limits nearest the seed, joint by joint (`_nearest_turn`).
-    S = q_seeds[owner]
-    lo = np.where(np.isfinite(solver.lower_arr), solver.lower_arr, S - math.pi)
-    hi = np.where(np.isfinite(solver.upper_arr), solver.upper_arr, S + math.pi)
-    k_lo = np.ceil((lo - 1e-10 - Qf) * INV_TWO_PI)
-    k_hi = np.floor((hi + 1e-10 - Qf) * INV_TWO_PI)
-    k = np.clip(np.round((S - Qf) * INV_TWO_PI), k_lo, k_hi)
-    cand = np.flatnonzero(ok.reshape(-1) & (k_lo <= k_hi).all(axis=1))
-    Qc = np.clip(Qf[cand] + TWO_PI * k[cand], lo[cand], hi[cand])
-    own = owner[cand]
-    Qc, ep, er = fk_check(
-        solver, Qc, T_targets[own], lambda A: np.clip(A, solver.lower_arr, solver.upper_arr)
-    )
+    Qc, own, ep, er = _checked_equivalents(solver, Q, ok, owner_lane, q_seeds, T_targets)
     acc = (ep <= position_tolerance) & (er <= orientation_tolerance)
     Qc, own, ep, er = Qc[acc], own[acc], ep[acc], er[acc]
     dist = (((Qc - q_seeds[own]) ** 2) * joint_weights).sum(axis=1)
@@ -553,11 +539,27 @@ def _branches_once(
 ) -> tuple[FloatArray, IntArray, FloatArray, FloatArray]:
     """`branches_within_limits` of one pass; targets numbered from `first`."""
     Q, ok, owner_lane, _, _ = solve_branches(solver, T, seeds, held)
-    n = Q.shape[-1]
     ok = ok & ~duplicate_branches(Q, ok)  # the same branch twice in a lane (mod 2π)
+    Qc, own, ep, er = _checked_equivalents(solver, Q, ok, owner_lane, seeds, T)
+    acc = (ep <= tol) & (er <= tol)
+    return Qc[acc], own[acc] + first, ep[acc], er[acc]
+
+
+def _checked_equivalents(
+    solver: ChainSolver,
+    Q: FloatArray,
+    ok: BoolArray,
+    owner_lane: IntArray,
+    seeds: FloatArray,
+    T: FloatArray,
+) -> tuple[FloatArray, IntArray, FloatArray, FloatArray]:
+    """The branches Q (L, B, n) that passed every subproblem (`ok`), each as its whole-turn
+    equivalent within the limits nearest its target's seed, joint by joint (`_nearest_turn`;
+    branches without one left out), checked by FK against their targets: (q, target, position
+    error, rotation error) of each."""
+    n = Q.shape[-1]
     Qf = Q.reshape(-1, n)
     owner = np.repeat(owner_lane, Q.shape[1])
-    # each branch's whole-turn equivalent within the limits nearest the middle (`nearest_batch`)
     S = seeds[owner]
     lo = np.where(np.isfinite(solver.lower_arr), solver.lower_arr, S - math.pi)
     hi = np.where(np.isfinite(solver.upper_arr), solver.upper_arr, S + math.pi)
@@ -570,5 +572,4 @@ def _branches_once(
     Qc, ep, er = fk_check(
         solver, Qc, T[own], lambda A: np.clip(A, solver.lower_arr, solver.upper_arr)
     )
-    acc = (ep <= tol) & (er <= tol)
-    return Qc[acc], own[acc] + first, ep[acc], er[acc]
+    return Qc, own, ep, er
