@@ -12,6 +12,13 @@ The offline job around them (chunks, HDF5, Dask, base placement) is `kinematics_
 
 from .grid import VoxelGrid, reach_bound
 from .orientations import approach_rotations
-from .reachability import VoxelReach, reach_voxels
+from .reachability import VoxelReach, reach_targets, reach_voxels
 
-__all__ = ["VoxelGrid", "VoxelReach", "approach_rotations", "reach_bound", "reach_voxels"]
+__all__ = [
+    "VoxelGrid",
+    "VoxelReach",
+    "approach_rotations",
+    "reach_bound",
+    "reach_targets",
+    "reach_voxels",
+]

@@ -121,20 +121,55 @@ def reach_voxels(
         raise InvalidInputError(f"centres must be finite (M, 3) positions, got shape {c.shape}")
     if R.ndim != 3 or R.shape[1:] != (3, 3):
         raise InvalidInputError(f"rotations must have shape (K, 3, 3), got {R.shape}")
+    M, K, n = c.shape[0], R.shape[0], chain.dof
+    reach = reach_targets(
+        chain,
+        targets(c, R),
+        tolerance=tolerance,
+        method=method,
+        held=held,
+        restarts=restarts,
+        seed=seed,
+    )
+    return VoxelReach(
+        reach.reached.reshape(M, K),
+        reach.solutions.reshape(M, K),
+        reach.manipulability.reshape(M, K),
+        reach.q.reshape(M, K, n),
+        reach.method,
+    )
+
+
+def reach_targets(
+    chain: SerialChain,
+    T: FloatArray,
+    *,
+    tolerance: float = 1e-9,
+    method: str = "auto",
+    held: ArrayLike | None = None,
+    restarts: int = 20,
+    seed: int = 0,
+) -> VoxelReach:
+    """`reach_voxels` of any N tool poses T (N, 4, 4) in the base frame, as one row of N:
+    `reached`, `solutions`, `manipulability` (1, N) and `q` (1, N, n). The numeric IK's pass
+    starting at target i is seeded with `seed` + i.
+
+    Raises:
+        InvalidInputError: an unknown method (and as `branches_within_limits` / `ik_batch`).
+    """
     if method not in ("auto", "closed_form", "numeric"):
         raise InvalidInputError(
             f"method must be 'auto', 'closed_form' or 'numeric', got {method!r}"
         )
     if method == "auto":
         method = "closed_form" if chain.ik_family is not None else "numeric"
-    M, K, n = c.shape[0], R.shape[0], chain.dof
-    T = targets(c, R)
-    reached = np.zeros(M * K, dtype=bool)
-    count = np.zeros(M * K, dtype=np.int64)
-    best = np.zeros(M * K)
-    q = np.full((M * K, n), np.nan)
-    for start in range(0, M * K, TARGETS_PER_PASS):
-        part = slice(start, min(start + TARGETS_PER_PASS, M * K))
+    N, n = len(T), chain.dof
+    reached = np.zeros(N, dtype=bool)
+    count = np.zeros(N, dtype=np.int64)
+    best = np.zeros(N)
+    q = np.full((N, n), np.nan)
+    for start in range(0, N, TARGETS_PER_PASS):
+        part = slice(start, min(start + TARGETS_PER_PASS, N))
         if method == "closed_form":
             Q, owner = _closed_form(chain, T[part], held, tolerance)
         else:
@@ -149,9 +184,7 @@ def reach_voxels(
         last = order[np.r_[owner[order][1:] != owner[order][:-1], True]]
         t = owner[last]
         reached[t], best[t], q[t] = True, w[last], Q[last]
-    return VoxelReach(
-        reached.reshape(M, K), count.reshape(M, K), best.reshape(M, K), q.reshape(M, K, n), method
-    )
+    return VoxelReach(reached[None], count[None], best[None], q[None], method)
 
 
 def _closed_form(

@@ -42,11 +42,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...core.analysis import manipulability
 from ...core.exceptions import InvalidInputError, KinematicsError
-from ...core.ik.closed_form import branches_within_limits
-from ...core.ik.options import IKOptions
 from ...core.rotations import matrix_from_quaternion
+from ...core.workspace import reach_targets
 from .reach_map import ReachMap
 
 if TYPE_CHECKING:
@@ -435,31 +433,10 @@ def reach_by_ik(
     chain has a family, else the numeric batch IK with `restarts` random restarts from `seed`.
     Both to `VERIFY_TOLERANCE`."""
     T = np.asarray(T_base_targets, dtype=np.float64)
-    N = len(T)
-    reached = np.zeros(N, dtype=bool)
-    best = np.zeros(N)
-    if not N:
-        return reached, best
-    if chain.ik_family is not None:
-        b = branches_within_limits(chain, T, tolerance=VERIFY_TOLERANCE)
-        Q, owner = b.q, b.target
-    else:
-        options = IKOptions(
-            position_tolerance=VERIFY_TOLERANCE,
-            orientation_tolerance=VERIFY_TOLERANCE,
-            timeout=3600.0,
-            max_restarts=restarts,
-            rng_seed=seed,
-            method="numeric",
-        )
-        result = chain.ik_batch(T, options=options)
-        owner = np.flatnonzero(result.success)
-        Q = np.asarray(result.q)[owner]
-    if owner.size:
-        w = manipulability(chain.jacobian(Q))
-        reached[owner] = True
-        np.maximum.at(best, owner, w)
-    return reached, best
+    if not len(T):
+        return np.zeros(0, dtype=bool), np.zeros(0)
+    reach = reach_targets(chain, T, tolerance=VERIFY_TOLERANCE, restarts=restarts, seed=seed)
+    return reach.reached[0], reach.manipulability[0]
 
 
 def verify_placements(
