@@ -94,7 +94,7 @@ def manipulability_markers(
     x, y, z, w = (float(v) for v in quaternion_from_matrix(ellipsoid.rotation))
     length = max(float(ellipsoid.semi_axes[0]), MIN_ARROW)
     tip = [c + length * float(u) for c, u in zip(centre, ellipsoid.weakest, strict=True)]
-    sphere = _marker(
+    sphere = marker(
         types,
         frame_id,
         (stamp_sec, stamp_nanosec),
@@ -108,7 +108,7 @@ def manipulability_markers(
         (r, g, b, ELLIPSOID_ALPHA),
         [],
     )
-    arrow = _marker(
+    arrow = marker(
         types,
         frame_id,
         (stamp_sec, stamp_nanosec),
@@ -125,7 +125,7 @@ def manipulability_markers(
     return types.MarkerArray(markers=[sphere, arrow])
 
 
-def _marker(
+def marker(
     types: MarkerTypes,
     frame_id: str,
     stamp: tuple[int, int],
@@ -135,12 +135,16 @@ def _marker(
     scale: list[float],
     rgba: tuple[float, float, float, float],
     points: list[Any],
+    colors: list[Any] | None = None,
+    ns: str = NAMESPACE,
 ) -> Any:
+    """One visualization_msgs/Marker (ADD, no lifetime, no texture, mesh or text) of `types`'
+    classes; `colors` per point (list markers), else none."""
     return types.Marker(
         header=types.Header(
             stamp=types.Time(sec=int(stamp[0]), nanosec=int(stamp[1])), frame_id=str(frame_id)
         ),
-        ns=NAMESPACE,
+        ns=ns,
         id=int(marker_id),
         type=int(kind),
         action=int(types.Marker.ADD),
@@ -150,7 +154,7 @@ def _marker(
         lifetime=types.Duration(sec=0, nanosec=0),
         frame_locked=False,
         points=points,
-        colors=[],
+        colors=[] if colors is None else colors,
         texture_resource="",
         texture=types.CompressedImage(
             header=types.Header(stamp=types.Time(sec=0, nanosec=0), frame_id=""),

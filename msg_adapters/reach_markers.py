@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .markers import MarkerTypes
+from .markers import MarkerTypes, marker
 
 NAMESPACE = "reachability"
 #: Opacity of a cube at D → 0 and at D = 100 % (linear between).
@@ -51,36 +51,21 @@ def reach_map_markers(
     d = np.asarray(index, dtype=np.float64)
     keep = d > 0.0
     c, rgba = c[keep], index_colours(d[keep])
-    header = types.Header(
-        stamp=types.Time(sec=int(stamp_sec), nanosec=int(stamp_nanosec)), frame_id=str(frame_id)
-    )
     edge = float(resolution)
-    marker = types.Marker(
-        header=header,
-        ns=NAMESPACE,
-        id=0,
-        type=_CUBE_LIST,
-        action=0,  # ADD
-        pose=types.Pose(
+    cubes = marker(
+        types,
+        frame_id,
+        (stamp_sec, stamp_nanosec),
+        0,
+        _CUBE_LIST,
+        types.Pose(
             position=types.Point(x=0.0, y=0.0, z=0.0),
             orientation=types.Quaternion(x=0.0, y=0.0, z=0.0, w=1.0),
         ),
-        scale=types.Vector3(x=edge, y=edge, z=edge),
-        color=types.ColorRGBA(r=1.0, g=1.0, b=1.0, a=1.0),
-        lifetime=types.Duration(sec=0, nanosec=0),
-        frame_locked=False,
-        points=[types.Point(x=x, y=y, z=z) for x, y, z in c.tolist()],
-        colors=[types.ColorRGBA(r=r, g=g, b=b, a=a) for r, g, b, a in rgba.tolist()],
-        texture_resource="",
-        texture=types.CompressedImage(
-            header=types.Header(stamp=types.Time(sec=0, nanosec=0), frame_id=""),
-            format="",
-            data=np.zeros(0, dtype=np.uint8),
-        ),
-        uv_coordinates=[],
-        text="",
-        mesh_resource="",
-        mesh_file=types.MeshFile(filename="", data=np.zeros(0, dtype=np.uint8)),
-        mesh_use_embedded_materials=False,
+        [edge, edge, edge],
+        (1.0, 1.0, 1.0, 1.0),
+        [types.Point(x=x, y=y, z=z) for x, y, z in c.tolist()],
+        [types.ColorRGBA(r=r, g=g, b=b, a=a) for r, g, b, a in rgba.tolist()],
+        ns=NAMESPACE,
     )
-    return types.MarkerArray(markers=[marker])
+    return types.MarkerArray(markers=[cubes])
