@@ -112,8 +112,8 @@ def reach_voxels(
         restarts, seed: the numeric IK's random restarts per target and their generator's seed.
 
     Raises:
-        InvalidInputError: shapes, non-finite values, an unknown method, or "closed_form" for a
-            chain without a family (`NoClosedFormError`).
+        InvalidInputError: shapes, non-finite values, an unknown method.
+        NoClosedFormError: method "closed_form" for a chain without a closed-form family.
     """
     c = np.asarray(centres, dtype=np.float64)
     R = np.asarray(rotations, dtype=np.float64)
