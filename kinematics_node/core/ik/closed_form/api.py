@@ -182,15 +182,9 @@ def solve_all_batch(
         NoClosedFormError, InvalidInputError: as `solve_all`.
     """
 
-    solver = require_solver(chain)
-    tol = _check_tolerance(tolerance)
-    T = chain.check_target(T_targets, "T_targets")
-    if T.ndim != 3:
-        raise InvalidInputError(f"T_targets must have shape (N, 4, 4), got {T.shape}")
+    solver, T, seeds, held_arr, tol = _batch_inputs(chain, T_targets, q_seeds, held, tolerance)
     N = T.shape[0]
-    seeds = check_seed(chain, q_seeds, "q_seeds", N)
-    held_arr = held_values_of(solver, held, N)
-    out = solve_arrays(solver, _orthonormal(T), seeds, held_arr, tol)
+    out = solve_arrays(solver, T, seeds, held_arr, tol)
     success = out.count > 0
     q = seeds.copy()
     q[success] = out.solutions[out.offsets[:-1][success]]
@@ -208,6 +202,29 @@ def solve_all_batch(
         singular=readonly(out.singular, np.bool_),
         message=msg,
     )
+
+
+def _batch_inputs(
+    chain: KinematicChain,
+    T_targets: ArrayLike,
+    q_seeds: ArrayLike | None,
+    held: ArrayLike | None,
+    tolerance: float,
+) -> tuple[ChainSolver, FloatArray, FloatArray, FloatArray | None, float]:
+    """The checked inputs of a batched call: the chain's solver, the targets (N, 4, 4) with
+    orthonormal rotations, the seeds (N, n), the held values and the tolerance.
+
+    Raises:
+        NoClosedFormError, InvalidInputError: as `solve_all`.
+    """
+    solver = require_solver(chain)
+    tol = _check_tolerance(tolerance)
+    T = chain.check_target(T_targets, "T_targets")
+    if T.ndim != 3:
+        raise InvalidInputError(f"T_targets must have shape (N, 4, 4), got {T.shape}")
+    N = T.shape[0]
+    seeds = check_seed(chain, q_seeds, "q_seeds", N)
+    return solver, _orthonormal(T), seeds, held_values_of(solver, held, N), tol
 
 
 @dataclass(frozen=True)
@@ -508,15 +525,8 @@ def branches_within_limits(
     Raises:
         NoClosedFormError, InvalidInputError: as `solve_all_batch`.
     """
-    solver = require_solver(chain)
-    tol = _check_tolerance(tolerance)
-    T = chain.check_target(T_targets, "T_targets")
-    if T.ndim != 3:
-        raise InvalidInputError(f"T_targets must have shape (N, 4, 4), got {T.shape}")
-    T = _orthonormal(T)
+    solver, T, seeds, held_arr, tol = _batch_inputs(chain, T_targets, None, held, tolerance)
     N = T.shape[0]
-    seeds = check_seed(chain, None, "q_seeds", N)
-    held_arr = held_values_of(solver, held, N)
     K = 1 if held_arr is None else held_arr.shape[-1]
     step = max(1, SOLVE_CHUNK // K)
     parts = []
