@@ -178,17 +178,14 @@ def _progress() -> tuple[Callable[[int, int], None] | None, Callable[[], None]]:
 def _chunk_voxels(args: argparse.Namespace, out: Path) -> int:
     """--chunk-voxels, else the one of the map being resumed, else the default."""
     from ..jobs.maps.build import CHUNK_VOXELS
+    from ..jobs.maps.storage import stored_chunk_voxels
 
     if args.chunk_voxels is not None:
         return int(args.chunk_voxels)
     if out.suffix.lower() != ".npz" and out.is_file() and not args.force:
-        try:
-            import h5py
-
-            with h5py.File(out, "r") as file:
-                return int(file["KinematicsService"].attrs["chunk_voxels"])
-        except (ImportError, OSError, KeyError, ValueError, TypeError):
-            pass  # the job says what is wrong with the file
+        stored = stored_chunk_voxels(out)  # None: the job says what is wrong with the file
+        if stored is not None:
+            return stored
     return CHUNK_VOXELS
 
 

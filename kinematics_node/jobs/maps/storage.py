@@ -311,6 +311,18 @@ class MapWriter:
         self.close()
 
 
+def stored_chunk_voxels(path: Path) -> int | None:
+    """The chunk size an existing MAP.h5 was made with; None where there is no such map to read
+    (no h5py, not HDF5, not ours)."""
+    try:
+        import h5py
+
+        with h5py.File(path, "r") as file:
+            return int(file[GROUP].attrs["chunk_voxels"])
+    except (ImportError, OSError, KeyError, ValueError, TypeError):
+        return None
+
+
 def read_map(path: str | os.PathLike[str]) -> ReachMap:
     """The map of a `.h5` (made by `kinematics reach`) or `.npz` file.
 
